@@ -1,0 +1,82 @@
+"""The paper's greedy merge (Sec. 3.4).
+
+Repeatedly merge the pair of trajectories with the highest appearance
+affinity (trajectory feature = mean feature of its detections) among the
+pairs that satisfy the constraint A(t1, t2) of :mod:`sotmot.constraints`,
+until no allowed pair is left.
+
+To scale, candidate pairs live in a max-heap keyed by affinity. A merge
+creates a new trajectory and retires its two parts; heap entries that name a
+retired trajectory are skipped when popped (lazy invalidation), and only the
+new trajectory's pairs with live trajectories within ``l_max`` frames are
+checked and pushed. Ties in affinity are broken by the smaller trajectory
+ids, so the result is deterministic.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Sequence
+
+import numpy as np
+
+from solvers.base import Association, Link
+from sotmot.appearance import affinity_rows
+from sotmot.config import AssociationConfig
+from sotmot.constraints import candidate_pairs, check_pair, merge, screen_pairs
+from sotmot.types import Tracklet
+
+
+def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Association:
+    """Greedy merge of ``tracklets`` into trajectories (see the module docstring)."""
+    nodes: list[Tracklet] = list(tracklets)
+    n = len(nodes)
+    if n == 0:
+        return Association(groups=())
+    ids = [t.id for t in nodes]
+    if len(set(ids)) != n:
+        raise ValueError("tracklet ids must be unique")
+    owner = {int(d): t.id for t in nodes for d in t.det_index}
+    members: list[tuple[int, ...]] = [(t.id,) for t in nodes]
+    capacity = 2 * n
+    alive = np.zeros(capacity, dtype=bool)
+    alive[:n] = True
+    starts = np.zeros(capacity, dtype=np.int64)
+    ends = np.zeros(capacity, dtype=np.int64)
+    starts[:n] = [t.start for t in nodes]
+    ends[:n] = [t.end for t in nodes]
+
+    heap: list[tuple[float, int, int]] = []
+
+    def push(pairs: np.ndarray) -> None:
+        if len(pairs) == 0:
+            return
+        aff = affinity_rows(np.stack([nodes[i].feature for i in pairs[:, 0]]),
+                            np.stack([nodes[j].feature for j in pairs[:, 1]]))
+        keep = screen_pairs(nodes, pairs, aff, config)
+        for (i, j), a in zip(pairs[keep], aff[keep]):
+            if check_pair(nodes[i], nodes[j], config, pair_affinity=a).allowed:
+                heapq.heappush(heap, (-float(a), int(i), int(j)))
+
+    push(np.asarray(candidate_pairs(nodes, config.l_max), dtype=np.int64).reshape(-1, 2))
+    links: list[Link] = []
+    while heap:
+        neg_aff, i, j = heapq.heappop(heap)
+        if not (alive[i] and alive[j]):
+            continue
+        a, b = nodes[i], nodes[j]
+        first, second = (a, b) if (a.start, a.end) <= (b.start, b.end) else (b, a)
+        links.append(Link(a=owner[int(first.det_index[-1])] if first.end < second.start else min(members[i]),
+                          b=owner[int(second.det_index[0])] if first.end < second.start else min(members[j]),
+                          affinity=-neg_aff, round=len(links) + 1))
+        k = len(nodes)
+        nodes.append(merge(a, b, new_id=k))
+        members.append(tuple(sorted(members[i] + members[j])))
+        alive[i] = alive[j] = False
+        alive[k] = True
+        starts[k], ends[k] = nodes[k].start, nodes[k].end
+        near = np.flatnonzero(alive[:k] & (starts[:k] <= ends[k] + config.l_max)
+                              & (ends[:k] >= starts[k] - config.l_max))
+        push(np.stack([near, np.full(len(near), k)], axis=1))
+    groups = sorted(members[k] for k in np.flatnonzero(alive))
+    return Association(groups=tuple(groups), links=tuple(links))

@@ -1,0 +1,7 @@
+"""``python -m sotmot`` is the ``sotmot`` command."""
+
+import sys
+
+from sotmot.cli import main
+
+sys.exit(main())

@@ -1,0 +1,90 @@
+"""Appearance: embedders behind one protocol, and the affinity between features.
+
+An embedder turns the boxes of one frame into L2-normalised feature vectors::
+
+    embedder.embed(frame, boxes) -> (N, D) float32, rows of unit length
+
+where ``frame`` is a BGR ``uint8`` image ``(H, W, 3)`` and ``boxes`` are
+``(N, 4)`` ``x, y, w, h`` pixels. Two features are compared with
+:func:`affinity`, a similarity in [0, 1] where 1 means the same object.
+
+Backends are registered in :data:`BACKENDS` and imported only when used, so
+``import sotmot`` does not load onnxruntime.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Callable, Protocol
+
+import numpy as np
+
+from sotmot.config import AppearanceConfig
+from sotmot.errors import ConfigError
+
+
+class Embedder(Protocol):
+    """What the tracker needs from an appearance model."""
+
+    dim: int
+
+    def embed(self, frame: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        """Features ``(N, dim)`` float32, L2-normalised, of ``(N, 4)`` ``x, y, w, h`` boxes."""
+        ...
+
+
+def normalize(features: np.ndarray) -> np.ndarray:
+    """Rows scaled to unit L2 length (zero rows stay zero), as float32."""
+    f = np.asarray(features, dtype=np.float32)
+    norm = np.linalg.norm(f, axis=-1, keepdims=True)
+    return f / np.maximum(norm, 1e-12)
+
+
+def affinity(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Appearance affinity of every row of ``a`` (N, D) with every row of ``b`` (M, D).
+
+    Defined as ``1 - ||a_n - b_n|| / 2`` on the unit-normalised features
+    ``a_n``, ``b_n``: 1 for identical directions, 0.5 for orthogonal ones, 0 for
+    opposite ones. The paper writes an L2 distance but thresholds it as a
+    similarity ("affinity > tau"); this is the similarity that distance gives.
+    Inputs need not be normalised (mean features are not): they are normalised
+    here. Returns ``(N, M)`` float64 in [0, 1].
+    """
+    an = normalize(np.atleast_2d(a)).astype(np.float64)
+    bn = normalize(np.atleast_2d(b)).astype(np.float64)
+    return _affinity_from_cosine(an @ bn.T)
+
+
+def affinity_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Affinity of ``a[i]`` with ``b[i]`` for two ``(N, D)`` arrays; returns ``(N,)``.
+
+    The same quantity as :func:`affinity`, without the ``(N, M)`` matrix.
+    """
+    an = normalize(np.atleast_2d(a)).astype(np.float64)
+    bn = normalize(np.atleast_2d(b)).astype(np.float64)
+    return _affinity_from_cosine(np.einsum("nd,nd->n", an, bn))
+
+
+def _affinity_from_cosine(cos: np.ndarray) -> np.ndarray:
+    """``1 - ||a - b|| / 2`` for unit vectors, from their cosine: ``||a - b||^2 = 2 - 2 cos``."""
+    cos = np.clip(cos, -1.0, 1.0)
+    return 1.0 - np.sqrt(np.maximum(2.0 - 2.0 * cos, 0.0)) / 2.0
+
+
+#: Appearance backends by config name: "module:factory", the factory taking an AppearanceConfig.
+BACKENDS: dict[str, str] = {
+    "onnx": "sotmot.appearance.onnx_reid:OnnxReidEmbedder",
+}
+
+
+def make_embedder(config: AppearanceConfig) -> Embedder:
+    """Build the embedder that ``config.backend`` names."""
+    target = BACKENDS.get(config.backend)
+    if target is None:
+        raise ConfigError(f"unknown appearance backend {config.backend!r}; valid: {', '.join(BACKENDS)}")
+    module, name = target.split(":")
+    factory: Callable[[AppearanceConfig], Embedder] = getattr(importlib.import_module(module), name)
+    return factory(config)
+
+
+__all__ = ["BACKENDS", "Embedder", "affinity", "affinity_rows", "make_embedder", "normalize"]

@@ -1,0 +1,128 @@
+"""Deep person re-ID features from an ONNX model run with onnxruntime.
+
+Made for Intel's Open Model Zoo person-reidentification-retail models
+(input ``N x 3 x 256 x 128``, BGR, raw 0-255, mean and scale inside the model;
+output ``N x D``), but any model with that input contract works. The model
+file is never bundled: its path comes from the configuration or from the
+environment variable ``SOTMOT_REID_MODEL``.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from pathlib import Path
+
+import numpy as np
+
+from sotmot.appearance import normalize
+from sotmot.boxes import as_boxes
+from sotmot.config import AppearanceConfig
+from sotmot.errors import ModelError
+
+log = logging.getLogger(__name__)
+
+ENV_VAR = "SOTMOT_REID_MODEL"
+CROP_HEIGHT = 256
+CROP_WIDTH = 128
+
+
+def resolve_model_path(model: str | None) -> Path:
+    """The model path from the config, else from ``SOTMOT_REID_MODEL``; it must exist."""
+    value = model or os.environ.get(ENV_VAR)
+    if not value:
+        raise ModelError(
+            "no person re-ID model given: pass --reid-model PATH (or set [appearance] model in the "
+            f"config, or the environment variable {ENV_VAR}), e.g. "
+            "../shared/models/person-reidentification-retail-0288.onnx")
+    path = Path(value).expanduser()
+    if not path.is_file():
+        raise ModelError(f"re-ID model not found: {path} (from --reid-model, the config or {ENV_VAR})")
+    return path
+
+
+def crop_boxes(frame: np.ndarray, boxes: np.ndarray, height: int = CROP_HEIGHT,
+               width: int = CROP_WIDTH) -> np.ndarray:
+    """Crops of ``(N, 4)`` ``x, y, w, h`` boxes resized to ``(N, height, width, 3)`` uint8.
+
+    Boxes are clipped to the image first (boxes partly outside the frame are
+    common at image borders); a box entirely outside becomes the nearest
+    one-pixel strip of the border.
+    """
+    import cv2
+
+    b = as_boxes(boxes) if len(boxes) else np.zeros((0, 4))
+    img_h, img_w = frame.shape[:2]
+    x1 = np.clip(np.floor(b[:, 0]), 0, img_w - 1).astype(int)
+    y1 = np.clip(np.floor(b[:, 1]), 0, img_h - 1).astype(int)
+    x2 = np.clip(np.ceil(b[:, 0] + b[:, 2]), x1 + 1, img_w).astype(int)
+    y2 = np.clip(np.ceil(b[:, 1] + b[:, 3]), y1 + 1, img_h).astype(int)
+    out = np.empty((len(b), height, width, 3), dtype=np.uint8)
+    for i in range(len(b)):
+        out[i] = cv2.resize(frame[y1[i]:y2[i], x1[i]:x2[i]], (width, height), interpolation=cv2.INTER_LINEAR)
+    return out
+
+
+class OnnxReidEmbedder:
+    """Flip-averaged re-ID features (paper eq. 1) from an ONNX model.
+
+    The feature of a box is the mean of the unit-normalised features of its
+    crop and of the mirrored crop, normalised again.
+
+    Parameters
+    ----------
+    config
+        ``model`` (path), ``flip``, ``batch_size`` and ``threads`` are used.
+    """
+
+    def __init__(self, config: AppearanceConfig) -> None:
+        import onnxruntime as ort
+
+        self.path = resolve_model_path(config.model)
+        self.flip = config.flip
+        self.batch_size = config.batch_size
+        options = ort.SessionOptions()
+        options.log_severity_level = 3  # the Intel models trigger harmless "unused initializer" warnings
+        if config.threads:
+            options.intra_op_num_threads = config.threads
+        try:
+            self.session = ort.InferenceSession(str(self.path), sess_options=options,
+                                                providers=["CPUExecutionProvider"])
+        except Exception as exc:  # onnxruntime raises its own untyped errors
+            raise ModelError(f"{self.path}: cannot be loaded as an ONNX model: {exc}") from exc
+        inputs = self.session.get_inputs()
+        outputs = self.session.get_outputs()
+        shape = list(inputs[0].shape) if len(inputs) == 1 else []
+        if len(inputs) != 1 or len(shape) != 4 or shape[1:] != [3, CROP_HEIGHT, CROP_WIDTH]:
+            got = [(i.name, i.shape) for i in inputs]
+            raise ModelError(f"{self.path}: not a person re-ID model of the expected kind: expected one "
+                             f"input of shape N x 3 x {CROP_HEIGHT} x {CROP_WIDTH} (BGR crops), got {got}")
+        if len(outputs) != 1 or len(outputs[0].shape) != 2 or not isinstance(outputs[0].shape[1], int):
+            got = [(o.name, o.shape) for o in outputs]
+            raise ModelError(f"{self.path}: expected one output of shape N x D (an embedding), got {got}")
+        self.input_name = inputs[0].name
+        self.dim = int(outputs[0].shape[1])
+        log.info("re-ID model %s: %d-d embedding", self.path, self.dim)
+
+    def _forward(self, crops: np.ndarray) -> np.ndarray:
+        """Raw features ``(N, D)`` of ``(N, 256, 128, 3)`` uint8 BGR crops."""
+        out = np.empty((len(crops), self.dim), dtype=np.float32)
+        for start in range(0, len(crops), self.batch_size):
+            batch = crops[start:start + self.batch_size]
+            tensor = np.ascontiguousarray(batch.transpose(0, 3, 1, 2), dtype=np.float32)
+            out[start:start + len(batch)] = self.session.run(None, {self.input_name: tensor})[0]
+        return out
+
+    def embed_crops(self, crops: np.ndarray) -> np.ndarray:
+        """Flip-averaged unit features ``(N, D)`` of ``(N, 256, 128, 3)`` uint8 BGR crops."""
+        if len(crops) == 0:
+            return np.zeros((0, self.dim), dtype=np.float32)
+        if not self.flip:
+            return normalize(self._forward(crops))
+        both = self._forward(np.concatenate([crops, crops[:, :, ::-1]]))
+        n = len(crops)
+        return normalize(normalize(both[:n]) + normalize(both[n:]))
+
+    def embed(self, frame: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        """Features ``(N, D)`` float32, unit length, of ``(N, 4)`` ``x, y, w, h`` boxes in ``frame``."""
+        return self.embed_crops(crop_boxes(frame, boxes))

@@ -1,0 +1,125 @@
+"""Box geometry: the one place where IoU, IoM, NMS and conversions live.
+
+All boxes are ``x, y, w, h`` in pixels (top-left corner, width, height), the
+MOTChallenge convention, as float arrays of shape ``(N, 4)``. Every other
+module calls these functions instead of writing its own overlap code.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+
+Overlap = Literal["iou", "iom"]
+
+
+def as_boxes(boxes: np.ndarray) -> np.ndarray:
+    """Return ``boxes`` as a float64 ``(N, 4)`` array (a single box becomes ``(1, 4)``)."""
+    arr = np.asarray(boxes, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr.reshape(1, -1)
+    if arr.ndim != 2 or arr.shape[1] != 4:
+        raise ValueError(f"boxes must have shape (N, 4), got {arr.shape}")
+    return arr
+
+
+def xywh_to_xyxy(boxes: np.ndarray) -> np.ndarray:
+    """Convert ``(N, 4)`` ``x, y, w, h`` boxes to ``x1, y1, x2, y2`` corners."""
+    b = as_boxes(boxes)
+    return np.concatenate([b[:, :2], b[:, :2] + b[:, 2:]], axis=1)
+
+
+def xyxy_to_xywh(boxes: np.ndarray) -> np.ndarray:
+    """Convert ``(N, 4)`` ``x1, y1, x2, y2`` corners to ``x, y, w, h`` boxes."""
+    b = as_boxes(boxes)
+    return np.concatenate([b[:, :2], b[:, 2:] - b[:, :2]], axis=1)
+
+
+def centers(boxes: np.ndarray) -> np.ndarray:
+    """Centres ``(N, 2)`` of ``(N, 4)`` ``x, y, w, h`` boxes, in pixels."""
+    b = as_boxes(boxes)
+    return b[:, :2] + 0.5 * b[:, 2:]
+
+
+def _overlap(a: np.ndarray, b: np.ndarray, kind: Overlap, aligned: bool) -> np.ndarray:
+    a = as_boxes(a)
+    b = as_boxes(b)
+    if not aligned:
+        a = a[:, None, :]
+        b = b[None, :, :]
+    elif a.shape != b.shape:
+        raise ValueError(f"aligned overlap needs equal shapes, got {a.shape} and {b.shape}")
+    ix = np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2]) - np.maximum(a[..., 0], b[..., 0])
+    iy = np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3]) - np.maximum(a[..., 1], b[..., 1])
+    inter = np.clip(ix, 0.0, None) * np.clip(iy, 0.0, None)
+    area_a = a[..., 2] * a[..., 3]
+    area_b = b[..., 2] * b[..., 3]
+    if kind == "iou":
+        denom = area_a + area_b - inter
+    elif kind == "iom":
+        denom = np.minimum(area_a, area_b)
+    else:
+        raise ValueError(f"unknown overlap kind {kind!r}; valid: 'iou', 'iom'")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.where(denom > 0, inter / np.where(denom > 0, denom, 1.0), 0.0)
+    return out
+
+
+def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Intersection over union of every box in ``a`` (N, 4) with every box in ``b`` (M, 4).
+
+    Returns an ``(N, M)`` array in [0, 1]; degenerate (zero-area) pairs give 0.
+    """
+    return _overlap(a, b, "iou", aligned=False)
+
+
+def iom_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Intersection over the *smaller* area (IoM, paper Sec. 6.1), ``(N, M)`` in [0, 1]."""
+    return _overlap(a, b, "iom", aligned=False)
+
+
+def iou_aligned(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """IoU of ``a[i]`` with ``b[i]`` for two ``(N, 4)`` arrays; returns ``(N,)``."""
+    return _overlap(a, b, "iou", aligned=True)
+
+
+def nms(boxes: np.ndarray, scores: np.ndarray, threshold: float, overlap: Overlap = "iou") -> np.ndarray:
+    """Greedy non-maximum suppression.
+
+    Parameters
+    ----------
+    boxes
+        ``(N, 4)`` ``x, y, w, h`` boxes in pixels.
+    scores
+        ``(N,)`` detection scores; higher is better. Any real range (DPM scores
+        are not probabilities) is fine.
+    threshold
+        A box is suppressed when its overlap with a kept, higher-scoring box is
+        strictly greater than this.
+    overlap
+        ``"iou"`` (intersection over union) or ``"iom"`` (intersection over the
+        smaller box, which also removes a small box inside a large one).
+
+    Returns
+    -------
+    numpy.ndarray
+        Indices of the kept boxes, by descending score. Ties in score are broken
+        by the lower index, so the result does not depend on sort stability.
+    """
+    b = as_boxes(boxes) if len(boxes) else np.zeros((0, 4))
+    s = np.asarray(scores, dtype=np.float64)
+    if len(s) != len(b):
+        raise ValueError(f"{len(b)} boxes but {len(s)} scores")
+    order = np.lexsort((np.arange(len(s)), -s))
+    if len(order) == 0:
+        return order.astype(np.intp)
+    ov = _overlap(b[order], b[order], overlap, aligned=False)
+    suppressed = np.zeros(len(order), dtype=bool)
+    keep = []
+    for i in range(len(order)):
+        if suppressed[i]:
+            continue
+        keep.append(order[i])
+        suppressed[i + 1:] |= ov[i, i + 1:] > threshold
+    return np.asarray(keep, dtype=np.intp)

@@ -1,0 +1,146 @@
+"""The ``sotmot`` command line. It only parses arguments and prints; the work is in the library."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import time
+from pathlib import Path
+
+from sotmot.errors import SotmotError
+
+EPILOG_TRACK = """\
+examples:
+  sotmot track ../shared/data/PETS09-S2L1 --out results \\
+      --reid-model ../shared/models/person-reidentification-retail-0288.onnx
+  sotmot track ../shared/data/MOT16-*-clip30 --out results --eval
+  sotmot track SEQ --out results --config my.toml   # every threshold, see docs/reference.md
+
+The re-ID model path may also come from the environment variable SOTMOT_REID_MODEL.
+Results are written as DIR/<name>.txt (MOTChallenge format: frame, id, x, y, w, h,
+score, -1, -1, -1; boxes in pixels, frames 1-based), each file atomically.
+"""
+
+EPILOG_EVAL = """\
+Scores RESULTS_DIR/<name>.txt against SEQ_DIR/gt/gt.txt with TrackEval (HOTA, CLEAR,
+Identity). MOT16-layout ground truth (9 columns) is scored with the MOT16 rules
+(distractor classes removed); 2DMOT2015-layout ground truth with the plain rules.
+
+example:
+  sotmot eval results ../shared/data/PETS09-S2L1 --json scores.json
+"""
+
+
+def _add_tracker_options(p: argparse.ArgumentParser) -> None:
+    from solvers import SOLVERS
+
+    p.add_argument("--merger", default="greedy", choices=sorted(SOLVERS),
+                   help="long-term association solver (default: %(default)s, the paper's greedy merge)")
+    p.add_argument("--config", type=Path, metavar="FILE",
+                   help="TOML or JSON file with [preprocess], [appearance], [tracklets], [association], "
+                        "[postprocess] tables; unknown keys are errors")
+    p.add_argument("--reid-model", metavar="PATH",
+                   help="ONNX person re-ID model (overrides the config and SOTMOT_REID_MODEL)")
+    p.add_argument("--score-threshold", type=float, metavar="S",
+                   help="drop detections scoring below S (default: keep all)")
+    p.add_argument("--nms", choices=["auto", "iou", "iom", "none"],
+                   help="NMS overlap: auto = IoM for non-probability scores such as DPM's, else IoU")
+
+
+def _build_config(args: argparse.Namespace):
+    from sotmot.config import TrackerConfig, load_config
+
+    config = load_config(args.config) if args.config else TrackerConfig()
+    if args.reid_model:
+        config = config.replace("appearance", model=args.reid_model)
+    if args.score_threshold is not None:
+        config = config.replace("preprocess", score_threshold=args.score_threshold)
+    if args.nms:
+        config = config.replace("preprocess", nms=args.nms)
+    return config
+
+
+def cmd_track(args: argparse.Namespace) -> int:
+    from sotmot.appearance import make_embedder
+    from sotmot.io import read_seqinfo, write_results
+    from sotmot.pipeline import track_sequence
+
+    config = _build_config(args)
+    infos = [read_seqinfo(s) for s in args.seq_dirs]  # fail early on a bad folder
+    names = [i.name for i in infos]
+    if len(set(names)) != len(names):
+        raise SotmotError(f"two sequences share a name: {names}")
+    embedder = make_embedder(config.appearance)
+    for seq in args.seq_dirs:
+        start = time.perf_counter()
+        result = track_sequence(seq, config, merger=args.merger, embedder=embedder, progress=not args.quiet)
+        out = args.out / f"{result.info.name}.txt"
+        write_results(out, result.tracks)
+        seconds = time.perf_counter() - start
+        print(f"{result.info.name}: {result.tracks.n_tracks} tracks, {len(result.tracks)} boxes, "
+              f"{result.info.length / seconds:.1f} frames/s -> {out}")
+    if args.eval:
+        return cmd_eval(argparse.Namespace(results_dir=args.out, seq_dirs=args.seq_dirs, json=None))
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from sotmot.evaluate import evaluate, format_table
+    from sotmot.io import write_text_atomic
+
+    report = evaluate(args.results_dir, args.seq_dirs)
+    print(format_table(report))
+    if args.json:
+        write_text_atomic(args.json, json.dumps(report.to_dict(), indent=2) + "\n")
+        print(f"scores written to {args.json}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="sotmot",
+        description="Multi-object tracking of people by detection, after 'SOT for MOT' (He et al.): "
+                    "Hungarian tracklets in 1-second batches, long-term association under IoU, velocity "
+                    "and gap constraints, interpolation and smoothing. Input: MOTChallenge folders.")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("track", help="track sequences and write MOTChallenge results",
+                       description="Track one or more MOTChallenge sequence folders.",
+                       epilog=EPILOG_TRACK, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR",
+                   help="folder with seqinfo.ini, det/det.txt and img1/")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="where <name>.txt results go")
+    _add_tracker_options(p)
+    p.add_argument("--eval", action="store_true", help="score the results with TrackEval afterwards")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(func=cmd_track)
+
+    p = sub.add_parser("eval", help="score results with TrackEval", description="Score tracking results.",
+                       epilog=EPILOG_EVAL, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("results_dir", type=Path, metavar="RESULTS_DIR", help="folder with <name>.txt results")
+    p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequence folders with gt/gt.txt")
+    p.add_argument("--json", type=Path, metavar="FILE", help="also write the scores as JSON")
+    p.set_defaults(func=cmd_eval)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return args.func(args)
+    except SotmotError as exc:
+        print(f"sotmot: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("sotmot: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,309 @@
+"""Configuration: one frozen dataclass per stage, the paper's values as defaults.
+
+Every threshold of the tracker is a field here, documented with its meaning
+and where it comes from (He et al., *SOT for MOT*, section numbers below).
+Where our re-ID model needs another value than the paper's, the default says
+so and points at ``docs/calibration.md``, which derives it from data.
+
+A configuration file (TOML or JSON) holds one table per stage::
+
+    [preprocess]
+    nms = "iou"
+    [association]
+    l_max = 45
+
+Unknown tables and keys are errors (a typo must not be silently ignored).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import tomllib
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from sotmot.errors import ConfigError
+
+
+def _check(cond: bool, section: str, message: str) -> None:
+    if not cond:
+        raise ConfigError(f"[{section}] {message}")
+
+
+@dataclass(frozen=True)
+class PreprocessConfig:
+    """Detection cleaning before tracking (paper Sec. 6.1).
+
+    Attributes
+    ----------
+    score_threshold
+        Boxes with a score below this are dropped; ``None`` keeps all. Scores
+        keep the detector's own range (public DPM scores run from about -1 to 2).
+    nms
+        ``"iou"``, ``"iom"`` (intersection over the smaller box), ``"none"``, or
+        ``"auto"``: IoM for detections whose scores are not probabilities (any
+        score outside [0, 1], as with the public DPM detections; the paper uses
+        NMS-IoM 0.6 there), IoU otherwise.
+    nms_threshold
+        Overlap above which the lower-scoring box is suppressed (paper: 0.6).
+    """
+
+    score_threshold: float | None = None
+    nms: Literal["auto", "iou", "iom", "none"] = "auto"
+    nms_threshold: float = 0.6
+
+    def __post_init__(self) -> None:
+        _check(self.nms in ("auto", "iou", "iom", "none"), "preprocess",
+               f"nms must be one of auto, iou, iom, none; got {self.nms!r}")
+        _check(0.0 < self.nms_threshold <= 1.0, "preprocess", "nms_threshold must be in (0, 1]")
+
+
+@dataclass(frozen=True)
+class AppearanceConfig:
+    """The appearance model (paper Sec. 4 and eq. 1).
+
+    Attributes
+    ----------
+    backend
+        ``"onnx"``: a person re-ID network run with onnxruntime.
+    model
+        Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
+        person-reidentification-retail-0288). ``None`` reads the environment
+        variable ``SOTMOT_REID_MODEL``.
+    flip
+        Average the features of the crop and its mirror image (paper eq. 1).
+    batch_size
+        Crops per forward pass (a flipped crop counts as one).
+    threads
+        onnxruntime intra-op threads; 0 lets onnxruntime choose.
+    """
+
+    backend: Literal["onnx"] = "onnx"
+    model: str | None = None
+    flip: bool = True
+    batch_size: int = 64
+    threads: int = 0
+
+    def __post_init__(self) -> None:
+        _check(self.backend == "onnx", "appearance", f"backend must be 'onnx'; got {self.backend!r}")
+        _check(self.batch_size >= 1, "appearance", "batch_size must be >= 1")
+        _check(self.threads >= 0, "appearance", "threads must be >= 0")
+
+
+@dataclass(frozen=True)
+class TrackletConfig:
+    """Short tracklets by frame-by-frame Hungarian matching (paper Sec. 3.4).
+
+    Attributes
+    ----------
+    batch_seconds
+        Length of a batch in seconds (paper: 1 s); frames per batch are
+        ``round(batch_seconds * frameRate)``, at least 1.
+    tail
+        The affinity of a detection to a tracklet uses the mean feature of the
+        tracklet's last ``tail`` detections (paper: 5).
+    min_affinity
+        Matches with a lower appearance affinity are not linked. The paper
+        leaves this gate implicit; 0.5 is the balanced threshold measured for
+        the re-ID model 0288 (docs/calibration.md).
+    min_iou
+        Matches whose IoU with the tracklet's last box is lower are not linked.
+        Our addition (the paper matches on appearance alone): it keeps two
+        similar-looking people far apart from being linked inside one second.
+    l_min
+        Tracklets of length <= l_min are dropped (paper: 1).
+    """
+
+    batch_seconds: float = 1.0
+    tail: int = 5
+    min_affinity: float = 0.5
+    min_iou: float = 0.2
+    l_min: int = 1
+
+    def __post_init__(self) -> None:
+        _check(self.batch_seconds > 0, "tracklets", "batch_seconds must be > 0")
+        _check(self.tail >= 1, "tracklets", "tail must be >= 1")
+        _check(0.0 <= self.min_affinity <= 1.0, "tracklets", "min_affinity must be in [0, 1]")
+        _check(0.0 <= self.min_iou <= 1.0, "tracklets", "min_iou must be in [0, 1]")
+        _check(self.l_min >= 0, "tracklets", "l_min must be >= 0")
+
+
+@dataclass(frozen=True)
+class AssociationConfig:
+    """Long-term association constraints A(t1, t2) (paper Sec. 3.4).
+
+    Attributes
+    ----------
+    tau_iou
+        On every temporally overlapping segment of two trajectories the mean
+        IoU of their boxes must be strictly greater than this (paper: 0.5).
+    l_max
+        Every gap of the merged trajectory must be at most this many frames
+        (frame difference between the boxes at the gap's ends; paper: 60).
+    velocity_adjacent, velocity_short, velocity_long
+        Velocity bound in every gap, as a fraction of the mean width ``w`` of
+        the two boxes at the gap's ends: ``w`` for a gap of 1 frame, ``2/3 w``
+        for 2 to ``short_gap`` frames, ``1/3 w`` beyond (paper). Velocity is
+        the centre displacement divided by the frame difference, in pixels
+        per frame (linear motion).
+    short_gap
+        Longest gap that counts as short (paper: 5).
+    min_affinity
+        Pairs of trajectories with a lower appearance affinity are never merged.
+        The paper's tau_a = 0.75 is for its own model; 0.5 is the balanced
+        threshold of the re-ID model 0288 on our data (docs/calibration.md).
+    """
+
+    tau_iou: float = 0.5
+    l_max: int = 60
+    velocity_adjacent: float = 1.0
+    velocity_short: float = 2.0 / 3.0
+    velocity_long: float = 1.0 / 3.0
+    short_gap: int = 5
+    min_affinity: float = 0.5
+
+    def __post_init__(self) -> None:
+        _check(0.0 <= self.tau_iou < 1.0, "association", "tau_iou must be in [0, 1)")
+        _check(self.l_max >= 1, "association", "l_max must be >= 1")
+        for name in ("velocity_adjacent", "velocity_short", "velocity_long"):
+            _check(getattr(self, name) > 0, "association", f"{name} must be > 0")
+        _check(self.short_gap >= 2, "association", "short_gap must be >= 2")
+        _check(0.0 <= self.min_affinity <= 1.0, "association", "min_affinity must be in [0, 1]")
+
+
+@dataclass(frozen=True)
+class PostprocessConfig:
+    """Interpolation and smoothing of the final trajectories (paper Sec. 3.5).
+
+    Attributes
+    ----------
+    interpolate
+        Fill every gap inside a trajectory by linear interpolation.
+    smooth_window
+        Each box becomes the mean of the trajectory's boxes within
+        ``+- smooth_window`` frames (paper: 3); 0 turns smoothing off.
+    min_length
+        Output trajectories with fewer boxes (after interpolation) are dropped;
+        1 keeps everything (the paper drops only tracklets, see ``l_min``).
+    """
+
+    interpolate: bool = True
+    smooth_window: int = 3
+    min_length: int = 1
+
+    def __post_init__(self) -> None:
+        _check(self.smooth_window >= 0, "postprocess", "smooth_window must be >= 0")
+        _check(self.min_length >= 1, "postprocess", "min_length must be >= 1")
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """The whole tracker: one section per stage."""
+
+    preprocess: PreprocessConfig = field(default_factory=PreprocessConfig)
+    appearance: AppearanceConfig = field(default_factory=AppearanceConfig)
+    tracklets: TrackletConfig = field(default_factory=TrackletConfig)
+    association: AssociationConfig = field(default_factory=AssociationConfig)
+    postprocess: PostprocessConfig = field(default_factory=PostprocessConfig)
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """Plain nested dict, the same layout a config file uses."""
+        return dataclasses.asdict(self)
+
+    def replace(self, section: str, **changes: Any) -> "TrackerConfig":
+        """A copy with some fields of one section changed (validated)."""
+        if section not in SECTIONS:
+            raise ConfigError(f"unknown section {section!r}; valid: {', '.join(SECTIONS)}")
+        return dataclasses.replace(self, **{section: _build(section, {
+            **dataclasses.asdict(getattr(self, section)), **changes})})
+
+
+SECTIONS: dict[str, type] = {
+    "preprocess": PreprocessConfig,
+    "appearance": AppearanceConfig,
+    "tracklets": TrackletConfig,
+    "association": AssociationConfig,
+    "postprocess": PostprocessConfig,
+}
+
+
+def _coerce(section: str, name: str, hint: Any, value: Any) -> Any:
+    """Check ``value`` against the field's type hint; ints are accepted for floats."""
+    args = typing.get_args(hint)
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        inner = [a for a in args if a is not type(None)]
+        return _coerce(section, name, inner[0], value)
+    if origin is Literal:
+        if value not in args:
+            raise ConfigError(f"[{section}] {name} must be one of {', '.join(map(repr, args))}; got {value!r}")
+        return value
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"[{section}] {name} must be a finite number; got {value!r}")
+        return float(value)
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"[{section}] {name} must be an integer; got {value!r}")
+        return value
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"[{section}] {name} must be true or false; got {value!r}")
+        return value
+    if hint is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"[{section}] {name} must be a string; got {value!r}")
+        return value
+    return value
+
+
+def _build(section: str, values: dict[str, Any]) -> Any:
+    cls = SECTIONS[section]
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    unknown = sorted(set(values) - set(names))
+    if unknown:
+        raise ConfigError(f"[{section}] unknown key(s) {', '.join(unknown)}; valid keys: {', '.join(names)}")
+    return cls(**{k: _coerce(section, k, hints[k], v) for k, v in values.items()})
+
+
+def config_from_dict(data: dict[str, Any]) -> TrackerConfig:
+    """Build a :class:`TrackerConfig` from nested dicts, rejecting unknown sections and keys."""
+    if not isinstance(data, dict):
+        raise ConfigError("a configuration must be a table of sections")
+    unknown = sorted(set(data) - set(SECTIONS))
+    if unknown:
+        raise ConfigError(f"unknown section(s) {', '.join(unknown)}; valid sections: {', '.join(SECTIONS)}")
+    parts = {}
+    for section, values in data.items():
+        if not isinstance(values, dict):
+            raise ConfigError(f"[{section}] must be a table of keys")
+        parts[section] = _build(section, values)
+    return TrackerConfig(**parts)
+
+
+def load_config(path: str | Path) -> TrackerConfig:
+    """Read a TOML (``.toml``) or JSON (``.json``) configuration file."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: configuration file not found")
+    try:
+        if path.suffix == ".json":
+            data = json.loads(path.read_text(encoding="utf-8"))
+        elif path.suffix == ".toml":
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        else:
+            raise ConfigError(f"{path}: configuration must be a .toml or .json file")
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot be parsed: {exc}") from exc
+    try:
+        return config_from_dict(data)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None

@@ -1,0 +1,51 @@
+"""The exception family of sotmot.
+
+Every error the library raises on purpose is a :class:`SotmotError`. The CLI
+catches it once, prints its message and exits non-zero; library code never
+prints or exits. Messages say what is wrong and what to do about it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class SotmotError(Exception):
+    """Base class of every error sotmot raises on purpose."""
+
+
+class InputError(SotmotError):
+    """Bad input data: a malformed file, a missing frame, an invalid box.
+
+    Parameters
+    ----------
+    path
+        The file (or folder) that holds the problem.
+    message
+        What is wrong, in words a user can act on.
+    line
+        1-based line number inside ``path`` where the problem is, if any.
+    """
+
+    def __init__(self, path: str | Path, message: str, line: int | None = None) -> None:
+        self.path = Path(path)
+        self.line = line
+        self.reason = message
+        where = f"{self.path}:{line}" if line is not None else f"{self.path}"
+        super().__init__(f"{where}: {message}")
+
+
+class ConfigError(SotmotError):
+    """An invalid configuration: unknown key, wrong type, value out of range."""
+
+
+class ModelError(SotmotError):
+    """The appearance model is missing, unreadable, or not a re-ID model."""
+
+
+class SolverError(SotmotError):
+    """A long-term association solver failed or was asked for by an unknown name."""
+
+
+class EvaluationError(SotmotError):
+    """Scoring with TrackEval failed or is not possible for the given input."""

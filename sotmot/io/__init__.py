@@ -1,0 +1,20 @@
+"""MOTChallenge input and output: sequence info, detections, ground truth, results, frames."""
+
+from sotmot.io.mot import (
+    FrameReader,
+    GroundTruth,
+    SeqInfo,
+    format_results,
+    gt_style,
+    read_detections,
+    read_ground_truth,
+    read_results,
+    read_seqinfo,
+    write_results,
+    write_text_atomic,
+)
+
+__all__ = [
+    "FrameReader", "GroundTruth", "SeqInfo", "format_results", "gt_style", "read_detections",
+    "read_ground_truth", "read_results", "read_seqinfo", "write_results", "write_text_atomic",
+]

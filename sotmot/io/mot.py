@@ -1,0 +1,355 @@
+"""Reading and writing MOTChallenge files, with errors that name file and line.
+
+A sequence folder holds ``seqinfo.ini``, ``img1/NNNNNN.jpg``, ``det/det.txt``
+and (for training sequences) ``gt/gt.txt``. Boxes are ``x, y, w, h`` pixels,
+frames are 1-based.
+"""
+
+from __future__ import annotations
+
+import configparser
+import math
+import os
+import tempfile
+from collections import OrderedDict
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from sotmot.errors import InputError
+from sotmot.types import Detections, Tracks
+
+GtStyle = Literal["MOT15", "MOT16"]
+
+_SEQINFO_KEYS = {
+    "name": str, "imDir": str, "frameRate": float, "seqLength": int,
+    "imWidth": int, "imHeight": int, "imExt": str,
+}
+
+
+@dataclass(frozen=True)
+class SeqInfo:
+    """The ``[Sequence]`` section of a ``seqinfo.ini``.
+
+    Attributes
+    ----------
+    path
+        The sequence folder.
+    name
+        Sequence name (``name`` key), used for result file names.
+    frame_rate
+        Frames per second (``frameRate``); sets the 1-second tracklet batches.
+    length
+        Number of frames (``seqLength``); valid frames are ``1..length``.
+    width, height
+        Image size in pixels (``imWidth``, ``imHeight``).
+    im_dir, im_ext
+        Image folder name and file extension (``imDir``, ``imExt``).
+    """
+
+    path: Path
+    name: str
+    frame_rate: float
+    length: int
+    width: int
+    height: int
+    im_dir: str = "img1"
+    im_ext: str = ".jpg"
+
+    @property
+    def det_path(self) -> Path:
+        """``det/det.txt`` of this sequence."""
+        return self.path / "det" / "det.txt"
+
+    @property
+    def gt_path(self) -> Path:
+        """``gt/gt.txt`` of this sequence."""
+        return self.path / "gt" / "gt.txt"
+
+    def frame_path(self, frame: int) -> Path:
+        """Image file of a 1-based ``frame``."""
+        return self.path / self.im_dir / f"{frame:06d}{self.im_ext}"
+
+
+def read_seqinfo(seq_dir: str | Path) -> SeqInfo:
+    """Read ``seq_dir/seqinfo.ini``.
+
+    Raises
+    ------
+    InputError
+        The folder or file is missing, a key is missing, or a value is not a
+        positive number where one is needed.
+    """
+    seq_dir = Path(seq_dir)
+    if not seq_dir.is_dir():
+        raise InputError(seq_dir, "not a sequence folder (it does not exist or is not a folder)")
+    path = seq_dir / "seqinfo.ini"
+    if not path.is_file():
+        raise InputError(path, "missing; a MOTChallenge sequence folder needs seqinfo.ini")
+    parser = configparser.ConfigParser()
+    parser.optionxform = str  # keep key case: frameRate, seqLength
+    try:
+        parser.read(path, encoding="utf-8")
+    except (configparser.Error, UnicodeDecodeError) as exc:
+        raise InputError(path, f"cannot be parsed as an ini file: {exc}") from exc
+    if "Sequence" not in parser:
+        raise InputError(path, "has no [Sequence] section")
+    section = parser["Sequence"]
+    values: dict[str, object] = {}
+    for key, kind in _SEQINFO_KEYS.items():
+        if key not in section:
+            if key in ("imDir", "imExt"):
+                continue
+            raise InputError(path, f"missing key {key!r} in [Sequence]", line=_ini_line(path, "[Sequence]"))
+        raw = section[key].strip()
+        try:
+            value = kind(raw)
+        except ValueError:
+            raise InputError(path, f"{key}={raw!r} is not a valid {kind.__name__}",
+                             line=_ini_line(path, key)) from None
+        if kind in (int, float) and not (math.isfinite(value) and value > 0):
+            raise InputError(path, f"{key}={raw!r} must be a positive number", line=_ini_line(path, key))
+        values[key] = value
+    return SeqInfo(path=seq_dir, name=str(values["name"]), frame_rate=float(values["frameRate"]),
+                   length=int(values["seqLength"]), width=int(values["imWidth"]),
+                   height=int(values["imHeight"]), im_dir=str(values.get("imDir", "img1")),
+                   im_ext=str(values.get("imExt", ".jpg")))
+
+
+def _ini_line(path: Path, needle: str) -> int | None:
+    for number, text in enumerate(path.read_text(encoding="utf-8", errors="replace").splitlines(), 1):
+        if text.strip().startswith(needle):
+            return number
+    return None
+
+
+def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None,
+                what: str) -> tuple[np.ndarray, list[int]]:
+    """Parse a comma-separated MOTChallenge text file into a float array.
+
+    Returns the ``(N, max_cols)`` array (missing trailing columns filled with -1)
+    and the 1-based line number of each row. Every row is validated: column
+    count, numbers, finiteness, positive width and height, frame range.
+    """
+    if not path.is_file():
+        raise InputError(path, f"missing; expected the {what} file here")
+    rows: list[list[float]] = []
+    lines: list[int] = []
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for number, text in enumerate(fh, 1):
+            text = text.strip()
+            if not text:
+                continue
+            fields = [f.strip() for f in text.replace(" ", "").split(",")] if "," in text else text.split()
+            if not (min_cols <= len(fields) <= max_cols):
+                raise InputError(path, f"{len(fields)} columns, expected {min_cols} to {max_cols} "
+                                 f"(frame, id, x, y, w, h, score, ...)", line=number)
+            try:
+                values = [float(f) for f in fields]
+            except ValueError:
+                bad = next(f for f in fields if not _is_float(f))
+                raise InputError(path, f"non-numeric field {bad!r}", line=number) from None
+            bad_col = next((i for i, v in enumerate(values) if not math.isfinite(v)), None)
+            if bad_col is not None:
+                raise InputError(path, f"column {bad_col + 1} is {fields[bad_col]!r}; NaN and inf "
+                                 f"are not allowed", line=number)
+            frame = values[0]
+            if frame != int(frame):
+                raise InputError(path, f"frame number {fields[0]!r} is not an integer", line=number)
+            if frame < 1 or (seq_length is not None and frame > seq_length):
+                limit = f"1..{seq_length}" if seq_length is not None else ">= 1"
+                raise InputError(path, f"frame {int(frame)} is outside {limit} (seqLength in seqinfo.ini)",
+                                 line=number)
+            if values[4] <= 0 or values[5] <= 0:
+                raise InputError(path, f"box width and height must be positive, got w={fields[4]}, "
+                                 f"h={fields[5]}", line=number)
+            rows.append(values + [-1.0] * (max_cols - len(values)))
+            lines.append(number)
+    arr = np.asarray(rows, dtype=np.float64).reshape(-1, max_cols)
+    return arr, lines
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def read_detections(path: str | Path, seq_length: int | None = None) -> Detections:
+    """Read a MOTChallenge ``det.txt``: ``frame, id, x, y, w, h, score[, x, y, z]``.
+
+    The boxes come back in the canonical order of :meth:`Detections.sorted`.
+
+    Raises
+    ------
+    InputError
+        With the file and 1-based line of the first bad row.
+    """
+    path = Path(path)
+    arr, _ = _parse_rows(path, 7, 10, seq_length, "detections")
+    return Detections(arr[:, 0].astype(np.int64), arr[:, 2:6], arr[:, 6]).sorted()
+
+
+@dataclass(frozen=True, eq=False)
+class GroundTruth:
+    """Ground-truth boxes of a sequence.
+
+    Attributes
+    ----------
+    frames, ids
+        ``(N,)`` int64 1-based frame and identity.
+    boxes
+        ``(N, 4)`` float64 ``x, y, w, h`` pixels.
+    consider
+        ``(N,)`` bool, the ``conf`` column: False rows are ignored by evaluation.
+    classes
+        ``(N,)`` int64 MOT16 class (1 = pedestrian); all 1 for 2DMOT2015 files.
+    visibility
+        ``(N,)`` float64 visible fraction; all 1.0 for 2DMOT2015 files.
+    style
+        ``"MOT16"`` for 9-column files with class and visibility, ``"MOT15"`` for
+        the 2DMOT2015 layout (10 columns, the last three world coordinates).
+    """
+
+    frames: np.ndarray
+    ids: np.ndarray
+    boxes: np.ndarray
+    consider: np.ndarray
+    classes: np.ndarray
+    visibility: np.ndarray
+    style: GtStyle
+
+    def pedestrians(self, min_visibility: float = 0.0) -> "GroundTruth":
+        """Rows that evaluation scores: considered pedestrians with enough visibility."""
+        keep = self.consider & (self.classes == 1) & (self.visibility >= min_visibility)
+        return GroundTruth(self.frames[keep], self.ids[keep], self.boxes[keep], self.consider[keep],
+                           self.classes[keep], self.visibility[keep], self.style)
+
+
+def gt_style(path: str | Path) -> GtStyle:
+    """Whether a ``gt.txt`` is MOT16-style (9 columns) or 2DMOT2015-style.
+
+    Decided from the first non-empty line; :func:`read_ground_truth` checks the rest.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(path, "missing; expected the ground-truth file here")
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for text in fh:
+            if text.strip():
+                return "MOT16" if len(text.strip().split(",")) == 9 else "MOT15"
+    return "MOT15"
+
+
+def read_ground_truth(path: str | Path, seq_length: int | None = None) -> GroundTruth:
+    """Read a ``gt.txt`` in MOT16 (9 columns) or 2DMOT2015 (10 columns) layout."""
+    path = Path(path)
+    style = gt_style(path)
+    if style == "MOT16":
+        arr, _ = _parse_rows(path, 9, 9, seq_length, "ground-truth")
+        classes = arr[:, 7].astype(np.int64)
+        visibility = arr[:, 8]
+    else:
+        arr, _ = _parse_rows(path, 7, 10, seq_length, "ground-truth")
+        classes = np.ones(len(arr), np.int64)
+        visibility = np.ones(len(arr))
+    return GroundTruth(arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), arr[:, 2:6],
+                       arr[:, 6] != 0, classes, visibility, style)
+
+
+def read_results(path: str | Path, seq_length: int | None = None) -> Tracks:
+    """Read a MOTChallenge results file (``frame, id, x, y, w, h, score, -1, -1, -1``)."""
+    path = Path(path)
+    arr, lines = _parse_rows(path, 7, 10, seq_length, "results")
+    ids = arr[:, 1].astype(np.int64)
+    seen: dict[tuple[int, int], int] = {}
+    for (frame, tid), line in zip(zip(arr[:, 0].astype(int), ids), lines):
+        if (frame, tid) in seen:
+            raise InputError(path, f"id {tid} has a second box in frame {frame} "
+                             f"(first on line {seen[frame, tid]})", line=line)
+        seen[frame, tid] = line
+    return Tracks(arr[:, 0].astype(np.int64), ids, arr[:, 2:6], arr[:, 6])
+
+
+def format_results(tracks: Tracks) -> str:
+    """MOTChallenge text for ``tracks``, sorted by frame then id, 2 decimals for boxes."""
+    order = np.lexsort((tracks.ids, tracks.frames))
+    out = []
+    for i in order:
+        x, y, w, h = tracks.boxes[i]
+        out.append(f"{tracks.frames[i]},{tracks.ids[i]},{x:.2f},{y:.2f},{w:.2f},{h:.2f},"
+                   f"{tracks.scores[i]:.4f},-1,-1,-1\n")
+    return "".join(out)
+
+
+def write_text_atomic(path: str | Path, text: str) -> None:
+    """Write ``text`` to ``path`` so that readers see the old file or the whole new one.
+
+    The text goes to a temporary file in the same folder, is flushed to disk,
+    then renamed over ``path``; a failure leaves no partial file behind.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_results(path: str | Path, tracks: Tracks) -> None:
+    """Write ``tracks`` as a MOTChallenge results file, atomically."""
+    write_text_atomic(path, format_results(tracks))
+
+
+class FrameReader:
+    """Reads the frames of a sequence as BGR ``uint8`` arrays, keeping a few in memory.
+
+    Parameters
+    ----------
+    info
+        The sequence whose ``img1/`` folder is read.
+    cache_size
+        How many decoded frames to keep (least recently used are dropped), so
+        stages that revisit frames do not decode them again.
+    """
+
+    def __init__(self, info: SeqInfo, cache_size: int = 8) -> None:
+        self.info = info
+        self.cache_size = cache_size
+        self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
+
+    def __call__(self, frame: int) -> np.ndarray:
+        """The image of 1-based ``frame``, shape ``(H, W, 3)`` BGR.
+
+        Raises
+        ------
+        InputError
+            The file is missing or cannot be decoded as an image.
+        """
+        cached = self._cache.get(frame)
+        if cached is not None:
+            self._cache.move_to_end(frame)
+            return cached
+        import cv2
+
+        path = self.info.frame_path(frame)
+        if not path.is_file():
+            raise InputError(path, f"frame {frame} is missing from {self.info.im_dir}/")
+        image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if image is None:
+            raise InputError(path, f"frame {frame} cannot be decoded as an image")
+        image.setflags(write=False)
+        self._cache[frame] = image
+        if len(self._cache) > self.cache_size:
+            self._cache.popitem(last=False)
+        return image

@@ -1,0 +1,103 @@
+"""Tracklet generation: frame-by-frame Hungarian matching inside 1-second batches (paper Sec. 3.4).
+
+Inside a batch, for every frame a bipartite graph joins the open tracklets
+and the frame's detections; the weight of an edge is the appearance affinity
+between the detection and the mean feature of the tracklet's last ``tail``
+detections. The assignment that maximises the total affinity is found with
+the Hungarian algorithm; matches below the affinity gate (or the IoU gate) are
+not linked. A tracklet that gets no detection in a frame is closed, so a
+tracklet covers consecutive frames. Unmatched detections start new
+tracklets. At the end of a batch every tracklet is closed; tracklets of length
+``<= l_min`` are dropped. Long-term association joins the rest.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from sotmot.appearance import affinity
+from sotmot.boxes import iou_matrix
+from sotmot.config import TrackletConfig
+from sotmot.types import Detections, Tracklet
+
+_FORBIDDEN = 1e6
+
+
+def batch_length(frame_rate: float, batch_seconds: float) -> int:
+    """Frames per batch: ``round(batch_seconds * frame_rate)``, at least 1."""
+    return max(1, int(round(batch_seconds * frame_rate)))
+
+
+def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: float,
+                    config: TrackletConfig = TrackletConfig(),
+                    progress: Callable[[Iterable[int]], Iterable[int]] | None = None) -> list[Tracklet]:
+    """Build tracklets from detections and their appearance features.
+
+    Parameters
+    ----------
+    detections
+        Boxes of the whole sequence (``x, y, w, h`` pixels, 1-based frames).
+    features
+        ``(N, D)`` appearance features, row ``i`` for detection ``i``.
+    frame_rate
+        Frames per second of the sequence (``frameRate`` of seqinfo.ini).
+    config
+        Gates, tail length, batch length and ``l_min``.
+    progress
+        Optional wrapper over the iterable of frames (e.g. a progress bar).
+
+    Returns
+    -------
+    list of Tracklet
+        Ordered by first frame, then by the index of their first detection;
+        ids run from 1 in that order.
+    """
+    features = np.asarray(features, dtype=np.float32)
+    if len(features) != len(detections):
+        raise ValueError(f"{len(detections)} detections but {len(features)} features")
+    per_frame = detections.by_frame()
+    frames = sorted(per_frame)
+    blen = batch_length(frame_rate, config.batch_seconds)
+    finished: list[list[int]] = []
+    active: list[list[int]] = []
+    current_batch = None
+    for frame in (progress(frames) if progress else frames):
+        batch = (frame - 1) // blen
+        if batch != current_batch or (active and detections.frames[active[0][-1]] != frame - 1):
+            # New batch, or the previous frame had no detections: every open tracklet closes.
+            finished.extend(active)
+            active = []
+            current_batch = batch
+        idx = per_frame[frame]
+        matched_tracks: set[int] = set()
+        matched_dets: set[int] = set()
+        if active:
+            tails = np.stack([features[t[-config.tail:]].mean(axis=0) for t in active])
+            aff = affinity(tails, features[idx])
+            ious = iou_matrix(detections.boxes[[t[-1] for t in active]], detections.boxes[idx])
+            allowed = (aff >= config.min_affinity) & (ious >= config.min_iou)
+            cost = np.where(allowed, -aff, _FORBIDDEN)
+            rows, cols = linear_sum_assignment(cost)
+            for r, c in zip(rows, cols):
+                if allowed[r, c]:
+                    active[r].append(int(idx[c]))
+                    matched_tracks.add(r)
+                    matched_dets.add(c)
+        finished.extend(t for r, t in enumerate(active) if r not in matched_tracks)
+        active = [t for r, t in enumerate(active) if r in matched_tracks]
+        active.extend([int(idx[c])] for c in range(len(idx)) if c not in matched_dets)
+    finished.extend(active)
+    kept = [t for t in finished if len(t) > config.l_min]
+    kept.sort(key=lambda t: (detections.frames[t[0]], t[0]))
+    return [make_tracklet(k, np.asarray(t), detections, features) for k, t in enumerate(kept, 1)]
+
+
+def make_tracklet(tracklet_id: int, det_index: np.ndarray, detections: Detections,
+                  features: np.ndarray) -> Tracklet:
+    """A :class:`Tracklet` over the detections ``det_index`` (one per frame, in frame order)."""
+    return Tracklet(id=tracklet_id, frames=detections.frames[det_index], boxes=detections.boxes[det_index],
+                    scores=detections.scores[det_index], det_index=det_index,
+                    feature=features[det_index].mean(axis=0), n_features=len(det_index))

@@ -1,0 +1,213 @@
+"""Small data types that say what they hold.
+
+Conventions everywhere in sotmot: boxes are ``x, y, w, h`` in pixels with a
+top-left origin; frame numbers are 1-based, as in MOTChallenge files.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def _readonly(*arrays: np.ndarray) -> None:
+    for a in arrays:
+        a.setflags(write=False)
+
+
+@dataclass(frozen=True, eq=False)
+class Detections:
+    """A set of detection boxes of one sequence.
+
+    Attributes
+    ----------
+    frames
+        ``(N,)`` int64, 1-based frame number of each box.
+    boxes
+        ``(N, 4)`` float64, ``x, y, w, h`` in pixels.
+    scores
+        ``(N,)`` float64 detector confidence (any real range: DPM scores are not
+        probabilities).
+    from_sot
+        ``(N,)`` bool, True for boxes added by the single-object-tracking step
+        rather than by the detector.
+    """
+
+    frames: np.ndarray
+    boxes: np.ndarray
+    scores: np.ndarray
+    from_sot: np.ndarray = field(default=None)  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        frames = np.asarray(self.frames, dtype=np.int64).reshape(-1)
+        boxes = np.asarray(self.boxes, dtype=np.float64).reshape(-1, 4)
+        scores = np.asarray(self.scores, dtype=np.float64).reshape(-1)
+        from_sot = (np.zeros(len(frames), dtype=bool) if self.from_sot is None
+                    else np.asarray(self.from_sot, dtype=bool).reshape(-1))
+        if not (len(frames) == len(boxes) == len(scores) == len(from_sot)):
+            raise ValueError(
+                f"Detections columns differ in length: frames {len(frames)}, boxes {len(boxes)}, "
+                f"scores {len(scores)}, from_sot {len(from_sot)}")
+        object.__setattr__(self, "frames", frames)
+        object.__setattr__(self, "boxes", boxes)
+        object.__setattr__(self, "scores", scores)
+        object.__setattr__(self, "from_sot", from_sot)
+        _readonly(frames, boxes, scores, from_sot)
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    @classmethod
+    def empty(cls) -> "Detections":
+        """A set with no boxes."""
+        return cls(np.zeros(0, np.int64), np.zeros((0, 4)), np.zeros(0))
+
+    def subset(self, index: np.ndarray) -> "Detections":
+        """The boxes selected by an integer or boolean ``index``, in that order."""
+        return Detections(self.frames[index], self.boxes[index], self.scores[index], self.from_sot[index])
+
+    def sorted(self) -> "Detections":
+        """The same boxes ordered by frame, then by descending score, then by box.
+
+        A canonical order makes every later stage independent of the order of
+        lines in the input file.
+        """
+        b = self.boxes
+        order = np.lexsort((b[:, 3], b[:, 2], b[:, 1], b[:, 0], -self.scores, self.frames))
+        return self.subset(order)
+
+    def by_frame(self) -> dict[int, np.ndarray]:
+        """Map each frame number that has boxes to the indices of its boxes (ascending)."""
+        if len(self) == 0:
+            return {}
+        order = np.argsort(self.frames, kind="stable")
+        f = self.frames[order]
+        starts = np.flatnonzero(np.r_[True, f[1:] != f[:-1]])
+        ends = np.r_[starts[1:], len(f)]
+        return {int(f[s]): np.sort(order[s:e]) for s, e in zip(starts, ends)}
+
+
+@dataclass(frozen=True, eq=False)
+class Tracklet:
+    """A trajectory piece: at most one box per frame, frames strictly increasing.
+
+    Attributes
+    ----------
+    id
+        Identifier, unique within one run of the tracker.
+    frames
+        ``(L,)`` int64, 1-based frames, strictly increasing (gaps allowed).
+    boxes
+        ``(L, 4)`` float64, ``x, y, w, h`` pixels.
+    scores
+        ``(L,)`` float64 detection score of each box.
+    det_index
+        ``(L,)`` int64 index of each box in the :class:`Detections` it came from.
+    feature
+        ``(D,)`` float32 mean appearance feature of the tracklet's detections
+        (not re-normalised; see :func:`sotmot.appearance.affinity`).
+    n_features
+        How many detection features the mean is over (to merge means exactly).
+    """
+
+    id: int
+    frames: np.ndarray
+    boxes: np.ndarray
+    scores: np.ndarray
+    det_index: np.ndarray
+    feature: np.ndarray
+    n_features: int
+
+    def __post_init__(self) -> None:
+        frames = np.asarray(self.frames, dtype=np.int64).reshape(-1)
+        boxes = np.asarray(self.boxes, dtype=np.float64).reshape(-1, 4)
+        scores = np.asarray(self.scores, dtype=np.float64).reshape(-1)
+        det_index = np.asarray(self.det_index, dtype=np.int64).reshape(-1)
+        feature = np.asarray(self.feature, dtype=np.float32).reshape(-1)
+        if not (len(frames) == len(boxes) == len(scores) == len(det_index)) or len(frames) == 0:
+            raise ValueError(f"tracklet {self.id}: columns empty or of different lengths")
+        if np.any(np.diff(frames) <= 0):
+            raise ValueError(f"tracklet {self.id}: frames must be strictly increasing")
+        for name, value in (("frames", frames), ("boxes", boxes), ("scores", scores),
+                            ("det_index", det_index), ("feature", feature)):
+            object.__setattr__(self, name, value)
+        _readonly(frames, boxes, scores, det_index, feature)
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    @property
+    def start(self) -> int:
+        """First frame (1-based)."""
+        return int(self.frames[0])
+
+    @property
+    def end(self) -> int:
+        """Last frame (1-based)."""
+        return int(self.frames[-1])
+
+
+@dataclass(frozen=True, eq=False)
+class Tracks:
+    """Tracker output: one row per box, as written to a MOTChallenge results file.
+
+    Attributes
+    ----------
+    frames
+        ``(N,)`` int64 1-based frames.
+    ids
+        ``(N,)`` int64 track identities (1-based in written files).
+    boxes
+        ``(N, 4)`` float64 ``x, y, w, h`` pixels.
+    scores
+        ``(N,)`` float64 confidence (detection score; interpolated boxes carry
+        the lower score of their neighbours).
+    interpolated
+        ``(N,)`` bool, True for boxes filled in by post-processing.
+    from_sot
+        ``(N,)`` bool, True for boxes that came from the SOT step.
+    """
+
+    frames: np.ndarray
+    ids: np.ndarray
+    boxes: np.ndarray
+    scores: np.ndarray
+    interpolated: np.ndarray = field(default=None)  # type: ignore[assignment]
+    from_sot: np.ndarray = field(default=None)  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        n = len(np.asarray(self.frames).reshape(-1))
+        cols = {
+            "frames": np.asarray(self.frames, dtype=np.int64).reshape(-1),
+            "ids": np.asarray(self.ids, dtype=np.int64).reshape(-1),
+            "boxes": np.asarray(self.boxes, dtype=np.float64).reshape(-1, 4),
+            "scores": np.asarray(self.scores, dtype=np.float64).reshape(-1),
+            "interpolated": (np.zeros(n, bool) if self.interpolated is None
+                             else np.asarray(self.interpolated, dtype=bool).reshape(-1)),
+            "from_sot": (np.zeros(n, bool) if self.from_sot is None
+                         else np.asarray(self.from_sot, dtype=bool).reshape(-1)),
+        }
+        if any(len(v) != n for v in cols.values()):
+            raise ValueError("Tracks columns differ in length")
+        for name, value in cols.items():
+            object.__setattr__(self, name, value)
+        _readonly(*cols.values())
+
+    def __len__(self) -> int:
+        return len(self.frames)
+
+    @classmethod
+    def empty(cls) -> "Tracks":
+        """No boxes."""
+        return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 4)), np.zeros(0))
+
+    def subset(self, index: np.ndarray) -> "Tracks":
+        """The rows selected by an integer or boolean ``index``."""
+        return Tracks(self.frames[index], self.ids[index], self.boxes[index], self.scores[index],
+                      self.interpolated[index], self.from_sot[index])
+
+    @property
+    def n_tracks(self) -> int:
+        """Number of distinct identities."""
+        return int(len(np.unique(self.ids)))
