@@ -9,8 +9,9 @@ To scale, candidate pairs live in a max-heap keyed by affinity. A merge
 creates a new trajectory and retires its two parts; heap entries that name a
 retired trajectory are skipped when popped (lazy invalidation), and only the
 new trajectory's pairs with live trajectories within ``l_max`` frames are
-checked and pushed. Ties in affinity are broken by the smaller trajectory
-ids, so the result is deterministic.
+checked and pushed. Ties in affinity are broken by the smallest input
+tracklet ids of the two trajectories, so the result does not depend on the
+order of the input.
 """
 
 from __future__ import annotations
@@ -46,7 +47,8 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
     starts[:n] = [t.start for t in nodes]
     ends[:n] = [t.end for t in nodes]
 
-    heap: list[tuple[float, int, int]] = []
+    # entries: (-affinity, smaller min-member id, larger min-member id, node, node)
+    heap: list[tuple[float, int, int, int, int]] = []
 
     def push(pairs: np.ndarray) -> None:
         if len(pairs) == 0:
@@ -55,13 +57,15 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
                             np.stack([nodes[j].feature for j in pairs[:, 1]]))
         keep = screen_pairs(nodes, pairs, aff, config)
         for (i, j), a in zip(pairs[keep], aff[keep]):
+            if members[i][0] > members[j][0]:
+                i, j = j, i
             if check_pair(nodes[i], nodes[j], config, pair_affinity=a).allowed:
-                heapq.heappush(heap, (-float(a), int(i), int(j)))
+                heapq.heappush(heap, (-float(a), members[i][0], members[j][0], int(i), int(j)))
 
     push(np.asarray(candidate_pairs(nodes, config.l_max), dtype=np.int64).reshape(-1, 2))
     links: list[Link] = []
     while heap:
-        neg_aff, i, j = heapq.heappop(heap)
+        neg_aff, _, _, i, j = heapq.heappop(heap)
         if not (alive[i] and alive[j]):
             continue
         a, b = nodes[i], nodes[j]

@@ -1,0 +1,70 @@
+"""Shared fixtures: where the real data and models are, and tiny synthetic sequences.
+
+Real data comes from ``../shared/data`` beside the project (override with
+``SOTMOT_DATA``) and models from ``../shared/models`` (``SOTMOT_MODELS``).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data"))
+MODELS = Path(os.environ.get("SOTMOT_MODELS", ROOT.parent / "shared" / "models"))
+MODEL_0288 = MODELS / "person-reidentification-retail-0288.onnx"
+
+
+def require(path: Path) -> Path:
+    """Skip the test, naming the path, when shared data or a model is absent."""
+    if not path.exists():
+        pytest.skip(f"{path} not found (set SOTMOT_DATA / SOTMOT_MODELS to the shared folder)")
+    return path
+
+
+@pytest.fixture
+def model_0288() -> Path:
+    return require(MODEL_0288)
+
+
+def write_sequence(root: Path, det_lines: list[str], length: int = 5, frame_rate: float = 2,
+                   width: int = 64, height: int = 48, name: str = "SYN", images: bool = True,
+                   gt_lines: list[str] | None = None) -> Path:
+    """A tiny MOTChallenge folder: seqinfo.ini, det/det.txt, optional gt/gt.txt and grey frames."""
+    import cv2
+
+    seq = root / name
+    (seq / "det").mkdir(parents=True)
+    (seq / "seqinfo.ini").write_text(
+        f"[Sequence]\nname={name}\nimDir=img1\nframeRate={frame_rate}\nseqLength={length}\n"
+        f"imWidth={width}\nimHeight={height}\nimExt=.jpg\n")
+    (seq / "det" / "det.txt").write_text("".join(line + "\n" for line in det_lines))
+    if gt_lines is not None:
+        (seq / "gt").mkdir()
+        (seq / "gt" / "gt.txt").write_text("".join(line + "\n" for line in gt_lines))
+    if images:
+        (seq / "img1").mkdir()
+        for f in range(1, length + 1):
+            cv2.imwrite(str(seq / "img1" / f"{f:06d}.jpg"), np.full((height, width, 3), 128, np.uint8))
+    return seq
+
+
+class GeometryEmbedder:
+    """A deterministic stand-in for a re-ID model: the feature is a function of the box size.
+
+    Boxes of (nearly) the same width and height get (nearly) the same feature,
+    so synthetic people that keep their size keep their "appearance".
+    """
+
+    dim = 8
+
+    def embed(self, frame: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        from sotmot.appearance import normalize
+
+        b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+        k = np.arange(1, self.dim + 1)
+        feats = np.cos(np.outer(b[:, 2] / 7.0, k) + np.outer(b[:, 3] / 11.0, k[::-1]))
+        return normalize(feats)

@@ -1,0 +1,91 @@
+"""The ONNX re-ID backend on real crops, and the affinity definition."""
+
+import math
+
+import numpy as np
+import pytest
+
+from conftest import DATA, require
+from sotmot.appearance import affinity, affinity_rows, make_embedder, normalize
+from sotmot.config import AppearanceConfig
+from sotmot.errors import ModelError
+from sotmot.io import FrameReader, read_ground_truth, read_seqinfo
+
+
+def test_affinity_definition():
+    a = np.array([[1.0, 0.0]])
+    assert affinity(a, a)[0, 0] == pytest.approx(1.0)
+    assert affinity(a, [[0.0, 1.0]])[0, 0] == pytest.approx(1 - math.sqrt(2) / 2)
+    assert affinity(a, [[-1.0, 0.0]])[0, 0] == pytest.approx(0.0)
+    assert affinity([[3.0, 0.0]], [[0.5, 0.0]])[0, 0] == pytest.approx(1.0)  # scale does not matter
+    rng = np.random.default_rng(0)
+    x, y = rng.normal(size=(5, 16)), rng.normal(size=(5, 16))
+    np.testing.assert_allclose(affinity_rows(x, y), np.diag(affinity(x, y)))
+
+
+def test_missing_model_says_how_to_point_at_one(monkeypatch):
+    monkeypatch.delenv("SOTMOT_REID_MODEL", raising=False)
+    with pytest.raises(ModelError, match="--reid-model"):
+        make_embedder(AppearanceConfig())
+    with pytest.raises(ModelError, match="not found"):
+        make_embedder(AppearanceConfig(model="/nonexistent/model.onnx"))
+
+
+def test_a_file_that_is_not_a_model_is_a_clear_error(tmp_path):
+    bad = tmp_path / "bad.onnx"
+    bad.write_bytes(b"this is not onnx")
+    with pytest.raises(ModelError, match="cannot be loaded as an ONNX model"):
+        make_embedder(AppearanceConfig(model=str(bad)))
+
+
+@pytest.fixture(scope="module")
+def pets_crops():
+    info = read_seqinfo(require(DATA / "PETS09-S2L1"))
+    gt = read_ground_truth(info.gt_path, info.length)
+    frame = 1
+    idx = np.flatnonzero(gt.frames == frame)
+    return FrameReader(info)(frame), gt.boxes[idx], gt.ids[idx], info, gt
+
+
+def test_embeddings_are_unit_float32_and_flip_invariant(model_0288, pets_crops):
+    frame, boxes, _, _, _ = pets_crops
+    emb = make_embedder(AppearanceConfig(model=str(model_0288)))
+    f = emb.embed(frame, boxes)
+    assert f.shape == (len(boxes), 256) and f.dtype == np.float32
+    np.testing.assert_allclose(np.linalg.norm(f, axis=1), 1.0, atol=1e-5)
+    # flip-averaging (paper eq. 1) makes the feature of a mirrored image the same
+    mirrored = np.ascontiguousarray(frame[:, ::-1])
+    mb = boxes.copy()
+    mb[:, 0] = frame.shape[1] - boxes[:, 0] - boxes[:, 2]
+    np.testing.assert_allclose(emb.embed(mirrored, mb), f, atol=2e-3)
+    no_flip = make_embedder(AppearanceConfig(model=str(model_0288), flip=False)).embed(frame, boxes)
+    assert not np.allclose(no_flip, f, atol=1e-3)
+
+
+def test_same_person_is_more_similar_than_other_people(model_0288, pets_crops):
+    _, _, _, info, gt = pets_crops
+    reader = FrameReader(info)
+    emb = make_embedder(AppearanceConfig(model=str(model_0288)))
+    a = np.flatnonzero(gt.frames == 10)
+    b = np.flatnonzero(gt.frames == 11)
+    fa = emb.embed(reader(10), gt.boxes[a])
+    fb = emb.embed(reader(11), gt.boxes[b])
+    aff = affinity(fa, fb)
+    same = gt.ids[a][:, None] == gt.ids[b][None, :]
+    assert aff[same].mean() > aff[~same].mean() + 0.15
+    # the best match of nearly every person one frame later is that person
+    assert (gt.ids[b][aff.argmax(axis=1)] == gt.ids[a]).mean() >= 0.8
+
+
+def test_boxes_partly_outside_the_image_are_embedded(model_0288, pets_crops):
+    frame, _, _, _, _ = pets_crops
+    emb = make_embedder(AppearanceConfig(model=str(model_0288)))
+    boxes = np.array([[-20, -30, 50, 100], [740, 500, 60, 120], [2000, 2000, 10, 10]], float)
+    f = emb.embed(frame, boxes)
+    assert np.isfinite(f).all() and f.shape == (3, 256)
+    assert emb.embed(frame, np.zeros((0, 4))).shape == (0, 256)
+
+
+def test_normalize_leaves_zero_rows_alone():
+    out = normalize(np.array([[0.0, 0.0], [3.0, 4.0]]))
+    np.testing.assert_allclose(out, [[0, 0], [0.6, 0.8]])

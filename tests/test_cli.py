@@ -1,0 +1,57 @@
+"""The command line, end to end on real data, and its errors."""
+
+import json
+
+import pytest
+
+from conftest import DATA, require
+from sotmot.cli import main
+
+
+def test_track_and_eval_on_mot16_05_clip_matches_pinned_scores(tmp_path, model_0288, capsys):
+    seq = require(DATA / "MOT16-05-clip30")
+    out = tmp_path / "res"
+    assert main(["track", str(seq), "--out", str(out), "--reid-model", str(model_0288), "-q"]) == 0
+    assert (out / "MOT16-05-clip30.txt").is_file()
+    assert main(["eval", str(out), str(seq), "--json", str(tmp_path / "s.json")]) == 0
+    scores = json.loads((tmp_path / "s.json").read_text())["sequences"]["MOT16-05-clip30"]
+    # pinned from a run with the default configuration (model 0288, greedy merge); the tolerance
+    # absorbs onnxruntime's small numeric differences between CPUs
+    assert scores["HOTA"] == pytest.approx(39.2, abs=1.5)
+    assert scores["MOTA"] == pytest.approx(28.8, abs=2.0)
+    assert scores["IDF1"] == pytest.approx(44.2, abs=2.0)
+    assert scores["IDSW"] <= 2
+    printed = capsys.readouterr().out
+    assert "MOT16-05-clip30" in printed and "HOTA" in printed
+
+
+def test_help_teaches(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["track", "--help"])
+    assert exc.value.code == 0
+    text = capsys.readouterr().out
+    assert "--merger" in text and "greedy" in text and "SOTMOT_REID_MODEL" in text and "examples:" in text
+
+
+def test_unknown_merger_is_rejected_with_the_valid_names(capsys):
+    with pytest.raises(SystemExit):
+        main(["track", "x", "--out", "y", "--merger", "magic"])
+    assert "greedy" in capsys.readouterr().err
+
+
+def test_errors_print_one_line_and_exit_2(tmp_path, capsys):
+    bad = tmp_path / "c.toml"
+    bad.write_text("[tracklets]\ntial = 3\n")
+    assert main(["track", str(tmp_path), "--out", str(tmp_path / "o"), "--config", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("sotmot: error: ") and "tial" in err and "Traceback" not in err
+    assert main(["track", str(tmp_path / "missing"), "--out", str(tmp_path / "o")]) == 2
+    assert "not a sequence folder" in capsys.readouterr().err
+
+
+def test_missing_model_error_names_the_flag(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("SOTMOT_REID_MODEL", raising=False)
+    seq = require(DATA / "MOT16-05-clip30")
+    assert main(["track", str(seq), "--out", str(tmp_path)]) == 2
+    assert "--reid-model" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())  # nothing half-written

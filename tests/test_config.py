@@ -1,0 +1,53 @@
+import json
+
+import pytest
+
+from sotmot.config import TrackerConfig, config_from_dict, load_config
+from sotmot.errors import ConfigError
+
+
+def test_defaults_are_the_papers_values_where_the_paper_gives_them():
+    c = TrackerConfig()
+    assert c.preprocess.nms_threshold == 0.6
+    assert c.tracklets.batch_seconds == 1.0 and c.tracklets.tail == 5 and c.tracklets.l_min == 1
+    a = c.association
+    assert (a.tau_iou, a.l_max, a.short_gap) == (0.5, 60, 5)
+    assert (a.velocity_adjacent, a.velocity_short, a.velocity_long) == (1.0, 2 / 3, 1 / 3)
+    assert c.postprocess.smooth_window == 3
+
+
+def test_unknown_key_is_an_error_listing_valid_keys(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text("[association]\nlmax = 30\n")
+    with pytest.raises(ConfigError) as err:
+        load_config(path)
+    assert "unknown key(s) lmax" in str(err.value) and "l_max" in str(err.value) and str(path) in str(err.value)
+
+
+def test_unknown_section_and_bad_types():
+    with pytest.raises(ConfigError, match="unknown section"):
+        config_from_dict({"asociation": {}})
+    with pytest.raises(ConfigError, match="l_max must be an integer"):
+        config_from_dict({"association": {"l_max": 2.5}})
+    with pytest.raises(ConfigError, match="nms must be one of"):
+        config_from_dict({"preprocess": {"nms": "dice"}})
+    with pytest.raises(ConfigError, match="tau_iou must be in"):
+        config_from_dict({"association": {"tau_iou": 1.5}})
+
+
+def test_json_and_toml_files_load(tmp_path):
+    (tmp_path / "c.json").write_text(json.dumps({"association": {"l_max": 30}, "preprocess": {"score_threshold": 0}}))
+    c = load_config(tmp_path / "c.json")
+    assert c.association.l_max == 30 and c.preprocess.score_threshold == 0.0
+    (tmp_path / "c.toml").write_text("[postprocess]\nsmooth_window = 0\n")
+    assert load_config(tmp_path / "c.toml").postprocess.smooth_window == 0
+    (tmp_path / "c.yaml").write_text("")
+    with pytest.raises(ConfigError, match="must be a .toml or .json"):
+        load_config(tmp_path / "c.yaml")
+
+
+def test_replace_validates():
+    c = TrackerConfig().replace("association", l_max=10)
+    assert c.association.l_max == 10
+    with pytest.raises(ConfigError):
+        TrackerConfig().replace("association", bogus=1)

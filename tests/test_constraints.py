@@ -1,0 +1,132 @@
+"""The association constraint A(t1, t2), one rule at a time, with numbers computed by hand."""
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from helpers import tk
+from sotmot.config import AssociationConfig
+from sotmot.constraints import candidate_pairs, check_pair, merge, screen_pairs, time_distance
+
+CFG = AssociationConfig(min_affinity=0.5)
+BOX = [100, 100, 30, 60]  # width 30: bounds 30, 20, 10 px/frame for gaps 1, 2..5, >5
+
+
+def moved(dx):
+    return [100 + dx, 100, 30, 60]
+
+
+def test_adjacent_gap_velocity_bound_is_one_width():
+    a = tk(1, [1, 2, 3], BOX)
+    assert check_pair(a, tk(2, [4, 5], moved(30)), CFG).allowed  # 30 px in 1 frame = w
+    c = check_pair(a, tk(2, [4, 5], moved(31)), CFG)
+    assert c.failed == ("velocity",) and c.velocity == 31 and c.velocity_bound == 30 and c.gap_at_max_velocity == 1
+
+
+def test_short_gap_bound_is_two_thirds_width():
+    a = tk(1, [1, 2, 3], BOX)
+    assert check_pair(a, tk(2, [6, 7], moved(60)), CFG).allowed  # gap 3: 20 px/frame = 2/3 w
+    c = check_pair(a, tk(2, [6, 7], moved(61)), CFG)
+    assert c.failed == ("velocity",) and math.isclose(c.velocity_bound, 20.0)
+
+
+def test_long_gap_bound_is_one_third_width_using_mean_width():
+    a = tk(1, [1, 2, 3], [100, 100, 20, 60])
+    b = tk(2, [13, 14], [200, 100, 40, 60])  # gap 10; centres 110 -> 220 = 110 px; w = 30 -> bound 10
+    c = check_pair(a, b, CFG)
+    assert c.failed == ("velocity",)
+    assert math.isclose(c.velocity, 11.0) and math.isclose(c.velocity_bound, 10.0)
+    assert check_pair(a, tk(2, [13, 14], [190, 100, 40, 60]), CFG).allowed  # exactly 10 px/frame
+
+
+def test_gap_longer_than_l_max_fails():
+    a = tk(1, [1, 2], BOX)
+    assert check_pair(a, tk(2, [62, 63], BOX), CFG).allowed  # gap 60
+    c = check_pair(a, tk(2, [63, 64], BOX), CFG)
+    assert c.failed == ("gap",) and c.max_gap == 61
+
+
+def test_overlap_needs_mean_iou_above_tau_on_every_segment():
+    a = tk(1, [1, 2, 3, 4, 5], BOX)
+    same = tk(2, [4, 5, 6], BOX)
+    c = check_pair(a, same, CFG)
+    assert c.allowed and c.overlap_frames == 2 and c.min_segment_iou == 1.0
+    # shifted by 10 px: IoU = 20*60 / (2*1800 - 1200) = 0.5, not > 0.5
+    c = check_pair(a, tk(2, [4, 5, 6], moved(10)), CFG)
+    assert c.failed == ("iou",) and math.isclose(c.min_segment_iou, 0.5)
+
+
+def test_two_overlap_segments_are_judged_separately():
+    # shared frames {2, 3} (IoU 1) and {6, 7} (b shifted 20 px: IoU 0.2); the mean over all four
+    # shared frames (0.6) would pass, but the second segment alone fails
+    a = tk(1, [1, 2, 3, 5, 6, 7], BOX)
+    b = tk(2, [2, 3, 4, 6, 7], [BOX, BOX, BOX, moved(20), moved(20)])
+    c = check_pair(a, b, CFG)
+    assert c.overlap_frames == 4 and c.failed == ("iou",)
+    assert math.isclose(c.min_segment_iou, iou_of_shift(20))
+    assert check_pair(a, tk(2, [2, 3], BOX), CFG).allowed
+
+
+def iou_of_shift(dx):
+    inter = (30 - dx) * 60
+    return inter / (2 * 1800 - inter)
+
+
+def test_affinity_gate():
+    a = tk(1, [1, 2], BOX, feature=(1, 0))
+    b = tk(2, [3, 4], BOX, feature=(0, 1))  # orthogonal: affinity 1 - sqrt(2)/2 = 0.293
+    c = check_pair(a, b, CFG)
+    assert c.failed == ("affinity",) and math.isclose(c.affinity, 1 - math.sqrt(2) / 2)
+    assert check_pair(a, b, CFG, pair_affinity=0.9).allowed
+
+
+def test_several_failures_are_all_reported_in_order():
+    c = check_pair(tk(1, [1, 2], BOX, feature=(1, 0)), tk(2, [80, 81], moved(1500), feature=(0, 1)), CFG)
+    assert c.failed == ("gap", "velocity", "affinity") and c.first_failed == "gap"
+
+
+def test_merge_keeps_the_higher_score_box_and_pools_features():
+    a = tk(1, [1, 2, 3], BOX, scores=[0.9, 0.5, 0.9], feature=(1, 0))
+    b = tk(2, [2, 3, 4], moved(3), scores=[0.8, 0.95, 0.7], feature=(0, 1))
+    m = merge(a, b, new_id=7)
+    assert m.id == 7 and m.frames.tolist() == [1, 2, 3, 4]
+    assert m.boxes[:, 0].tolist() == [100, 103, 103, 103]
+    assert m.scores.tolist() == [0.9, 0.8, 0.95, 0.7]
+    np.testing.assert_allclose(m.feature, [0.5, 0.5])
+    assert m.n_features == 6
+
+
+def test_check_is_symmetric_and_does_not_mutate():
+    a = tk(1, [1, 2, 3], BOX)
+    b = tk(2, [5, 6], moved(25))
+    before = (a.frames.copy(), a.boxes.copy())
+    assert check_pair(a, b, CFG) == check_pair(b, a, CFG)
+    np.testing.assert_array_equal(a.frames, before[0])
+    np.testing.assert_array_equal(a.boxes, before[1])
+
+
+def test_candidate_pairs_are_those_within_l_max():
+    ts = [tk(1, [1, 2], BOX), tk(2, [50, 51], BOX), tk(3, [120, 121], BOX), tk(4, [1, 200], BOX)]
+    assert candidate_pairs(ts, l_max=60) == [(0, 1), (0, 3), (1, 3), (2, 3)]  # 51 -> 120 is 69 frames
+    assert time_distance(ts[0], ts[1]) == 48 and time_distance(ts[0], ts[3]) == 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(1, 100), st.integers(1, 8), st.floats(0, 300), st.floats(0, 300),
+                          st.floats(5, 60), st.floats(-1, 1)), min_size=2, max_size=8))
+def test_screen_never_rejects_a_pair_that_check_pair_allows(specs):
+    ts = []
+    for k, (start, length, x, y, w, f) in enumerate(specs):
+        ts.append(tk(k, np.arange(start, start + length), [x, y, w, 2 * w], feature=(f, 1 - abs(f))))
+    pairs = np.array([(i, j) for i in range(len(ts)) for j in range(i + 1, len(ts))])
+    from sotmot.appearance import affinity_rows
+    aff = affinity_rows(np.stack([ts[i].feature for i in pairs[:, 0]]), np.stack([ts[j].feature for j in pairs[:, 1]]))
+    screened = screen_pairs(ts, pairs, aff, CFG)
+    for (i, j), a, s in zip(pairs, aff, screened):
+        c = check_pair(ts[i], ts[j], CFG, pair_affinity=a)
+        if c.allowed:
+            assert s
+        if c.overlap_frames == 0:  # on disjoint pairs the screen is exact
+            assert s == c.allowed

@@ -1,0 +1,53 @@
+"""The TrackEval wrapper, cross-checked against published numbers."""
+
+from importlib.metadata import PackageNotFoundError, distribution
+
+import pytest
+
+from conftest import write_sequence
+from sotmot.errors import InputError
+from sotmot.evaluate import evaluate, evaluate_files, format_table
+
+
+def tud_campus():
+    try:
+        path = distribution("motmetrics").locate_file("motmetrics/data/TUD-Campus")
+    except PackageNotFoundError:
+        pytest.skip("motmetrics (test data only) is not installed; scripts/bootstrap.sh installs it")
+    return path
+
+
+def test_tud_campus_matches_the_numbers_py_motmetrics_asserts():
+    # py-motmetrics' own tests check these against the official MOTChallenge devkit
+    path = tud_campus()
+    report = evaluate_files([(path / "test.txt", path / "gt.txt", 71, "TUD-Campus")])
+    s = report.sequences["TUD-Campus"]
+    assert s["MOTA"] == pytest.approx(52.6462, abs=1e-3)
+    assert s["IDF1"] == pytest.approx(55.7659, abs=1e-3)
+    assert (s["FP"], s["FN"], s["IDSW"]) == (13, 150, 7)
+    assert report.benchmark["TUD-Campus"] == "MOT15"
+
+
+def test_perfect_results_score_100_and_missing_results_are_named(tmp_path):
+    gt = ["1,1,10,10,20,40,1,1,1", "2,1,12,10,20,40,1,1,1", "2,2,40,5,10,20,0,1,1"]
+    seq = write_sequence(tmp_path, ["1,-1,10,10,20,40,1"], length=2, gt_lines=gt, images=False)
+    out = tmp_path / "res"
+    out.mkdir()
+    with pytest.raises(InputError, match="no results for sequence SYN"):
+        evaluate(out, [seq])
+    (out / "SYN.txt").write_text("1,1,10,10,20,40,1,-1,-1,-1\n2,1,12,10,20,40,1,-1,-1,-1\n")
+    report = evaluate(out, [seq])
+    s = report.sequences["SYN"]
+    assert report.benchmark["SYN"] == "MOT16"  # 9 columns: MOT16 rules, the consider=0 row ignored
+    assert s["HOTA"] == pytest.approx(100.0) and s["MOTA"] == pytest.approx(100.0) and s["FN"] == 0
+    assert "SYN" in format_table(report)
+
+
+def test_malformed_results_are_reported_with_file_and_line(tmp_path):
+    seq = write_sequence(tmp_path, ["1,-1,10,10,20,40,1"], length=2, gt_lines=["1,1,10,10,20,40,1,1,1"],
+                         images=False)
+    out = tmp_path / "res"
+    out.mkdir()
+    (out / "SYN.txt").write_text("1,1,10,10,20,40,1,-1,-1,-1\n3,1,10,10,20,40,1,-1,-1,-1\n")
+    with pytest.raises(InputError, match=r"SYN.txt:2: frame 3 is outside 1..2"):
+        evaluate(out, [seq])

@@ -1,0 +1,67 @@
+"""The whole pipeline on synthetic sequences: invariants checked with hypothesis."""
+
+import random
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from conftest import GeometryEmbedder, write_sequence
+from sotmot.config import PreprocessConfig, TrackerConfig
+from sotmot.io import format_results, read_detections
+from sotmot.pipeline import preprocess, track_sequence
+
+PEOPLE = st.lists(st.tuples(st.integers(0, 250), st.integers(0, 150), st.integers(-6, 6), st.integers(-3, 3),
+                            st.integers(15, 40), st.integers(1, 12), st.integers(0, 10)),
+                  min_size=1, max_size=6)
+
+
+def det_lines(people, length):
+    lines = []
+    for x, y, vx, vy, w, first, dur in people:
+        for f in range(first, min(length, first + dur) + 1):
+            t = f - first
+            lines.append(f"{f},-1,{x + vx * t},{y + vy * t},{w},{2 * w},{0.5 + w / 100:.2f},-1,-1,-1")
+    return lines
+
+
+def run(lines, length=12):
+    with tempfile.TemporaryDirectory() as tmp:
+        seq = write_sequence(Path(tmp), lines, length=length, frame_rate=4, width=320, height=240)
+        result = track_sequence(seq, TrackerConfig(), embedder=GeometryEmbedder())
+    return result
+
+
+@settings(max_examples=25, deadline=None)
+@given(PEOPLE, st.randoms())
+def test_one_box_per_id_per_frame_and_independent_of_line_order(people, rnd):
+    lines = det_lines(people, 12)
+    if not lines:
+        return
+    tracks = run(lines).tracks
+    pairs = list(zip(tracks.frames.tolist(), tracks.ids.tolist()))
+    assert len(pairs) == len(set(pairs))
+    shuffled = lines[:]
+    rnd.shuffle(shuffled)
+    assert format_results(run(shuffled).tracks) == format_results(tracks)
+
+
+def test_two_people_walking_become_two_tracks_across_batches():
+    people = [(10, 50, 3, 0, 20, 1, 11), (200, 60, -3, 0, 30, 1, 11)]
+    result = run(det_lines(people, 12))
+    # 4 fps: batches of 4 frames, so each person starts as 3 tracklets that the greedy merge joins
+    assert len(result.tracklets) == 6
+    assert result.tracks.n_tracks == 2
+    assert len(result.tracks) == 24
+
+
+def test_preprocess_threshold_and_auto_nms(tmp_path):
+    lines = ["1,-1,0,0,100,200,1.5", "1,-1,10,10,30,60,0.9", "1,-1,300,0,50,100,-0.5"]
+    seq = write_sequence(tmp_path, lines, images=False)
+    d = read_detections(seq / "det" / "det.txt", 5)
+    # scores outside [0, 1] -> IoM: the small box inside the big one goes
+    assert preprocess(d, PreprocessConfig()).scores.tolist() == [1.5, -0.5]
+    assert preprocess(d, PreprocessConfig(nms="iou")).scores.tolist() == [1.5, 0.9, -0.5]
+    assert preprocess(d, PreprocessConfig(score_threshold=0.0)).scores.tolist() == [1.5]

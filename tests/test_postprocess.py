@@ -1,0 +1,44 @@
+import numpy as np
+
+from helpers import tk
+from sotmot.config import PostprocessConfig
+from sotmot.postprocess import interpolate, smooth, to_tracks
+from sotmot.types import Detections
+
+
+def test_linear_interpolation_fills_gaps():
+    frames = np.array([1, 4])
+    boxes = np.array([[0, 0, 10, 20], [30, 3, 13, 20]], float)
+    f, b, s, filled = interpolate(frames, boxes, np.array([0.9, 0.6]))
+    assert f.tolist() == [1, 2, 3, 4]
+    np.testing.assert_allclose(b[:, 0], [0, 10, 20, 30])
+    np.testing.assert_allclose(b[:, 2], [10, 11, 12, 13])
+    assert filled.tolist() == [False, True, True, False]
+    np.testing.assert_allclose(s, [0.9, 0.6, 0.6, 0.6])
+
+
+def test_smoothing_is_a_window_mean_truncated_at_the_ends():
+    frames = np.arange(1, 8)
+    boxes = np.zeros((7, 4))
+    boxes[:, 0] = [0, 0, 0, 70, 0, 0, 0]
+    out = smooth(frames, boxes, window=3)
+    # frame 1 averages frames 1-4 (70/4); frame 4 averages all 7 (10); frame 7 averages 4-7
+    np.testing.assert_allclose(out[:, 0], [17.5, 14, 70 / 6, 10, 70 / 6, 14, 17.5])
+    np.testing.assert_allclose(smooth(frames, boxes, 0), boxes)
+
+
+def test_smoothing_with_gaps_uses_only_existing_boxes():
+    out = smooth(np.array([1, 10]), np.array([[0, 0, 1, 1], [9, 0, 1, 1]], float), window=3)
+    np.testing.assert_allclose(out[:, 0], [0, 9])
+
+
+def test_to_tracks_numbers_by_first_frame_marks_filled_and_drops_short():
+    dets = Detections(np.arange(1, 7), np.ones((6, 4)), np.ones(6))
+    a = tk(1, [3, 5], [[0, 0, 10, 10], [2, 0, 10, 10]], det_start=0)
+    b = tk(2, [1, 2], [[50, 0, 10, 10]], det_start=2)
+    c = tk(3, [6], [[90, 0, 10, 10]], det_start=4)
+    tracks = to_tracks([a, b, c], dets, PostprocessConfig(smooth_window=0, min_length=2))
+    assert tracks.ids.tolist() == [1, 1, 2, 2, 2]
+    assert tracks.frames.tolist() == [1, 2, 3, 4, 5]
+    assert tracks.interpolated.tolist() == [False, False, False, True, False]
+    np.testing.assert_allclose(tracks.boxes[3], [1, 0, 10, 10])

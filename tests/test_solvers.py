@@ -1,0 +1,100 @@
+"""One battery run over every registered long-term association solver."""
+
+import copy
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from helpers import tk
+from solvers import SOLVERS, get_solver
+from sotmot.config import AssociationConfig
+from sotmot.constraints import check_pair, merge_group
+from sotmot.errors import SolverError
+
+CFG = AssociationConfig(min_affinity=0.5)
+BOX = [100, 100, 30, 60]
+
+
+@pytest.fixture(params=sorted(SOLVERS))
+def solver(request):
+    return get_solver(request.param)
+
+
+def test_unknown_solver_lists_the_valid_ones():
+    with pytest.raises(SolverError) as err:
+        get_solver("hungarian-magic")
+    assert "greedy" in str(err.value)
+
+
+def test_empty_and_single_input(solver):
+    assert solver((), CFG).groups == ()
+    assert solver((tk(5, [1, 2], BOX),), CFG).groups == ((5,),)
+
+
+def test_two_pieces_of_one_person_are_joined_and_a_stranger_is_not(solver):
+    ts = (tk(1, [1, 2, 3], BOX, feature=(1, 0)), tk(2, [5, 6], BOX, feature=(0.95, 0.1)),
+          tk(3, [5, 6], [400, 100, 30, 60], feature=(0, 1)))
+    assert solver(ts, CFG).groups == ((1, 2), (3,))
+
+
+def test_inputs_are_not_mutated(solver):
+    ts = (tk(1, [1, 2, 3], BOX), tk(2, [5, 6], BOX), tk(3, [8, 9], BOX))
+    before = copy.deepcopy([(t.frames, t.boxes, t.feature) for t in ts])
+    solver(ts, CFG)
+    for t, (f, b, feat) in zip(ts, before):
+        np.testing.assert_array_equal(t.frames, f)
+        np.testing.assert_array_equal(t.boxes, b)
+        np.testing.assert_array_equal(t.feature, feat)
+
+
+def random_tracklets(specs):
+    ts = []
+    for k, (start, length, x, f) in enumerate(specs):
+        ts.append(tk(k + 1, np.arange(start, start + length), [x, 100, 30, 60], feature=(f, 1 - abs(f))))
+    return tuple(ts)
+
+
+SPECS = st.lists(st.tuples(st.integers(1, 60), st.integers(1, 6), st.sampled_from([100, 110, 130, 300]),
+                           st.sampled_from([1.0, 0.9, 0.0, -0.5])), min_size=1, max_size=9)
+
+
+@pytest.mark.parametrize("name", sorted(SOLVERS))
+@settings(max_examples=60, deadline=None)
+@given(specs=SPECS)
+def test_every_group_is_a_partition_and_obeys_the_constraints(name, specs):
+    solver = get_solver(name)
+    ts = random_tracklets(specs)
+    result = solver(ts, CFG)
+    ids = sorted(i for g in result.groups for i in g)
+    assert ids == sorted(t.id for t in ts)
+    assert list(result.groups) == sorted(result.groups) and all(list(g) == sorted(g) for g in result.groups)
+    by_id = {t.id: t for t in ts}
+    for group in result.groups:
+        # the merged trajectory satisfies every rule against nothing else: re-check by splitting it
+        merged = merge_group([by_id[i] for i in group], new_id=0)
+        assert len(np.unique(merged.frames)) == len(merged.frames)
+        if len(group) > 1:
+            assert any(check_pair(by_id[a], by_id[b], CFG).allowed for a in group for b in group if a < b)
+
+
+@pytest.mark.parametrize("name", sorted(SOLVERS))
+@settings(max_examples=30, deadline=None)
+@given(specs=SPECS, rnd=st.randoms())
+def test_result_does_not_depend_on_input_order(name, specs, rnd):
+    solver = get_solver(name)
+    ts = random_tracklets(specs)
+    shuffled = list(ts)
+    rnd.shuffle(shuffled)
+    assert solver(ts, CFG).groups == solver(tuple(shuffled), CFG).groups
+
+
+def test_greedy_merges_the_most_similar_pair_first():
+    # 1 may join 2 or 3; 2 and 3 overlap with IoU 1/3 < 0.5, so only one can: affinity decides
+    ts = (tk(1, [1, 2], BOX, feature=(1, 0)), tk(2, [4, 5], BOX, feature=(0.9, 0.3)),
+          tk(3, [4, 5], [115, 100, 30, 60], feature=(1, 0.05)))
+    result = get_solver("greedy")(ts, CFG)
+    assert (1, 3) in result.groups
+    assert result.links[0].a == 1 and result.links[0].b == 3 and result.links[0].round == 1
+    assert result.links[0].affinity > 0.9
