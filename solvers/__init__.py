@@ -22,6 +22,8 @@ from sotmot.errors import SolverError
 #: CLI name -> "module:function" of the solver.
 SOLVERS: dict[str, str] = {
     "greedy": "solvers.greedy:solve",
+    "flow": "solvers.mincostflow:solve",
+    "flow-nx": "solvers.networkx_flow:solve",
 }
 
 

@@ -1,0 +1,208 @@
+"""The association graph: tracklets as nodes, candidate links as edges (networkx).
+
+An edge ``u -> v`` joins two tracklets whose time spans lie within ``l_max``
+frames, oriented from the one that starts first (ties: ends first, then the
+smaller id), so the graph is acyclic. Every edge carries what the shared
+constraint function :func:`sotmot.constraints.check_pair` found: the
+appearance affinity, the gap, the velocity and its bound, each constraint's
+pass/fail, and the link cost of the flow formulation.
+
+The same module holds that formulation (Zhang, Li, Nevatia, CVPR 2008, as
+cited by the paper): each tracklet ``u`` becomes ``("in", u) -> ("out", u)``
+with a unit-capacity observation arc, a source ``"S"`` enters every ``in``
+node, every ``out`` node exits to the sink ``"T"``, and a link arc
+``("out", u) -> ("in", v)`` exists for every allowed edge. A bypass arc
+``S -> T`` lets the solver choose how many trajectories to start.
+
+Costs (floats, before scaling to integers by :func:`integer_costs`):
+
+* link ``u -> v``: ``1 - affinity(u, v)``;
+* entering (one per trajectory): ``1 - min_affinity``, so a link pays off
+  exactly when its affinity exceeds the gate;
+* observation: ``-(entry + 1)``, a reward large enough that every tracklet
+  is covered, as the greedy merge keeps every tracklet too.
+
+So the solver finds the set of links (at most one successor and one
+predecessor per tracklet) that maximises the summed affinity margin, i.e.
+the fewest, most similar trajectories.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import networkx as nx
+import numpy as np
+
+from sotmot.appearance import affinity_rows
+from sotmot.config import AssociationConfig
+from sotmot.constraints import CONSTRAINTS, candidate_pairs, check_pair, screen_pairs
+from sotmot.errors import SolverError
+from sotmot.types import Tracklet
+
+SOURCE = "S"
+SINK = "T"
+#: Integer cost units per 1.0 of float cost.
+COST_SCALE = 10_000
+_INT64_SAFE = 2**62
+
+
+def link_cost(affinity: float | np.ndarray) -> float | np.ndarray:
+    """Flow cost of linking two tracklets with this appearance affinity: ``1 - affinity``."""
+    return 1.0 - affinity
+
+
+def entry_cost(config: AssociationConfig) -> float:
+    """Cost of starting a trajectory: ``1 - min_affinity``."""
+    return 1.0 - config.min_affinity
+
+
+def _order_key(t: Tracklet) -> tuple[int, int, int]:
+    return (t.start, t.end, t.id)
+
+
+def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
+                include_rejected: bool = False) -> nx.DiGraph:
+    """The association graph of ``tracklets`` (see the module docstring).
+
+    Parameters
+    ----------
+    tracklets
+        Input tracklets; ids must be unique.
+    config
+        The constraint thresholds.
+    include_rejected
+        Also add candidate edges that fail a constraint (``allowed=False``),
+        for inspection. Solvers use only allowed edges.
+
+    Returns
+    -------
+    networkx.DiGraph
+        Nodes are tracklet ids with attributes ``start``, ``end``, ``length``
+        and ``mean_score``; edges have ``affinity``, ``weight`` (the float link
+        cost), ``gap``, ``velocity``, ``velocity_bound``, ``overlap_frames``,
+        ``min_segment_iou``, ``allowed``, ``failed`` (comma-separated) and one
+        boolean per constraint (``ok_iou``, ``ok_gap``, ...).
+    """
+    ids = [t.id for t in tracklets]
+    if len(set(ids)) != len(ids):
+        raise SolverError("tracklet ids must be unique")
+    graph = nx.DiGraph()
+    for t in tracklets:
+        graph.add_node(t.id, start=t.start, end=t.end, length=len(t), mean_score=float(t.scores.mean()))
+    pairs = np.asarray(candidate_pairs(list(tracklets), config.l_max), dtype=np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return graph
+    aff = affinity_rows(np.stack([tracklets[i].feature for i in pairs[:, 0]]),
+                        np.stack([tracklets[j].feature for j in pairs[:, 1]]))
+    keep = np.ones(len(pairs), bool) if include_rejected else screen_pairs(tracklets, pairs, aff, config)
+    for (i, j), a in zip(pairs[keep], aff[keep]):
+        u, v = (tracklets[i], tracklets[j]) if _order_key(tracklets[i]) < _order_key(tracklets[j]) \
+            else (tracklets[j], tracklets[i])
+        check = check_pair(u, v, config, pair_affinity=a)
+        if not (check.allowed or include_rejected):
+            continue
+        attrs = {f"ok_{c}": c not in check.failed for c in CONSTRAINTS}
+        graph.add_edge(u.id, v.id, affinity=check.affinity, weight=float(link_cost(check.affinity)),
+                       gap=max(0, v.start - u.end), velocity=check.velocity, velocity_bound=check.velocity_bound,
+                       overlap_frames=check.overlap_frames, min_segment_iou=check.min_segment_iou,
+                       allowed=check.allowed, failed=",".join(check.failed), **attrs)
+    return graph
+
+
+def integer_costs(costs: np.ndarray, n_paths: int, scale: int = COST_SCALE) -> np.ndarray:
+    """Round float costs to integers (``scale`` units per 1.0), refusing any risk of int64 overflow.
+
+    Parameters
+    ----------
+    costs
+        Float arc costs.
+    n_paths
+        Upper bound on the flow (units through the network); the total cost
+        is bounded by ``n_paths * sum(|cost|)``.
+    """
+    costs = np.asarray(costs, dtype=np.float64)
+    if not np.isfinite(costs).all():
+        raise SolverError("arc costs must be finite")
+    scaled = np.rint(costs * scale)
+    bound = float(np.abs(scaled).sum()) * max(1, n_paths)
+    if bound >= _INT64_SAFE:
+        raise SolverError(f"arc costs too large for 64-bit integers after scaling by {scale} "
+                          f"(bound {bound:.3g}); lower the scale")
+    return scaled.astype(np.int64)
+
+
+def flow_network(graph: nx.DiGraph, config: AssociationConfig) -> tuple[list, np.ndarray, np.ndarray,
+                                                                        np.ndarray, np.ndarray]:
+    """The min-cost-flow network of an association graph, as arc arrays.
+
+    Returns
+    -------
+    nodes
+        Node keys: ``"S"``, ``"T"``, then ``("in", u)``, ``("out", u)`` per tracklet.
+    tails, heads
+        ``(A,)`` indices into ``nodes`` of each arc.
+    capacities
+        ``(A,)`` all 1 except the bypass ``S -> T`` (the number of tracklets).
+    costs
+        ``(A,)`` integer costs (see the module docstring).
+    """
+    tracklet_ids = sorted(graph.nodes)
+    nodes: list = [SOURCE, SINK]
+    index = {SOURCE: 0, SINK: 1}
+    for u in tracklet_ids:
+        for side in ("in", "out"):
+            index[(side, u)] = len(nodes)
+            nodes.append((side, u))
+    n = len(tracklet_ids)
+    enter = entry_cost(config)
+    arcs: list[tuple[int, int, int, float]] = [(0, 1, n, 0.0)]
+    for u in tracklet_ids:
+        arcs.append((0, index[("in", u)], 1, enter))
+        arcs.append((index[("in", u)], index[("out", u)], 1, -(enter + 1.0)))
+        arcs.append((index[("out", u)], 1, 1, 0.0))
+    for u, v, data in sorted(graph.edges(data=True)):
+        if data.get("allowed", True):
+            arcs.append((index[("out", u)], index[("in", v)], 1, data["weight"]))
+    arr = np.asarray(arcs, dtype=np.float64).reshape(-1, 4)
+    costs = integer_costs(arr[:, 3], n)
+    return nodes, arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), arr[:, 2].astype(np.int64), costs
+
+
+def chains_from_links(tracklet_ids: Sequence[int], links: Sequence[tuple[int, int]]) -> tuple[tuple[int, ...], ...]:
+    """Groups of tracklet ids from ``u -> v`` links (each id at most once as u and once as v)."""
+    succ = dict(links)
+    has_pred = {v for _, v in links}
+    if len(succ) != len(links) or len(has_pred) != len(links):
+        raise SolverError("a tracklet has two successors or two predecessors in the flow solution")
+    groups = []
+    for u in sorted(tracklet_ids):
+        if u in has_pred:
+            continue
+        chain = [u]
+        while chain[-1] in succ:
+            chain.append(succ[chain[-1]])
+        groups.append(tuple(sorted(chain)))
+    if sum(len(g) for g in groups) != len(tracklet_ids):
+        raise SolverError("the flow solution has a cycle or leaves tracklets out")
+    return tuple(sorted(groups))
+
+
+def flow_objective(tracklets: Sequence[Tracklet], groups: Sequence[Sequence[int]],
+                   config: AssociationConfig) -> float:
+    """Float cost of any grouping under the flow objective, so solvers can be compared on it.
+
+    ``entry_cost * number of trajectories + sum of link costs`` over consecutive
+    tracklets of each group (ordered by start, end, id), without the constant
+    observation rewards. For the flow solvers' own groupings this equals their
+    optimal cost; the greedy merge, which never sees this objective, is
+    costed the same way.
+    """
+    by_id = {t.id: t for t in tracklets}
+    total = entry_cost(config) * len(groups)
+    for group in groups:
+        order = sorted((by_id[u] for u in group), key=_order_key)
+        if len(order) > 1:
+            aff = affinity_rows(np.stack([t.feature for t in order[:-1]]), np.stack([t.feature for t in order[1:]]))
+            total += float(np.sum(link_cost(aff)))
+    return float(total)
