@@ -24,7 +24,7 @@ import numpy as np
 from solvers.base import Association, Link
 from sotmot.appearance import affinity_rows
 from sotmot.config import AssociationConfig
-from sotmot.constraints import candidate_pairs, check_pair, merge, screen_pairs
+from sotmot.constraints import allowed_checks, candidate_pairs, merge
 from sotmot.types import Tracklet
 
 
@@ -53,14 +53,14 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
     def push(pairs: np.ndarray) -> None:
         if len(pairs) == 0:
             return
+        # orient each pair by the smallest input id, so ties in box score never depend on input order
+        lead = np.array([members[i][0] for i in pairs[:, 0]]) > np.array([members[j][0] for j in pairs[:, 1]])
+        pairs = np.where(lead[:, None], pairs[:, ::-1], pairs)
         aff = affinity_rows(np.stack([nodes[i].feature for i in pairs[:, 0]]),
                             np.stack([nodes[j].feature for j in pairs[:, 1]]))
-        keep = screen_pairs(nodes, pairs, aff, config)
-        for (i, j), a in zip(pairs[keep], aff[keep]):
-            if members[i][0] > members[j][0]:
-                i, j = j, i
-            if check_pair(nodes[i], nodes[j], config, pair_affinity=a).allowed:
-                heapq.heappush(heap, (-float(a), members[i][0], members[j][0], int(i), int(j)))
+        for r, _ in allowed_checks(nodes, pairs, aff, config):
+            i, j = int(pairs[r, 0]), int(pairs[r, 1])
+            heapq.heappush(heap, (-float(aff[r]), members[i][0], members[j][0], i, j))
 
     push(np.asarray(candidate_pairs(nodes, config.l_max), dtype=np.int64).reshape(-1, 2))
     links: list[Link] = []

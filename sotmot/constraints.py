@@ -190,10 +190,19 @@ def check_pair(a: Tracklet, b: Tracklet, config: AssociationConfig,
         frames = np.array([first.end, second.start])
         boxes = np.stack([first.boxes[-1], second.boxes[0]])
         max_gap, worst_gap, speed, bound = _gap_checks(frames, boxes, config)
-        max_gap = max(max_gap, _max_gap(a), _max_gap(b))
+        max_gap = max(max_gap, a.max_gap, b.max_gap)
     else:
         merged = merge(a, b, new_id=-1)
         max_gap, worst_gap, speed, bound = _gap_checks(merged.frames, merged.boxes, config)
+    failed = _failed(overlap, min_iou, max_gap, speed, bound, aff, config)
+    return PairCheck(allowed=not failed, failed=failed, affinity=aff, overlap_frames=overlap,
+                     min_segment_iou=min_iou, max_gap=max_gap, gap_at_max_velocity=worst_gap,
+                     velocity=speed, velocity_bound=bound)
+
+
+def _failed(overlap: int, min_iou: float, max_gap: int, speed: float, bound: float, aff: float,
+            config: AssociationConfig) -> tuple[Constraint, ...]:
+    """The rules that fail, in :data:`CONSTRAINTS` order: the one statement of each rule's test."""
     failed: list[Constraint] = []
     if overlap and not min_iou > config.tau_iou:
         failed.append("iou")
@@ -203,13 +212,7 @@ def check_pair(a: Tracklet, b: Tracklet, config: AssociationConfig,
         failed.append("velocity")
     if aff < config.min_affinity:
         failed.append("affinity")
-    return PairCheck(allowed=not failed, failed=tuple(failed), affinity=aff, overlap_frames=overlap,
-                     min_segment_iou=min_iou, max_gap=max_gap, gap_at_max_velocity=worst_gap,
-                     velocity=speed, velocity_bound=bound)
-
-
-def _max_gap(t: Tracklet) -> int:
-    return int(np.diff(t.frames).max()) if len(t) > 1 else 0
+    return tuple(failed)
 
 
 def candidate_pairs(tracklets: list[Tracklet] | tuple[Tracklet, ...], l_max: int) -> list[tuple[int, int]]:
@@ -231,15 +234,34 @@ def candidate_pairs(tracklets: list[Tracklet] | tuple[Tracklet, ...], l_max: int
     return sorted(pairs)
 
 
-def screen_pairs(tracklets: list[Tracklet] | tuple[Tracklet, ...], pairs: np.ndarray,
-                 affinities: np.ndarray, config: AssociationConfig) -> np.ndarray:
-    """Fast vectorised pre-check of many pairs: False where :func:`check_pair` must reject.
+@dataclass(frozen=True)
+class Screen:
+    """Vectorised pre-check of many pairs (see :func:`screen_pairs`).
 
-    For pairs that do not overlap in time it evaluates the affinity, gap and
-    velocity rules exactly as :func:`check_pair` does (same helpers); pairs
-    that overlap pass the screen when their affinity does, and need the full
-    :func:`check_pair`. Solvers call this to avoid a Python-level check of
-    every candidate pair, then call :func:`check_pair` on the survivors.
+    Attributes
+    ----------
+    ok
+        ``(K,)`` False where :func:`check_pair` must reject the pair.
+    exact
+        ``(K,)`` True for pairs that do not overlap in time: for them ``ok``
+        is :func:`check_pair`'s final answer and ``checks`` holds its result.
+    checks
+        Pair index -> :class:`PairCheck` for the exact pairs that are ok.
+    """
+
+    ok: np.ndarray
+    exact: np.ndarray
+    checks: dict[int, PairCheck]
+
+
+def screen_pairs(tracklets: list[Tracklet] | tuple[Tracklet, ...], pairs: np.ndarray,
+                 affinities: np.ndarray, config: AssociationConfig) -> Screen:
+    """Check many pairs at once, vectorised where possible.
+
+    For pairs that do not overlap in time, the single new gap is evaluated
+    with the same helpers and the same rule statement (:func:`_failed`) as
+    :func:`check_pair`, so the answer is final. Pairs that overlap pass the
+    screen when their affinity does, and need the full :func:`check_pair`.
 
     Parameters
     ----------
@@ -249,23 +271,53 @@ def screen_pairs(tracklets: list[Tracklet] | tuple[Tracklet, ...], pairs: np.nda
         ``(K,)`` affinity of each pair.
     """
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    affinities = np.asarray(affinities, dtype=np.float64)
     if len(pairs) == 0:
-        return np.zeros(0, dtype=bool)
-    starts = np.array([t.start for t in tracklets])
-    ends = np.array([t.end for t in tracklets])
+        return Screen(np.zeros(0, bool), np.zeros(0, bool), {})
+    involved = np.unique(pairs)  # only these are read: solvers call this with a few pairs at a time
+    starts = np.zeros(len(tracklets), dtype=np.int64)
+    ends = np.zeros(len(tracklets), dtype=np.int64)
+    inner = np.zeros(len(tracklets), dtype=np.int64)
+    for k in involved:
+        starts[k], ends[k], inner[k] = tracklets[k].frames[0], tracklets[k].frames[-1], tracklets[k].max_gap
     i, j = pairs[:, 0], pairs[:, 1]
     i_first = ends[i] < starts[j]
-    j_first = ends[j] < starts[i]
-    disjoint = i_first | j_first
-    ok = np.asarray(affinities) >= config.min_affinity
-    if disjoint.any():
-        first = np.where(i_first, i, j)[disjoint]
-        second = np.where(i_first, j, i)[disjoint]
+    exact = i_first | (ends[j] < starts[i])
+    ok = affinities >= config.min_affinity
+    checks: dict[int, PairCheck] = {}
+    rows = np.flatnonzero(exact & ok)
+    if len(rows):
+        first = np.where(i_first, i, j)[rows]
+        second = np.where(i_first, j, i)[rows]
         last_box = np.stack([tracklets[k].boxes[-1] for k in first])
         first_box = np.stack([tracklets[k].boxes[0] for k in second])
         gaps, speed, bound = gap_velocity(ends[first], last_box, starts[second], first_box, config)
-        ok[disjoint] &= (gaps <= config.l_max) & (speed <= bound)
-    return ok
+        max_gap = np.maximum(gaps, np.maximum(inner[first], inner[second]))
+        for r, g, mg, v, b in zip(rows, gaps.tolist(), max_gap.tolist(), speed.tolist(), bound.tolist()):
+            failed = _failed(0, math.nan, mg, v, b, float(affinities[r]), config)
+            if failed:
+                ok[r] = False
+            else:
+                checks[int(r)] = PairCheck(allowed=True, failed=(), affinity=float(affinities[r]), overlap_frames=0,
+                                           min_segment_iou=math.nan, max_gap=mg, gap_at_max_velocity=g,
+                                           velocity=v, velocity_bound=b)
+    return Screen(ok, exact, checks)
+
+
+def allowed_checks(tracklets: list[Tracklet] | tuple[Tracklet, ...], pairs: np.ndarray,
+                   affinities: np.ndarray, config: AssociationConfig) -> list[tuple[int, PairCheck]]:
+    """``(pair index, PairCheck)`` of every allowed pair: :func:`screen_pairs`, then
+    :func:`check_pair` on the overlapping pairs that pass the screen."""
+    screen = screen_pairs(tracklets, pairs, affinities, config)
+    out = []
+    for r in np.flatnonzero(screen.ok):
+        if screen.exact[r]:
+            out.append((int(r), screen.checks[int(r)]))
+        else:
+            check = check_pair(tracklets[pairs[r, 0]], tracklets[pairs[r, 1]], config, pair_affinity=affinities[r])
+            if check.allowed:
+                out.append((int(r), check))
+    return out
 
 
 def merge_group(tracklets: list[Tracklet] | tuple[Tracklet, ...], new_id: int) -> Tracklet:

@@ -36,7 +36,7 @@ import numpy as np
 
 from sotmot.appearance import affinity_rows
 from sotmot.config import AssociationConfig
-from sotmot.constraints import CONSTRAINTS, candidate_pairs, check_pair, screen_pairs
+from sotmot.constraints import CONSTRAINTS, allowed_checks, candidate_pairs, check_pair
 from sotmot.errors import SolverError
 from sotmot.types import Tracklet
 
@@ -95,13 +95,15 @@ def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
         return graph
     aff = affinity_rows(np.stack([tracklets[i].feature for i in pairs[:, 0]]),
                         np.stack([tracklets[j].feature for j in pairs[:, 1]]))
-    keep = np.ones(len(pairs), bool) if include_rejected else screen_pairs(tracklets, pairs, aff, config)
-    for (i, j), a in zip(pairs[keep], aff[keep]):
+    if include_rejected:
+        checks = [(r, check_pair(tracklets[i], tracklets[j], config, pair_affinity=a))
+                  for r, ((i, j), a) in enumerate(zip(pairs, aff))]
+    else:
+        checks = allowed_checks(tracklets, pairs, aff, config)
+    for r, check in checks:
+        i, j = pairs[r]
         u, v = (tracklets[i], tracklets[j]) if _order_key(tracklets[i]) < _order_key(tracklets[j]) \
             else (tracklets[j], tracklets[i])
-        check = check_pair(u, v, config, pair_affinity=a)
-        if not (check.allowed or include_rejected):
-            continue
         attrs = {f"ok_{c}": c not in check.failed for c in CONSTRAINTS}
         graph.add_edge(u.id, v.id, affinity=check.affinity, weight=float(link_cost(check.affinity)),
                        gap=max(0, v.start - u.end), velocity=check.velocity, velocity_bound=check.velocity_bound,

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TypeVar
@@ -125,6 +125,70 @@ def associate(tracklets: list[Tracklet], merger: str, config: TrackerConfig) -> 
     return association, trajectories
 
 
+@dataclass
+class Prepared:
+    """A sequence taken up to the tracklets: everything before long-term association."""
+
+    info: SeqInfo
+    detections: Detections
+    features: np.ndarray
+    tracklets: list[Tracklet]
+    timings: dict[str, float]
+
+
+class _Clock:
+    def __init__(self, timings: dict[str, float]) -> None:
+        self.timings = timings
+        self.last = time.perf_counter()
+
+    def lap(self, stage: str) -> None:
+        now = time.perf_counter()
+        self.timings[stage] = self.timings.get(stage, 0.0) + now - self.last
+        self.last = now
+
+
+def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
+                     embedder: Embedder | None = None, progress: bool = False,
+                     features: np.ndarray | None = None) -> Prepared:
+    """Read, preprocess, embed and build tracklets: the stages no solver choice can change.
+
+    Parameters are those of :func:`track_sequence`.
+    """
+    timings: dict[str, float] = {}
+    clock = _Clock(timings)
+    info = read_seqinfo(seq_dir)
+    raw = read_detections(info.det_path, info.length)
+    clock.lap("read")
+    dets = preprocess(raw, config.preprocess)
+    log.info("%s: %d detections, %d after preprocessing", info.name, len(raw), len(dets))
+    clock.lap("preprocess")
+    if features is None:
+        if embedder is None:
+            embedder = make_embedder(config.appearance)
+        features = embed_detections(info, dets, embedder, progress)
+    elif len(features) != len(dets):
+        raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
+    clock.lap("appearance")
+    tracklets = build_tracklets(dets, features, info.frame_rate, config.tracklets)
+    clock.lap("tracklets")
+    return Prepared(info, dets, features, tracklets, timings)
+
+
+def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
+                    merger: str = "greedy") -> TrackResult:
+    """Long-term association with the solver ``merger``, then post-processing."""
+    timings = dict(prepared.timings)
+    clock = _Clock(timings)
+    association, trajectories = associate(prepared.tracklets, merger, config)
+    clock.lap("association")
+    tracks = to_tracks(trajectories, prepared.detections, config.postprocess)
+    clock.lap("postprocess")
+    log.info("%s: %d tracklets -> %d trajectories -> %d tracks (%s)", prepared.info.name,
+             len(prepared.tracklets), len(trajectories), tracks.n_tracks, merger)
+    return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
+                       association, trajectories, tracks, timings)
+
+
 def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(), merger: str = "greedy",
                    embedder: Embedder | None = None, progress: bool = False,
                    features: np.ndarray | None = None) -> TrackResult:
@@ -146,34 +210,5 @@ def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
         Precomputed features of the preprocessed detections (skips embedding;
         used by benchmarks that try several settings on the same detections).
     """
-    timings: dict[str, float] = {}
-    clock = time.perf_counter()
-
-    def lap(stage: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        timings[stage] = timings.get(stage, 0.0) + now - clock
-        clock = now
-
-    info = read_seqinfo(seq_dir)
-    raw = read_detections(info.det_path, info.length)
-    lap("read")
-    dets = preprocess(raw, config.preprocess)
-    log.info("%s: %d detections, %d after preprocessing", info.name, len(raw), len(dets))
-    lap("preprocess")
-    if features is None:
-        if embedder is None:
-            embedder = make_embedder(config.appearance)
-        features = embed_detections(info, dets, embedder, progress)
-    elif len(features) != len(dets):
-        raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
-    lap("appearance")
-    tracklets = build_tracklets(dets, features, info.frame_rate, config.tracklets)
-    lap("tracklets")
-    association, trajectories = associate(tracklets, merger, config)
-    lap("association")
-    tracks = to_tracks(trajectories, dets, config.postprocess)
-    lap("postprocess")
-    log.info("%s: %d tracklets -> %d trajectories -> %d tracks", info.name, len(tracklets),
-             len(trajectories), tracks.n_tracks)
-    return TrackResult(info, dets, features, tracklets, association, trajectories, tracks, timings)
+    get_solver(merger)  # an unknown name fails before any work is done
+    return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features), config, merger)

@@ -7,6 +7,7 @@ top-left origin; frame numbers are 1-based, as in MOTChallenge files.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -141,6 +142,11 @@ class Tracklet:
     def start(self) -> int:
         """First frame (1-based)."""
         return int(self.frames[0])
+
+    @cached_property
+    def max_gap(self) -> int:
+        """Largest frame difference between consecutive boxes (0 for a single box)."""
+        return int(np.diff(self.frames).max()) if len(self.frames) > 1 else 0
 
     @property
     def end(self) -> int:

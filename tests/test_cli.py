@@ -55,3 +55,20 @@ def test_missing_model_error_names_the_flag(tmp_path, capsys, monkeypatch):
     assert main(["track", str(seq), "--out", str(tmp_path)]) == 2
     assert "--reid-model" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())  # nothing half-written
+
+
+def test_compare_runs_every_solver_on_the_same_tracklets(tmp_path, model_0288, capsys):
+    seq = require(DATA / "MOT16-05-clip30")
+    out = tmp_path / "cmp.json"
+    assert main(["compare", str(seq), "--mergers", "greedy,flow,flow-nx", "--reid-model", str(model_0288),
+                 "-q", "--json", str(out)]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    assert set(rows) == {"MOT16-05-clip30", "COMBINED"}
+    by = rows["MOT16-05-clip30"]
+    assert set(by) == {"greedy", "flow", "flow-nx"}
+    # both flow solvers are optimal on the same network: same cost; greedy is never cheaper
+    assert by["flow"]["flow_cost"] == pytest.approx(by["flow-nx"]["flow_cost"], abs=1e-6)
+    assert by["flow"]["flow_cost"] <= by["greedy"]["flow_cost"] + 1e-9
+    assert "trajectories" in capsys.readouterr().out
+    assert main(["compare", str(seq), "--mergers", "greedy,nope", "--reid-model", str(model_0288)]) == 2
+    assert "valid mergers" in capsys.readouterr().err

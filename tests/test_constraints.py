@@ -123,10 +123,13 @@ def test_screen_never_rejects_a_pair_that_check_pair_allows(specs):
     pairs = np.array([(i, j) for i in range(len(ts)) for j in range(i + 1, len(ts))])
     from sotmot.appearance import affinity_rows
     aff = affinity_rows(np.stack([ts[i].feature for i in pairs[:, 0]]), np.stack([ts[j].feature for j in pairs[:, 1]]))
-    screened = screen_pairs(ts, pairs, aff, CFG)
-    for (i, j), a, s in zip(pairs, aff, screened):
+    screen = screen_pairs(ts, pairs, aff, CFG)
+    for r, ((i, j), a, s) in enumerate(zip(pairs, aff, screen.ok)):
         c = check_pair(ts[i], ts[j], CFG, pair_affinity=a)
         if c.allowed:
             assert s
-        if c.overlap_frames == 0:  # on disjoint pairs the screen is exact
+        assert screen.exact[r] == (c.overlap_frames == 0 and time_distance(ts[i], ts[j]) > 0)
+        if screen.exact[r]:  # on disjoint pairs the screen is the final answer, numbers included
             assert s == c.allowed
+            if s:
+                assert screen.checks[r] == c

@@ -1,0 +1,115 @@
+"""Compare long-term association solvers on the very same tracklets.
+
+Each sequence is taken once through reading, preprocessing, appearance and
+tracklets; then every solver runs on those tracklets, its output is
+post-processed, written and scored with TrackEval. A fingerprint of the
+tracklets is checked after every solver, so no solver can change anything
+before long-term association.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from solvers import get_solver
+from sotmot.appearance import Embedder, make_embedder
+from sotmot.config import TrackerConfig
+from sotmot.errors import SotmotError
+from sotmot.evaluate import evaluate_files
+from sotmot.graph import flow_objective
+from sotmot.io import write_results
+from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.types import Tracklet
+
+COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "trajectories", "flow_cost", "solver_s")
+
+
+def fingerprint(tracklets: Sequence[Tracklet]) -> str:
+    """A hash of every tracklet's id, frames, boxes, scores, detections and feature."""
+    h = hashlib.sha256()
+    for t in tracklets:
+        h.update(np.int64(t.id).tobytes())
+        for arr in (t.frames, t.boxes, t.scores, t.det_index, t.feature):
+            h.update(np.ascontiguousarray(arr).tobytes())
+    return h.hexdigest()
+
+
+@dataclass
+class Comparison:
+    """Rows of the comparison: ``rows[sequence][merger] -> metric -> value``, plus ``"COMBINED"``."""
+
+    rows: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
+    tracklets: dict[str, int] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return {"rows": self.rows, "tracklets": self.tracklets}
+
+
+def compare(seq_dirs: Sequence[str | Path], mergers: Sequence[str], config: TrackerConfig = TrackerConfig(),
+            embedder: Embedder | None = None, progress: bool = False) -> Comparison:
+    """Run every solver in ``mergers`` on the same tracklets of each sequence and score them."""
+    for name in mergers:
+        get_solver(name)
+    if embedder is None:
+        embedder = make_embedder(config.appearance)
+    result = Comparison()
+    pairs: dict[str, list[tuple[Path, Path, int, str]]] = {m: [] for m in mergers}
+    with tempfile.TemporaryDirectory(prefix="sotmot-compare-") as tmp:
+        for seq in seq_dirs:
+            prepared = prepare_sequence(seq, config, embedder, progress)
+            name = prepared.info.name
+            before = fingerprint(prepared.tracklets)
+            result.tracklets[name] = len(prepared.tracklets)
+            result.rows[name] = {}
+            for merger in mergers:
+                start = time.perf_counter()
+                run = finish_sequence(prepared, config, merger)
+                seconds = run.timings["association"]
+                if fingerprint(prepared.tracklets) != before:
+                    raise SotmotError(f"solver {merger!r} changed the tracklets of {name}")
+                path = Path(tmp) / merger / f"{name}.txt"
+                write_results(path, run.tracks)
+                pairs[merger].append((path, prepared.info.gt_path, prepared.info.length, name))
+                result.rows[name][merger] = {
+                    "trajectories": float(len(run.association.groups)),
+                    "flow_cost": flow_objective(prepared.tracklets, run.association.groups, config.association),
+                    "solver_s": seconds, "total_s": time.perf_counter() - start,
+                }
+        result.rows["COMBINED"] = {m: {} for m in mergers}
+        for merger in mergers:
+            report = evaluate_files(pairs[merger])
+            for name, scores in report.sequences.items():
+                result.rows[name][merger].update(scores)
+            combined = result.rows["COMBINED"][merger]
+            combined.update(report.combined)
+            for key in ("trajectories", "flow_cost", "solver_s"):
+                combined[key] = float(sum(result.rows[n][merger][key] for n in result.tracklets))
+    return result
+
+
+def format_comparison(comparison: Comparison) -> str:
+    """One block per sequence and a COMBINED block: a row per solver."""
+    lines = []
+    for name, by_merger in comparison.rows.items():
+        extra = f" ({comparison.tracklets[name]} tracklets)" if name in comparison.tracklets else ""
+        lines.append(f"{name}{extra}")
+        head = f"  {'merger':<9}" + "".join(f"{c:>13}" for c in COLUMNS)
+        lines.append(head)
+        for merger, values in by_merger.items():
+            cells = []
+            for c in COLUMNS:
+                v = values.get(c, float("nan"))
+                cells.append(f"{v:13.1f}" if c in ("HOTA", "MOTA", "IDF1") else
+                             f"{v:13.3f}" if c in ("flow_cost", "solver_s") else f"{v:13.0f}")
+            lines.append(f"  {merger:<9}" + "".join(cells))
+        lines.append("")
+    return "\n".join(lines)
