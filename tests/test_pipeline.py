@@ -1,10 +1,8 @@
 """The whole pipeline on synthetic sequences: invariants checked with hypothesis."""
 
-import random
 import tempfile
 from pathlib import Path
 
-import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
