@@ -24,7 +24,7 @@ import numpy as np
 from solvers.base import Association, Link
 from sotmot.appearance import affinity_rows
 from sotmot.config import AssociationConfig
-from sotmot.constraints import allowed_checks, candidate_pairs, merge
+from sotmot.constraints import candidate_pair_array, check_pairs, merge
 from sotmot.types import Tracklet
 
 
@@ -40,6 +40,8 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
     owner = {int(d): t.id for t in nodes for d in t.det_index}
     members: list[tuple[int, ...]] = [(t.id,) for t in nodes]
     capacity = 2 * n
+    first_member = np.zeros(capacity, dtype=np.int64)  # smallest input id of each node
+    first_member[:n] = ids
     alive = np.zeros(capacity, dtype=bool)
     alive[:n] = True
     starts = np.zeros(capacity, dtype=np.int64)
@@ -47,6 +49,8 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
     starts[:n] = [t.start for t in nodes]
     ends[:n] = [t.end for t in nodes]
 
+    features = np.zeros((capacity, len(nodes[0].feature)), dtype=np.float64)
+    features[:n] = [t.feature for t in nodes]
     # entries: (-affinity, smaller min-member id, larger min-member id, node, node)
     heap: list[tuple[float, int, int, int, int]] = []
 
@@ -54,15 +58,14 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
         if len(pairs) == 0:
             return
         # orient each pair by the smallest input id, so ties in box score never depend on input order
-        lead = np.array([members[i][0] for i in pairs[:, 0]]) > np.array([members[j][0] for j in pairs[:, 1]])
+        lead = first_member[pairs[:, 0]] > first_member[pairs[:, 1]]
         pairs = np.where(lead[:, None], pairs[:, ::-1], pairs)
-        aff = affinity_rows(np.stack([nodes[i].feature for i in pairs[:, 0]]),
-                            np.stack([nodes[j].feature for j in pairs[:, 1]]))
-        for r, _ in allowed_checks(nodes, pairs, aff, config):
+        aff = affinity_rows(features[pairs[:, 0]], features[pairs[:, 1]])
+        for r in np.flatnonzero(check_pairs(nodes, pairs, aff, config).allowed):
             i, j = int(pairs[r, 0]), int(pairs[r, 1])
             heapq.heappush(heap, (-float(aff[r]), members[i][0], members[j][0], i, j))
 
-    push(np.asarray(candidate_pairs(nodes, config.l_max), dtype=np.int64).reshape(-1, 2))
+    push(candidate_pair_array(nodes, config.l_max))
     links: list[Link] = []
     while heap:
         neg_aff, _, _, i, j = heapq.heappop(heap)
@@ -76,9 +79,11 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
         k = len(nodes)
         nodes.append(merge(a, b, new_id=k))
         members.append(tuple(sorted(members[i] + members[j])))
+        first_member[k] = members[k][0]
         alive[i] = alive[j] = False
         alive[k] = True
         starts[k], ends[k] = nodes[k].start, nodes[k].end
+        features[k] = nodes[k].feature
         near = np.flatnonzero(alive[:k] & (starts[:k] <= ends[k] + config.l_max)
                               & (ends[:k] >= starts[k] - config.l_max))
         push(np.stack([near, np.full(len(near), k)], axis=1))

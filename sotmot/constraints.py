@@ -8,13 +8,14 @@ and :func:`merge`, so all of them obey, and explain, the very same rules:
    consecutive frames where both trajectories have a box) the mean IoU of
    their boxes must be ``> tau_iou`` (0.5). The merged trajectory keeps the
    higher-score box in each shared frame.
-2. **Velocity**: in every gap of the merged trajectory, the speed of the box
-   centre under linear motion, ``||c2 - c1|| / (f2 - f1)`` pixels per frame,
-   must be ``<= w``, ``2/3 w`` or ``1/3 w`` for a frame difference of 1,
-   2..5 or more than 5, with ``w`` the mean width of the two boxes at the
-   gap's ends.
-3. **Gap**: every gap (frame difference between consecutive boxes) is
-   ``<= l_max`` (60).
+2. **Velocity**: in every gap that the merge creates or changes, the speed
+   of the box centre under linear motion, ``||c2 - c1|| / (f2 - f1)`` pixels
+   per frame, must be ``<= w``, ``2/3 w`` or ``1/3 w`` for a frame difference
+   of 1, 2..5 or more than 5, with ``w`` the mean width of the two boxes at
+   the gap's ends. Gaps that lie wholly inside one input before the other
+   begins (or after it ends) are unchanged by the merge and not re-checked.
+3. **Gap**: every gap (frame difference between consecutive boxes) of the
+   merged trajectory is ``<= l_max`` (60).
 4. **Affinity**: the appearance affinity of the two mean features is
    ``>= min_affinity`` (a gate below which a pair is never merged).
 
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -60,7 +62,8 @@ class PairCheck:
     max_gap
         Largest frame difference between consecutive boxes of the merged trajectory.
     gap_at_max_velocity
-        Frame difference of the gap with the highest velocity ratio (0 if there is no gap).
+        Frame difference of the checked gap with the highest speed/bound
+        ratio (0 if the merge creates or changes no gap).
     velocity
         Centre speed (pixels per frame) in that gap (0 if there is no gap).
     velocity_bound
@@ -122,15 +125,115 @@ def merge(a: Tracklet, b: Tracklet, new_id: int) -> Tracklet:
                     det_index=np.concatenate([a.det_index, b.det_index])[take], feature=feature, n_features=n)
 
 
-def _overlap_segments_iou(a: Tracklet, b: Tracklet) -> tuple[int, float]:
-    """Number of shared frames and the lowest mean IoU over the shared segments."""
-    common, ia, ib = np.intersect1d(a.frames, b.frames, assume_unique=True, return_indices=True)
-    if len(common) == 0:
-        return 0, math.nan
-    ious = iou_aligned(a.boxes[ia], b.boxes[ib])
-    breaks = np.flatnonzero(np.diff(common) != 1) + 1
-    means = [seg.mean() for seg in np.split(ious, breaks)]
-    return len(common), float(min(means))
+class _FrameIndex:
+    """Boxes and scores of several trajectories, looked up by (trajectory, frame) in one search."""
+
+    def __init__(self, tracklets: Sequence[Tracklet], nodes: np.ndarray) -> None:
+        frames = [tracklets[n].frames for n in nodes]
+        self.span = int(max(f[-1] for f in frames)) + 2 if frames else 1
+        self.keys = np.concatenate([code * self.span + f for code, f in enumerate(frames)]) if frames \
+            else np.zeros(0, np.int64)
+        self.boxes = np.concatenate([tracklets[n].boxes for n in nodes]) if frames else np.zeros((0, 4))
+        self.scores = np.concatenate([tracklets[n].scores for n in nodes]) if frames else np.zeros(0)
+        self.starts = np.array([f[0] for f in frames], dtype=np.int64)
+        self.ends = np.array([f[-1] for f in frames], dtype=np.int64)
+        self.inner = np.array([tracklets[n].max_gap for n in nodes], dtype=np.int64)
+
+    def lookup(self, codes: np.ndarray, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Whether trajectory ``codes[i]`` has a box in ``frames[i]``, and its row."""
+        q = codes * self.span + frames
+        pos = np.clip(np.searchsorted(self.keys, q), 0, max(len(self.keys) - 1, 0))
+        return self.keys[pos] == q, pos
+
+
+def _expand(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pair index and frame of every frame in ``[lo[k], hi[k]]``, pair by pair (empty if hi < lo)."""
+    length = np.clip(hi - lo + 1, 0, None)
+    which = np.repeat(np.arange(len(lo)), length)
+    offset = np.arange(len(which)) - np.repeat(np.cumsum(length) - length, length)
+    return which, lo[which] + offset
+
+
+def _segment_ious(index: _FrameIndex, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Shared frames and lowest segment mean IoU (NaN if none) of pairs of index codes."""
+    k = len(local)
+    overlap = np.zeros(k, dtype=np.int64)
+    min_iou = np.full(k, np.nan)
+    lo = index.starts[local].max(axis=1)
+    hi = index.ends[local].min(axis=1)
+    which, frame = _expand(lo, hi)
+    found_a, pos_a = index.lookup(local[which, 0], frame)
+    found_b, pos_b = index.lookup(local[which, 1], frame)
+    both = found_a & found_b
+    which, frame = which[both], frame[both]
+    if len(which) == 0:
+        return overlap, min_iou
+    ious = iou_aligned(index.boxes[pos_a[both]], index.boxes[pos_b[both]])
+    new_segment = np.r_[True, (which[1:] != which[:-1]) | (np.diff(frame) != 1)]
+    segment = np.cumsum(new_segment) - 1
+    means = np.bincount(segment, weights=ious) / np.bincount(segment)
+    overlap[:] = np.bincount(which, minlength=k)
+    lowest = np.full(k, np.inf)
+    np.minimum.at(lowest, which[new_segment], means)
+    min_iou[overlap > 0] = lowest[overlap > 0]
+    return overlap, min_iou
+
+
+def _merged_gaps(index: _FrameIndex, local: np.ndarray,
+                 config: AssociationConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Gap numbers of merging each pair: max gap, and gap, speed, bound of the worst checked gap.
+
+    With ``lo`` the later start and ``hi`` the earlier end, the merge can only
+    change gaps that touch the window ``[w0, w1]``: the common span
+    ``[lo, hi]`` when the spans meet, the open junction ``[hi + 1, lo - 1]``
+    when they do not. Checked gaps ``(f1, f2)`` are those with ``f2 >= w0``
+    and ``f1 <= w1`` (for two disjoint trajectories: exactly the new gap
+    between them, computed directly). For pairs whose spans meet, the merged
+    trajectory (higher-score box per shared frame, ties to the first of the
+    pair) is built only over the window widened by ``l_max + 1`` frames,
+    enough to see every such gap whole (a longer one is an inner gap of an
+    input, counted through ``Tracklet.max_gap``).
+    """
+    k = len(local)
+    lo = index.starts[local].max(axis=1)
+    hi = index.ends[local].min(axis=1)
+    meet = lo <= hi
+    max_gap = np.maximum(index.inner[local[:, 0]], index.inner[local[:, 1]])
+    worst_gap, speed, bound = np.zeros(k, np.int64), np.zeros(k), np.full(k, np.inf)
+    # Disjoint spans: the only checked gap joins the earlier one's last box to the later one's first.
+    apart = np.flatnonzero(~meet)
+    if len(apart):
+        a_first = index.ends[local[apart, 0]] < index.starts[local[apart, 1]]
+        early = np.where(a_first, local[apart, 0], local[apart, 1])
+        late = np.where(a_first, local[apart, 1], local[apart, 0])
+        _, pos_end = index.lookup(early, index.ends[early])
+        _, pos_start = index.lookup(late, index.starts[late])
+        worst_gap[apart], speed[apart], bound[apart] = gap_velocity(
+            index.ends[early], index.boxes[pos_end], index.starts[late], index.boxes[pos_start], config)
+        max_gap[apart] = np.maximum(max_gap[apart], worst_gap[apart])
+    rows = np.flatnonzero(meet)
+    if len(rows) == 0:
+        return max_gap, worst_gap, speed, bound
+    local, lo, hi = local[rows], lo[rows], hi[rows]
+    first = np.maximum(index.starts[local].min(axis=1), lo - config.l_max - 1)
+    last = np.minimum(index.ends[local].max(axis=1), hi + config.l_max + 1)
+    which, frame = _expand(first, last)
+    found_a, pos_a = index.lookup(local[which, 0], frame)
+    found_b, pos_b = index.lookup(local[which, 1], frame)
+    take_a = found_a & (~found_b | (index.scores[pos_a] >= index.scores[pos_b]))
+    present = found_a | found_b
+    which, frame = which[present], frame[present]
+    boxes = np.where(take_a[present][:, None], index.boxes[pos_a[present]], index.boxes[pos_b[present]])
+    step = np.flatnonzero((which[1:] == which[:-1]) & (frame[1:] >= lo[which[1:]]) & (frame[:-1] <= hi[which[:-1]]))
+    if len(step) == 0:
+        return max_gap, worst_gap, speed, bound
+    pair = rows[which[step]]
+    gaps, spd, bnd = gap_velocity(frame[step], boxes[step], frame[step + 1], boxes[step + 1], config)
+    np.maximum.at(max_gap, pair, gaps)
+    order = np.lexsort((-(spd / bnd), pair))  # by pair, worst ratio first
+    head = order[np.r_[True, pair[order][1:] != pair[order][:-1]]]
+    worst_gap[pair[head]], speed[pair[head]], bound[pair[head]] = gaps[head], spd[head], bnd[head]
+    return max_gap, worst_gap, speed, bound
 
 
 def gap_velocity(f1: np.ndarray, b1: np.ndarray, f2: np.ndarray, b2: np.ndarray,
@@ -147,180 +250,169 @@ def gap_velocity(f1: np.ndarray, b1: np.ndarray, f2: np.ndarray, b2: np.ndarray,
     return gaps, speed, bound
 
 
-def _gap_checks(frames: np.ndarray, boxes: np.ndarray,
-                config: AssociationConfig) -> tuple[int, int, float, float]:
-    """Max gap, and the gap, speed and bound of the worst gap (highest speed/bound), over consecutive boxes."""
-    if len(frames) < 2:
-        return 0, 0, 0.0, math.inf
-    gaps, speed, bound = gap_velocity(frames[:-1], boxes[:-1], frames[1:], boxes[1:], config)
-    worst = int(np.argmax(speed / bound))
-    return int(gaps.max()), int(gaps[worst]), float(speed[worst]), float(bound[worst])
+def rule_failures(overlap, min_iou, max_gap, speed, bound, affinity,
+                  config: AssociationConfig) -> dict[Constraint, np.ndarray]:
+    """The one statement of each rule's test, elementwise over scalars or arrays.
+
+    Returns, per constraint, True where it fails: IoU when the pair shares
+    frames and the lowest segment mean IoU is not above ``tau_iou``; gap when
+    the largest gap exceeds ``l_max``; velocity when the worst checked gap's
+    speed exceeds its bound; affinity when below ``min_affinity``.
+    """
+    return {
+        "iou": (np.asarray(overlap) > 0) & ~(np.asarray(min_iou) > config.tau_iou),
+        "gap": np.asarray(max_gap) > config.l_max,
+        "velocity": np.asarray(speed) > np.asarray(bound),
+        "affinity": np.asarray(affinity) < config.min_affinity,
+    }
+
+
+@dataclass(frozen=True)
+class Screen:
+    """A(t1, t2) evaluated for many pairs at once (see :func:`check_pairs`); arrays of shape ``(K,)``.
+
+    Attributes
+    ----------
+    allowed
+        True where every constraint holds.
+    failures
+        Constraint name -> True where it fails. Pairs rejected by the IoU or
+        affinity rule are not checked further: their gap numbers stay at
+        0 / 0 / 0 / inf and their gap and velocity entries False.
+    affinity, overlap, min_iou
+        Affinity, shared frames, lowest segment mean IoU (NaN if none).
+    max_gap, worst_gap, speed, bound
+        Largest gap of the merged trajectory; gap, speed and bound of the
+        checked gap with the highest speed/bound ratio.
+    """
+
+    allowed: np.ndarray
+    failures: dict[Constraint, np.ndarray]
+    affinity: np.ndarray
+    overlap: np.ndarray
+    min_iou: np.ndarray
+    max_gap: np.ndarray
+    worst_gap: np.ndarray
+    speed: np.ndarray
+    bound: np.ndarray
+
+    def check(self, row: int) -> PairCheck:
+        """The :class:`PairCheck` of one pair."""
+        overlap = int(self.overlap[row])
+        return PairCheck(allowed=bool(self.allowed[row]),
+                         failed=tuple(c for c in CONSTRAINTS if self.failures[c][row]),
+                         affinity=float(self.affinity[row]), overlap_frames=overlap,
+                         min_segment_iou=float(self.min_iou[row]) if overlap else math.nan,
+                         max_gap=int(self.max_gap[row]), gap_at_max_velocity=int(self.worst_gap[row]),
+                         velocity=float(self.speed[row]), velocity_bound=float(self.bound[row]))
+
+
+def check_pairs(tracklets: Sequence[Tracklet], pairs: np.ndarray, affinities: np.ndarray,
+                config: AssociationConfig, complete: bool = False) -> Screen:
+    """Evaluate A(t1, t2) for many pairs at once, vectorised: the implementation of the rules.
+
+    Parameters
+    ----------
+    tracklets
+        The trajectories.
+    pairs
+        ``(K, 2)`` indices into ``tracklets``; in each pair the first one's box
+        wins ties in score when the two share a frame.
+    affinities
+        ``(K,)`` appearance affinity of each pair.
+    config
+        The thresholds.
+    complete
+        Also measure gaps and velocity for pairs already rejected by the IoU
+        or affinity rule (for explanations); solvers leave this off.
+    """
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    affinities = np.asarray(affinities, dtype=np.float64).reshape(-1)
+    if not complete:
+        # pairs below the affinity gate are rejected whatever their boxes: measure only the rest
+        keep = np.flatnonzero(~rule_failures(0, np.nan, 0, 0.0, np.inf, affinities, config)["affinity"])
+        if len(keep) < len(pairs):
+            return _scatter(check_pairs(tracklets, pairs[keep], affinities[keep], config), keep, affinities, config)
+    k = len(pairs)
+    nodes, local = np.unique(pairs, return_inverse=True)
+    local = local.reshape(-1, 2)
+    index = _FrameIndex(tracklets, nodes)
+    overlap, min_iou = np.zeros(k, np.int64), np.full(k, np.nan)
+    spans_meet = index.starts[local].max(axis=1) <= index.ends[local].min(axis=1) if k else np.zeros(0, bool)
+    rows = np.flatnonzero(spans_meet)
+    overlap[rows], min_iou[rows] = _segment_ious(index, local[rows])
+    failures = rule_failures(overlap, min_iou, 0, 0.0, np.inf, affinities, config)
+    max_gap, worst_gap, speed, bound = np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros(k), np.full(k, np.inf)
+    rows = np.arange(k) if complete else np.flatnonzero(~(failures["iou"] | failures["affinity"]))
+    max_gap[rows], worst_gap[rows], speed[rows], bound[rows] = _merged_gaps(index, local[rows], config)
+    failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config)
+    allowed = ~np.any(np.stack([failures[c] for c in CONSTRAINTS]), axis=0) if k else np.zeros(0, bool)
+    return Screen(allowed=allowed, failures=failures, affinity=affinities, overlap=overlap, min_iou=min_iou,
+                  max_gap=max_gap, worst_gap=worst_gap, speed=speed, bound=bound)
+
+
+def _scatter(part: Screen, rows: np.ndarray, affinities: np.ndarray, config: AssociationConfig) -> Screen:
+    """A screen over all pairs from the screen of ``rows``; the other pairs failed only the affinity gate."""
+    k = len(affinities)
+
+    def fill(values: np.ndarray, default: float | int | bool) -> np.ndarray:
+        out = np.full(k, default, dtype=values.dtype)
+        out[rows] = values
+        return out
+
+    overlap, min_iou = fill(part.overlap, 0), fill(part.min_iou, np.nan)
+    max_gap, worst_gap = fill(part.max_gap, 0), fill(part.worst_gap, 0)
+    speed, bound = fill(part.speed, 0.0), fill(part.bound, np.inf)
+    failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config)
+    return Screen(allowed=fill(part.allowed, False), failures=failures, affinity=affinities, overlap=overlap,
+                  min_iou=min_iou, max_gap=max_gap, worst_gap=worst_gap, speed=speed, bound=bound)
 
 
 def check_pair(a: Tracklet, b: Tracklet, config: AssociationConfig,
                pair_affinity: float | None = None) -> PairCheck:
     """Evaluate A(a, b): may ``a`` and ``b`` be merged into one trajectory?
 
+    Every number is computed, also for a pair that an early rule rejects (it
+    is the explanation). Solvers use :func:`check_pairs` on many pairs.
+
     Parameters
     ----------
     a, b
-        The two trajectories (either order; the result does not depend on it
-        except for ties in box score, which keep ``a``'s box).
+        The two trajectories; ``a``'s box wins ties in score in shared frames.
     config
         Thresholds of the constraints.
     pair_affinity
         Their appearance affinity, if the caller already computed it (it is
         computed from the mean features otherwise).
-
-    Returns
-    -------
-    PairCheck
-        Whether the pair is allowed, which constraints fail and the numbers.
-
-    Notes
-    -----
-    When the two do not overlap in time, only the one new gap between them is
-    checked (the gaps inside each were checked when they were made); when they
-    overlap, every gap of the merged trajectory is checked.
     """
     aff = float(feature_affinity(a.feature, b.feature)[0, 0]) if pair_affinity is None else float(pair_affinity)
-    overlap, min_iou = _overlap_segments_iou(a, b)
-    if overlap == 0 and (a.end < b.start or b.end < a.start):
-        first, second = (a, b) if a.end < b.start else (b, a)
-        frames = np.array([first.end, second.start])
-        boxes = np.stack([first.boxes[-1], second.boxes[0]])
-        max_gap, worst_gap, speed, bound = _gap_checks(frames, boxes, config)
-        max_gap = max(max_gap, a.max_gap, b.max_gap)
-    else:
-        merged = merge(a, b, new_id=-1)
-        max_gap, worst_gap, speed, bound = _gap_checks(merged.frames, merged.boxes, config)
-    failed = _failed(overlap, min_iou, max_gap, speed, bound, aff, config)
-    return PairCheck(allowed=not failed, failed=failed, affinity=aff, overlap_frames=overlap,
-                     min_segment_iou=min_iou, max_gap=max_gap, gap_at_max_velocity=worst_gap,
-                     velocity=speed, velocity_bound=bound)
+    return check_pairs((a, b), np.array([[0, 1]]), np.array([aff]), config, complete=True).check(0)
 
 
-def _failed(overlap: int, min_iou: float, max_gap: int, speed: float, bound: float, aff: float,
-            config: AssociationConfig) -> tuple[Constraint, ...]:
-    """The rules that fail, in :data:`CONSTRAINTS` order: the one statement of each rule's test."""
-    failed: list[Constraint] = []
-    if overlap and not min_iou > config.tau_iou:
-        failed.append("iou")
-    if max_gap > config.l_max:
-        failed.append("gap")
-    if speed > bound:
-        failed.append("velocity")
-    if aff < config.min_affinity:
-        failed.append("affinity")
-    return tuple(failed)
-
-
-def candidate_pairs(tracklets: list[Tracklet] | tuple[Tracklet, ...], l_max: int) -> list[tuple[int, int]]:
+def candidate_pairs(tracklets: Sequence[Tracklet], l_max: int) -> list[tuple[int, int]]:
     """Index pairs ``(i, j)``, ``i < j``, of trajectories whose time spans are within ``l_max`` frames.
 
     Only these can pass the gap constraint; the rest are never checked.
+    Returned sorted.
     """
+    return [tuple(p) for p in candidate_pair_array(tracklets, l_max).tolist()]
+
+
+def candidate_pair_array(tracklets: Sequence[Tracklet], l_max: int) -> np.ndarray:
+    """:func:`candidate_pairs` as a sorted ``(K, 2)`` int64 array."""
     if not tracklets:
-        return []
+        return np.zeros((0, 2), np.int64)
     starts = np.array([t.start for t in tracklets])
     ends = np.array([t.end for t in tracklets])
     order = np.argsort(starts, kind="stable")
-    sorted_starts = starts[order]
-    pairs = []
-    for pos, i in enumerate(order):
-        stop = np.searchsorted(sorted_starts, ends[i] + l_max, side="right")
-        for j in order[pos + 1:stop]:
-            pairs.append((int(min(i, j)), int(max(i, j))))
-    return sorted(pairs)
+    stop = np.searchsorted(starts[order], ends[order] + l_max, side="right")
+    which, pos = _expand(np.arange(len(order)) + 1, stop - 1)
+    i, j = order[which], order[pos]
+    pairs = np.stack([np.minimum(i, j), np.maximum(i, j)], axis=1).astype(np.int64)
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
 
 
-@dataclass(frozen=True)
-class Screen:
-    """Vectorised pre-check of many pairs (see :func:`screen_pairs`).
-
-    Attributes
-    ----------
-    ok
-        ``(K,)`` False where :func:`check_pair` must reject the pair.
-    exact
-        ``(K,)`` True for pairs that do not overlap in time: for them ``ok``
-        is :func:`check_pair`'s final answer and ``checks`` holds its result.
-    checks
-        Pair index -> :class:`PairCheck` for the exact pairs that are ok.
-    """
-
-    ok: np.ndarray
-    exact: np.ndarray
-    checks: dict[int, PairCheck]
-
-
-def screen_pairs(tracklets: list[Tracklet] | tuple[Tracklet, ...], pairs: np.ndarray,
-                 affinities: np.ndarray, config: AssociationConfig) -> Screen:
-    """Check many pairs at once, vectorised where possible.
-
-    For pairs that do not overlap in time, the single new gap is evaluated
-    with the same helpers and the same rule statement (:func:`_failed`) as
-    :func:`check_pair`, so the answer is final. Pairs that overlap pass the
-    screen when their affinity does, and need the full :func:`check_pair`.
-
-    Parameters
-    ----------
-    pairs
-        ``(K, 2)`` indices into ``tracklets``.
-    affinities
-        ``(K,)`` affinity of each pair.
-    """
-    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-    affinities = np.asarray(affinities, dtype=np.float64)
-    if len(pairs) == 0:
-        return Screen(np.zeros(0, bool), np.zeros(0, bool), {})
-    involved = np.unique(pairs)  # only these are read: solvers call this with a few pairs at a time
-    starts = np.zeros(len(tracklets), dtype=np.int64)
-    ends = np.zeros(len(tracklets), dtype=np.int64)
-    inner = np.zeros(len(tracklets), dtype=np.int64)
-    for k in involved:
-        starts[k], ends[k], inner[k] = tracklets[k].frames[0], tracklets[k].frames[-1], tracklets[k].max_gap
-    i, j = pairs[:, 0], pairs[:, 1]
-    i_first = ends[i] < starts[j]
-    exact = i_first | (ends[j] < starts[i])
-    ok = affinities >= config.min_affinity
-    checks: dict[int, PairCheck] = {}
-    rows = np.flatnonzero(exact & ok)
-    if len(rows):
-        first = np.where(i_first, i, j)[rows]
-        second = np.where(i_first, j, i)[rows]
-        last_box = np.stack([tracklets[k].boxes[-1] for k in first])
-        first_box = np.stack([tracklets[k].boxes[0] for k in second])
-        gaps, speed, bound = gap_velocity(ends[first], last_box, starts[second], first_box, config)
-        max_gap = np.maximum(gaps, np.maximum(inner[first], inner[second]))
-        for r, g, mg, v, b in zip(rows, gaps.tolist(), max_gap.tolist(), speed.tolist(), bound.tolist()):
-            failed = _failed(0, math.nan, mg, v, b, float(affinities[r]), config)
-            if failed:
-                ok[r] = False
-            else:
-                checks[int(r)] = PairCheck(allowed=True, failed=(), affinity=float(affinities[r]), overlap_frames=0,
-                                           min_segment_iou=math.nan, max_gap=mg, gap_at_max_velocity=g,
-                                           velocity=v, velocity_bound=b)
-    return Screen(ok, exact, checks)
-
-
-def allowed_checks(tracklets: list[Tracklet] | tuple[Tracklet, ...], pairs: np.ndarray,
-                   affinities: np.ndarray, config: AssociationConfig) -> list[tuple[int, PairCheck]]:
-    """``(pair index, PairCheck)`` of every allowed pair: :func:`screen_pairs`, then
-    :func:`check_pair` on the overlapping pairs that pass the screen."""
-    screen = screen_pairs(tracklets, pairs, affinities, config)
-    out = []
-    for r in np.flatnonzero(screen.ok):
-        if screen.exact[r]:
-            out.append((int(r), screen.checks[int(r)]))
-        else:
-            check = check_pair(tracklets[pairs[r, 0]], tracklets[pairs[r, 1]], config, pair_affinity=affinities[r])
-            if check.allowed:
-                out.append((int(r), check))
-    return out
-
-
-def merge_group(tracklets: list[Tracklet] | tuple[Tracklet, ...], new_id: int) -> Tracklet:
+def merge_group(tracklets: Sequence[Tracklet], new_id: int) -> Tracklet:
     """One trajectory from several tracklets, merged pairwise with :func:`merge` in the given order."""
     if not tracklets:
         raise ValueError("cannot merge an empty group")

@@ -36,7 +36,7 @@ import numpy as np
 
 from sotmot.appearance import affinity_rows
 from sotmot.config import AssociationConfig
-from sotmot.constraints import CONSTRAINTS, allowed_checks, candidate_pairs, check_pair
+from sotmot.constraints import CONSTRAINTS, candidate_pair_array, check_pairs
 from sotmot.errors import SolverError
 from sotmot.types import Tracklet
 
@@ -90,16 +90,14 @@ def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
     graph = nx.DiGraph()
     for t in tracklets:
         graph.add_node(t.id, start=t.start, end=t.end, length=len(t), mean_score=float(t.scores.mean()))
-    pairs = np.asarray(candidate_pairs(list(tracklets), config.l_max), dtype=np.int64).reshape(-1, 2)
+    pairs = candidate_pair_array(tracklets, config.l_max)
     if len(pairs) == 0:
         return graph
     aff = affinity_rows(np.stack([tracklets[i].feature for i in pairs[:, 0]]),
                         np.stack([tracklets[j].feature for j in pairs[:, 1]]))
-    if include_rejected:
-        checks = [(r, check_pair(tracklets[i], tracklets[j], config, pair_affinity=a))
-                  for r, ((i, j), a) in enumerate(zip(pairs, aff))]
-    else:
-        checks = allowed_checks(tracklets, pairs, aff, config)
+    screen = check_pairs(tracklets, pairs, aff, config, complete=include_rejected)
+    rows = np.arange(len(pairs)) if include_rejected else np.flatnonzero(screen.allowed)
+    checks = [(r, screen.check(r)) for r in rows.tolist()]
     for r, check in checks:
         i, j = pairs[r]
         u, v = (tracklets[i], tracklets[j]) if _order_key(tracklets[i]) < _order_key(tracklets[j]) \

@@ -143,9 +143,6 @@ def test_ortools_and_networkx_reach_the_same_total_cost(specs):
     a = get_solver("flow")(ts, CFG)
     b = get_solver("flow-nx")(ts, CFG)
     assert flow_objective(ts, a.groups, CFG) == pytest.approx(flow_objective(ts, b.groups, CFG), abs=1e-3)
-    # both are optimal, so neither is worse than the greedy merge on the flow objective
-    g = get_solver("greedy")(ts, CFG)
-    assert flow_objective(ts, a.groups, CFG) <= flow_objective(ts, g.groups, CFG) + 1e-3
 
 
 def test_flow_links_are_all_allowed_edges():
