@@ -43,6 +43,9 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                    help="drop detections scoring below S (default: keep all)")
     p.add_argument("--nms", choices=["auto", "iou", "iom", "none"],
                    help="NMS overlap: auto = IoM for non-probability scores such as DPM's, else IoU")
+    p.add_argument("--sot", choices=["none", "template", "deep"],
+                   help="single-object-tracking step that adds missed boxes (paper Algorithm 1): template = "
+                        "OpenCV correlation, deep = re-ID re-ranking (default: the config's, see docs)")
 
 
 def _build_config(args: argparse.Namespace):
@@ -55,6 +58,8 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("preprocess", score_threshold=args.score_threshold)
     if args.nms:
         config = config.replace("preprocess", nms=args.nms)
+    if args.sot:
+        config = config.replace("sot", variant=args.sot)
     return config
 
 

@@ -5,7 +5,9 @@ and where it comes from (He et al., *SOT for MOT*, section numbers below).
 Where our re-ID model needs another value than the paper's, the default says
 so and points at ``docs/calibration.md``, which derives it from data.
 
-A configuration file (TOML or JSON) holds one table per stage::
+A configuration file (TOML or JSON) holds one table per stage
+(``preprocess``, ``appearance``, ``sot``, ``tracklets``, ``association``,
+``postprocess``)::
 
     [preprocess]
     nms = "iou"
@@ -96,6 +98,67 @@ class AppearanceConfig:
 
 
 @dataclass(frozen=True)
+class SotConfig:
+    """The single-object-tracking step that adds missed boxes (paper Sec. 3.3, Algorithm 1).
+
+    Attributes
+    ----------
+    variant
+        ``"none"`` (no SOT step), ``"template"`` (OpenCV normalised
+        cross-correlation, the paper's naive variant) or ``"deep"`` (template
+        proposals re-ranked by the re-ID model).
+    tau
+        ``next()`` returns its best candidate only if its affinity with the
+        seed is above this (paper: 0.5).
+    tau_a
+        An end meets an opposite end, or keeps a new box, only with affinity
+        above this (paper: 0.75). For ``deep`` the affinity is sotmot's re-ID
+        affinity, for ``template`` the correlation coefficient.
+    tau_I
+        IoU above which two boxes are the same object (paper: 0.5).
+    e
+        Score decay per SOT step (paper: 0.9).
+    L
+        Longest extension, in boxes, of one end (paper: 15).
+    search_radius
+        The search window is the prior box grown by this many box sizes on
+        every side (the spread of the paper's dense sampling around B).
+    scales
+        Box scales tried around the prior (the paper samples scale too).
+    rerank
+        ``deep``: how many template proposals the re-ID model re-ranks per step.
+    window
+        Frames per SOT window (ends never leave their window; only a window's
+        frames are in memory); 0 means ``2 L + 1``.
+    must_link
+        Use the links SOT made as must-link hints in tracklet generation.
+    """
+
+    variant: Literal["none", "template", "deep"] = "none"
+    tau: float = 0.5
+    tau_a: float = 0.75
+    tau_I: float = 0.5
+    e: float = 0.9
+    L: int = 15
+    search_radius: float = 0.5
+    scales: tuple[float, ...] = (0.95, 1.0, 1.05)
+    rerank: int = 4
+    window: int = 0
+    must_link: bool = False
+
+    def __post_init__(self) -> None:
+        _check(self.variant in ("none", "template", "deep"), "sot",
+               f"variant must be one of none, template, deep; got {self.variant!r}")
+        for name in ("tau", "tau_a", "tau_I", "e"):
+            _check(0.0 <= getattr(self, name) <= 1.0, "sot", f"{name} must be in [0, 1]")
+        _check(self.L >= 1, "sot", "L must be >= 1")
+        _check(self.search_radius > 0, "sot", "search_radius must be > 0")
+        _check(len(self.scales) >= 1 and all(s > 0 for s in self.scales), "sot", "scales must be positive")
+        _check(self.rerank >= 1, "sot", "rerank must be >= 1")
+        _check(self.window >= 0, "sot", "window must be >= 0")
+
+
+@dataclass(frozen=True)
 class TrackletConfig:
     """Short tracklets by frame-by-frame Hungarian matching (paper Sec. 3.4).
 
@@ -117,7 +180,9 @@ class TrackletConfig:
         Our addition (the paper matches on appearance alone): it keeps two
         similar-looking people far apart from being linked inside one second.
     l_min
-        Tracklets of length <= l_min are dropped (paper: 1).
+        Tracklets with <= l_min boxes are dropped (paper: 1). Only detector
+        boxes count: without this, one false detection that the SOT step
+        extended over 15 frames would survive as a tracklet.
     """
 
     batch_seconds: float = 1.0
@@ -210,6 +275,7 @@ class TrackerConfig:
 
     preprocess: PreprocessConfig = field(default_factory=PreprocessConfig)
     appearance: AppearanceConfig = field(default_factory=AppearanceConfig)
+    sot: SotConfig = field(default_factory=SotConfig)
     tracklets: TrackletConfig = field(default_factory=TrackletConfig)
     association: AssociationConfig = field(default_factory=AssociationConfig)
     postprocess: PostprocessConfig = field(default_factory=PostprocessConfig)
@@ -229,6 +295,7 @@ class TrackerConfig:
 SECTIONS: dict[str, type] = {
     "preprocess": PreprocessConfig,
     "appearance": AppearanceConfig,
+    "sot": SotConfig,
     "tracklets": TrackletConfig,
     "association": AssociationConfig,
     "postprocess": PostprocessConfig,
@@ -248,6 +315,10 @@ def _coerce(section: str, name: str, hint: Any, value: Any) -> Any:
         if value not in args:
             raise ConfigError(f"[{section}] {name} must be one of {', '.join(map(repr, args))}; got {value!r}")
         return value
+    if origin is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"[{section}] {name} must be a list; got {value!r}")
+        return tuple(_coerce(section, name, args[0], v) for v in value)
     if hint is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise ConfigError(f"[{section}] {name} must be a finite number; got {value!r}")

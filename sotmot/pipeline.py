@@ -55,18 +55,54 @@ def resolve_nms(config: PreprocessConfig, detections: Detections) -> str:
     return "iom" if len(s) and (s.min() < 0.0 or s.max() > 1.0) else "iou"
 
 
+def nms_per_frame(detections: Detections, kind: str, threshold: float) -> np.ndarray:
+    """Indices (ascending) of the boxes that survive NMS of kind ``"iou"``/``"iom"``/``"none"`` in their frame."""
+    if kind == "none" or len(detections) == 0:
+        return np.arange(len(detections))
+    kept = [idx[nms(detections.boxes[idx], detections.scores[idx], threshold, kind)]
+            for idx in detections.by_frame().values()]
+    return np.sort(np.concatenate(kept))
+
+
 def preprocess(detections: Detections, config: PreprocessConfig) -> Detections:
     """Score threshold, then per-frame NMS (paper Sec. 6.1). Keeps the canonical order."""
     keep = np.ones(len(detections), dtype=bool)
     if config.score_threshold is not None:
         keep &= detections.scores >= config.score_threshold
     dets = detections.subset(np.flatnonzero(keep))
-    kind = resolve_nms(config, detections)
-    if kind == "none" or len(dets) == 0:
-        return dets
-    kept = [idx[nms(dets.boxes[idx], dets.scores[idx], config.nms_threshold, kind)]
-            for idx in dets.by_frame().values()]
-    return dets.subset(np.sort(np.concatenate(kept)))
+    return dets.subset(nms_per_frame(dets, resolve_nms(config, detections), config.nms_threshold))
+
+
+def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedder: Embedder,
+            config: TrackerConfig, progress: bool = False) -> tuple[Detections, np.ndarray, np.ndarray, int]:
+    """The SOT step, then NMS on the enlarged set (paper Sec. 3.3 and 6.1).
+
+    Returns the enlarged detections (added boxes flagged ``from_sot``), their
+    features, the SOT links ``(K, 2)`` as indices into them (links whose ends
+    NMS removed are dropped) and the number of extension steps.
+    """
+    from sotmot.sot import SotTracker
+
+    deep = config.sot.variant == "deep"
+    reader = FrameReader(info, cache_size=1)
+    tracker = SotTracker(config.sot, reader, info.length, embed=embedder.embed if deep else None,
+                         det_features=features if deep else None)
+    windows = lambda it: progress_bar(it, f"{info.name}: SOT ({config.sot.variant})", progress)  # noqa: E731
+    result = tracker.run(detections, progress=windows)
+    n = len(detections)
+    enlarged = result.detections
+    added = enlarged.subset(np.arange(n, len(enlarged)))
+    if deep:
+        added_features = result.features.reshape(len(added), -1) if len(added) else np.zeros((0, features.shape[1]))
+    else:
+        added_features = embed_detections(info, added, embedder, progress)
+    all_features = np.concatenate([features, added_features.astype(features.dtype)])
+    keep = nms_per_frame(enlarged, resolve_nms(config.preprocess, detections), config.preprocess.nms_threshold)
+    remap = np.full(len(enlarged), -1)
+    remap[keep] = np.arange(len(keep))
+    links = remap[result.links]
+    links = links[(links >= 0).all(axis=1)] if len(links) else links.reshape(0, 2)
+    return enlarged.subset(keep), all_features[keep], links, result.steps
 
 
 def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
@@ -134,6 +170,8 @@ class Prepared:
     features: np.ndarray
     tracklets: list[Tracklet]
     timings: dict[str, float]
+    sot_links: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
+    sot_steps: int = 0
 
 
 class _Clock:
@@ -169,9 +207,17 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     elif len(features) != len(dets):
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
     clock.lap("appearance")
-    tracklets = build_tracklets(dets, features, info.frame_rate, config.tracklets)
+    links, steps = np.zeros((0, 2), np.int64), 0
+    if config.sot.variant != "none":
+        if embedder is None:
+            embedder = make_embedder(config.appearance)
+        dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress)
+        log.info("%s: SOT added %d boxes (after NMS)", info.name, int(dets.from_sot.sum()))
+        clock.lap("sot")
+    tracklets = build_tracklets(dets, features, info.frame_rate, config.tracklets,
+                                must_link=links if config.sot.must_link else None)
     clock.lap("tracklets")
-    return Prepared(info, dets, features, tracklets, timings)
+    return Prepared(info, dets, features, tracklets, timings, links, steps)
 
 
 def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),

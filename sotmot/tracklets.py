@@ -7,8 +7,9 @@ detections. The assignment that maximises the total affinity is found with
 the Hungarian algorithm; matches below the affinity gate (or the IoU gate) are
 not linked. A tracklet that gets no detection in a frame is closed, so a
 tracklet covers consecutive frames. Unmatched detections start new
-tracklets. At the end of a batch every tracklet is closed; tracklets of length
-``<= l_min`` are dropped. Long-term association joins the rest.
+tracklets. At the end of a batch every tracklet is closed; tracklets with
+``<= l_min`` detector boxes (boxes added by the SOT step do not count) are
+dropped. Long-term association joins the rest.
 """
 
 from __future__ import annotations
@@ -33,7 +34,8 @@ def batch_length(frame_rate: float, batch_seconds: float) -> int:
 
 def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: float,
                     config: TrackletConfig = TrackletConfig(),
-                    progress: Callable[[Iterable[int]], Iterable[int]] | None = None) -> list[Tracklet]:
+                    progress: Callable[[Iterable[int]], Iterable[int]] | None = None,
+                    must_link: np.ndarray | None = None) -> list[Tracklet]:
     """Build tracklets from detections and their appearance features.
 
     Parameters
@@ -48,6 +50,10 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
         Gates, tail length, batch length and ``l_min``.
     progress
         Optional wrapper over the iterable of frames (e.g. a progress bar).
+    must_link
+        Optional ``(K, 2)`` detection index pairs ``(earlier, later)`` in
+        adjacent frames (the SOT step's links): such a pair is matched whenever
+        both ends are free, before any other match, gates or not.
 
     Returns
     -------
@@ -56,6 +62,7 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
         ids run from 1 in that order.
     """
     features = np.asarray(features, dtype=np.float32)
+    successor = {int(a): int(b) for a, b in (must_link if must_link is not None else np.zeros((0, 2), int))}
     if len(features) != len(detections):
         raise ValueError(f"{len(detections)} detections but {len(features)} features")
     per_frame = detections.by_frame()
@@ -80,6 +87,13 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
             ious = iou_matrix(detections.boxes[[t[-1] for t in active]], detections.boxes[idx])
             allowed = (aff >= config.min_affinity) & (ious >= config.min_iou)
             cost = np.where(allowed, -aff, _FORBIDDEN)
+            if successor:
+                position = {int(d): c for c, d in enumerate(idx)}
+                for r, t in enumerate(active):
+                    c = position.get(successor.get(t[-1], -1))
+                    if c is not None:
+                        allowed[r, c] = True
+                        cost[r, c] = -2.0  # below any affinity-based cost: taken first
             rows, cols = linear_sum_assignment(cost)
             for r, c in zip(rows, cols):
                 if allowed[r, c]:
@@ -90,7 +104,9 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
         active = [t for r, t in enumerate(active) if r in matched_tracks]
         active.extend([int(idx[c])] for c in range(len(idx)) if c not in matched_dets)
     finished.extend(active)
-    kept = [t for t in finished if len(t) > config.l_min]
+    # l_min counts detector boxes: a lone false detection that SOT extended is still a lone detection
+    real = ~detections.from_sot
+    kept = [t for t in finished if int(real[t].sum()) > config.l_min]
     kept.sort(key=lambda t: (detections.frames[t[0]], t[0]))
     return [make_tracklet(k, np.asarray(t), detections, features) for k, t in enumerate(kept, 1)]
 

@@ -1,0 +1,324 @@
+"""The single-object-tracking (SOT) step: recover boxes the detector missed (paper Sec. 3.3, Algorithm 1).
+
+Every detection puts a forward and a backward *tracklet end* into a max
+priority queue keyed by score. The best end is popped and extended by one
+frame in its direction:
+
+* it stops when it has grown to ``L`` boxes;
+* if the adjacent frame already holds a box with an end of the opposite
+  direction whose affinity with the seed is ``> tau_a`` and whose IoU with the
+  current box is ``> tau_I``, the two ends meet: they are linked and both stop;
+* otherwise :meth:`SotTracker.next` looks for the object in the adjacent frame
+  around the current box, scoring candidates against the *seed* detection
+  ``d_b`` (never against the last box: the paper's guard against drift);
+  the end stops if nothing scores above ``tau``, if the best candidate's
+  affinity with the seed is below ``tau_a``, or if it overlaps a box already
+  in that frame with IoU ``> tau_I``; else the candidate is added (flagged as
+  found by SOT), linked to the end, and pushed with score ``s * e``.
+
+Two appearance variants score candidates:
+
+* ``template``: OpenCV normalised cross-correlation (``cv2.matchTemplate``,
+  ``TM_CCOEFF_NORMED``) of the seed's crop over a search window, at a few
+  scales; one call scores every offset. Affinity is the correlation, clipped
+  to [0, 1].
+* ``deep``: the same template search proposes the best few boxes, which are
+  re-ranked by the re-ID model's affinity with the seed's feature, all
+  candidates of a step in one batched forward pass.
+
+The step runs over windows of frames (``window`` frames, default ``2 L + 1``)
+so only a window's frames are kept in memory; an end never leaves its window.
+Boxes are ``x, y, w, h`` pixels, frames 1-based.
+"""
+
+from __future__ import annotations
+
+import heapq
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sotmot.appearance import affinity_rows
+from sotmot.boxes import iou_matrix
+from sotmot.config import SotConfig
+from sotmot.types import Detections
+
+log = logging.getLogger(__name__)
+
+TEMPLATE_HEIGHT = 64
+
+
+@dataclass
+class SotResult:
+    """What the SOT step produced.
+
+    Attributes
+    ----------
+    detections
+        The original detections followed by the added ones (``from_sot`` True),
+        before the final NMS.
+    links
+        ``(K, 2)`` detection indices ``(earlier, later)`` that SOT linked in
+        adjacent frames: an extension step or two ends that met.
+    features
+        Deep features of the added boxes (``deep`` variant only; else None),
+        row ``i`` for added box ``i``.
+    steps
+        Number of extension attempts.
+    """
+
+    detections: Detections
+    links: np.ndarray
+    features: np.ndarray | None = None
+    steps: int = 0
+
+
+@dataclass(order=True)
+class _End:
+    priority: float
+    order: int
+    box_id: int = field(compare=False)
+    seed_id: int = field(compare=False)
+    score: float = field(compare=False)
+    length: int = field(compare=False)
+    direction: int = field(compare=False)
+
+
+def crop_resized(frame: np.ndarray, box: np.ndarray, width: int, height: int) -> np.ndarray:
+    """The ``x, y, w, h`` box of ``frame`` resized to ``(height, width)``, clipped to the image, grey."""
+    import cv2
+
+    img_h, img_w = frame.shape[:2]
+    x, y, w, h = box
+    x1, y1 = int(np.clip(np.floor(x), 0, img_w - 1)), int(np.clip(np.floor(y), 0, img_h - 1))
+    x2, y2 = int(np.clip(np.ceil(x + w), x1 + 1, img_w)), int(np.clip(np.ceil(y + h), y1 + 1, img_h))
+    patch = frame[y1:y2, x1:x2]
+    if patch.ndim == 3:
+        patch = cv2.cvtColor(patch, cv2.COLOR_BGR2GRAY)
+    return cv2.resize(patch, (width, height), interpolation=cv2.INTER_AREA)
+
+
+class TemplateSearch:
+    """Dense search for a seed template around a prior box with one ``matchTemplate`` per scale.
+
+    The template is the seed crop at a fixed height of 64 pixels; the search
+    window (the prior box grown by ``radius`` box sizes on every side) is
+    rescaled by the same factor, so the cost does not grow with resolution.
+    """
+
+    def __init__(self, config: SotConfig) -> None:
+        self.radius = config.search_radius
+        self.scales = config.scales
+
+    @staticmethod
+    def template(frame: np.ndarray, box: np.ndarray) -> np.ndarray:
+        """The seed template: grey crop at height 64 with the box's aspect ratio."""
+        w = max(4, int(round(TEMPLATE_HEIGHT * box[2] / box[3])))
+        return crop_resized(frame, box, w, TEMPLATE_HEIGHT).astype(np.float32)
+
+    def score_box(self, template: np.ndarray, frame: np.ndarray, box: np.ndarray) -> float:
+        """Normalised correlation of the template with ``box`` of ``frame``, clipped to [0, 1]."""
+        import cv2
+
+        patch = crop_resized(frame, box, template.shape[1], template.shape[0]).astype(np.float32)
+        return float(np.clip(cv2.matchTemplate(patch, template, cv2.TM_CCOEFF_NORMED)[0, 0], 0.0, 1.0))
+
+    def search(self, template: np.ndarray, frame: np.ndarray, prior: np.ndarray,
+               top: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """Best ``top`` boxes ``(k, 4)`` around ``prior`` and their correlations ``(k,)`` in [0, 1]."""
+        import cv2
+
+        img_h, img_w = frame.shape[:2]
+        grey = frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+        boxes, scores = [], []
+        for s in self.scales:
+            bw, bh = prior[2] * s, prior[3] * s
+            k = TEMPLATE_HEIGHT / bh  # image pixels -> template pixels
+            tw = max(4, int(round(bw * k)))
+            tmpl = cv2.resize(template, (tw, TEMPLATE_HEIGHT), interpolation=cv2.INTER_AREA)
+            cx, cy = prior[0] + prior[2] / 2, prior[1] + prior[3] / 2
+            x1 = int(np.floor(max(0.0, cx - bw / 2 - self.radius * bw)))
+            y1 = int(np.floor(max(0.0, cy - bh / 2 - self.radius * bh)))
+            x2 = int(np.ceil(min(img_w, cx + bw / 2 + self.radius * bw)))
+            y2 = int(np.ceil(min(img_h, cy + bh / 2 + self.radius * bh)))
+            rw, rh = int(round((x2 - x1) * k)), int(round((y2 - y1) * k))
+            if rw < tw or rh < TEMPLATE_HEIGHT:
+                continue
+            region = cv2.resize(grey[y1:y2, x1:x2], (rw, rh), interpolation=cv2.INTER_AREA).astype(np.float32)
+            response = cv2.matchTemplate(region, tmpl, cv2.TM_CCOEFF_NORMED)
+            flat = np.argsort(response, axis=None)[::-1][: max(top * 4, top)]
+            for idx in flat:
+                py, px = np.unravel_index(idx, response.shape)
+                boxes.append([x1 + px / k, y1 + py / k, bw, bh])
+                scores.append(float(response[py, px]))
+        if not boxes:
+            return np.zeros((0, 4)), np.zeros(0)
+        boxes_arr, scores_arr = np.asarray(boxes), np.clip(np.asarray(scores), 0.0, 1.0)
+        order = np.argsort(-scores_arr, kind="stable")
+        keep: list[int] = []
+        for i in order:  # spread the proposals: no two nearly the same box
+            if all(iou_matrix(boxes_arr[i], boxes_arr[j])[0, 0] < 0.7 for j in keep):
+                keep.append(int(i))
+            if len(keep) == top:
+                break
+        return boxes_arr[keep], scores_arr[keep]
+
+
+class SotTracker:
+    """Algorithm 1 over one sequence.
+
+    Parameters
+    ----------
+    config
+        The SOT thresholds and variant.
+    read_frame
+        ``frame number -> BGR image``.
+    n_frames
+        Sequence length (frames are ``1..n_frames``).
+    embed
+        For the ``deep`` variant: ``(frame, boxes) -> (N, D)`` unit features.
+    det_features
+        For the ``deep`` variant: features of the input detections.
+    """
+
+    def __init__(self, config: SotConfig, read_frame: Callable[[int], np.ndarray], n_frames: int,
+                 embed: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+                 det_features: np.ndarray | None = None) -> None:
+        if config.variant == "deep" and (embed is None or det_features is None):
+            raise ValueError("the deep SOT variant needs an embedder and the detections' features")
+        self.config = config
+        self.read_frame = read_frame
+        self.n_frames = n_frames
+        self.embed = embed
+        self.det_features = det_features
+        self.search = TemplateSearch(config)
+        self.steps = 0
+
+    # -- affinity of a candidate with the seed -------------------------------------------------
+    def _seed_affinity(self, seed: int, frame: np.ndarray, box_ids: list[int]) -> np.ndarray:
+        """Affinity of the seed with boxes already in a frame (template NCC or deep features)."""
+        if self.config.variant == "template":
+            t = self._templates[seed]
+            return np.array([self.search.score_box(t, frame, self._boxes[b]) for b in box_ids])
+        feats = np.stack([self._features[b] for b in box_ids])
+        return affinity_rows(np.repeat(self._features[seed][None], len(box_ids), 0), feats)
+
+    def next(self, prior: np.ndarray, seed: int, frame: np.ndarray) -> tuple[np.ndarray, float, np.ndarray | None]:
+        """Paper's ``next(B, d_b, I)``: the best candidate around ``prior`` scored against the seed.
+
+        Returns ``(box, affinity, feature)``; ``box`` is None-like (empty) when
+        nothing scores above ``tau``.
+        """
+        self.steps += 1
+        if self.config.variant == "template":
+            boxes, scores = self.search.search(self._templates[seed], frame, prior, top=1)
+            if len(boxes) == 0 or scores[0] <= self.config.tau:
+                return np.zeros(0), 0.0, None
+            return boxes[0], float(scores[0]), None
+        boxes, _ = self.search.search(self._templates[seed], frame, prior, top=self.config.rerank)
+        if len(boxes) == 0:
+            return np.zeros(0), 0.0, None
+        feats = self.embed(frame, boxes)
+        aff = affinity_rows(np.repeat(self._features[seed][None], len(boxes), 0), feats)
+        best = int(np.argmax(aff))
+        if aff[best] <= self.config.tau:
+            return np.zeros(0), 0.0, None
+        return boxes[best], float(aff[best]), feats[best]
+
+    # -- Algorithm 1 ---------------------------------------------------------------------------
+    def run(self, detections: Detections, progress: Callable | None = None) -> SotResult:
+        """Run Algorithm 1 window by window over all ``detections``."""
+        cfg = self.config
+        n = len(detections)
+        self._boxes: list[np.ndarray] = [b for b in detections.boxes]
+        self._frames: list[int] = detections.frames.tolist()
+        self._features: list[np.ndarray | None] = (list(self.det_features) if self.det_features is not None
+                                                   else [None] * n)
+        self._templates: dict[int, np.ndarray] = {}
+        links: list[tuple[int, int]] = []
+        window = cfg.window or 2 * cfg.L + 1
+        ranks = _score_ranks(detections.scores)
+        per_frame = detections.by_frame()
+        starts = range(1, self.n_frames + 1, window)
+        for w0 in (progress(starts) if progress else starts):
+            w1 = min(self.n_frames, w0 + window - 1)
+            frames_cache: dict[int, np.ndarray] = {}
+
+            def image(f: int) -> np.ndarray:
+                if f not in frames_cache:
+                    frames_cache[f] = self.read_frame(f)
+                return frames_cache[f]
+
+            in_frame: dict[int, list[int]] = {f: list(per_frame.get(f, [])) for f in range(w0, w1 + 1)}
+            ends: dict[int, set[int]] = {}
+            heap: list[_End] = []
+            counter = 0
+            for f in range(w0, w1 + 1):
+                for d in in_frame[f]:
+                    ends[d] = {1, -1}
+                    for direction in (1, -1):
+                        heapq.heappush(heap, _End(-ranks[d], counter, d, d, ranks[d], 1, direction))
+                        counter += 1
+            while heap:
+                end = heapq.heappop(heap)
+                if end.direction not in ends.get(end.box_id, set()):
+                    continue  # this end already met another one
+                ends[end.box_id].discard(end.direction)
+                f = self._frames[end.box_id]
+                g = f + end.direction
+                if end.length >= cfg.L or not (w0 <= g <= w1):
+                    continue
+                seed = end.seed_id
+                if seed not in self._templates:  # both variants propose with the template
+                    self._templates[seed] = TemplateSearch.template(image(self._frames[seed]), self._boxes[seed])
+                box = self._boxes[end.box_id]
+                others = in_frame[g]
+                if others:
+                    ious = iou_matrix(box, np.stack([self._boxes[b] for b in others]))[0]
+                    facing = [b for b, iou in zip(others, ious) if iou > cfg.tau_I and -end.direction in ends.get(b, ())]
+                    if facing:
+                        aff = self._seed_affinity(seed, image(g), facing)
+                        best = int(np.argmax(aff))
+                        if aff[best] > cfg.tau_a:
+                            meet = facing[best]
+                            ends[meet].discard(-end.direction)
+                            links.append((end.box_id, meet) if end.direction == 1 else (meet, end.box_id))
+                            continue
+                found, aff, feature = self.next(box, seed, image(g))
+                if len(found) == 0 or aff < cfg.tau_a:
+                    continue
+                if others and iou_matrix(found, np.stack([self._boxes[b] for b in others]))[0].max() > cfg.tau_I:
+                    continue
+                new = len(self._boxes)
+                self._boxes.append(found)
+                self._frames.append(g)
+                self._features.append(feature)
+                in_frame[g].append(new)
+                ends[new] = {end.direction}
+                links.append((end.box_id, new) if end.direction == 1 else (new, end.box_id))
+                heapq.heappush(heap, _End(-end.score * cfg.e, counter, new, seed, end.score * cfg.e,
+                                          end.length + 1, end.direction))
+                counter += 1
+        added = len(self._boxes) - n
+        scores = np.concatenate([detections.scores, np.full(added, _added_score(detections.scores))])
+        enlarged = Detections(np.asarray(self._frames), np.asarray(self._boxes).reshape(-1, 4), scores,
+                              np.r_[detections.from_sot, np.ones(added, bool)])
+        feats = (np.stack(self._features[n:]) if cfg.variant == "deep" and added
+                 else (np.zeros((0, 0), np.float32) if cfg.variant == "deep" else None))
+        log.info("SOT (%s) added %d boxes to %d detections in %d steps", cfg.variant, added, n, self.steps)
+        return SotResult(enlarged, np.asarray(links, dtype=np.int64).reshape(-1, 2), feats, self.steps)
+
+
+def _score_ranks(scores: np.ndarray) -> np.ndarray:
+    """Scores mapped to (0, 1] by rank, so any score range (DPM's are negative too) orders the queue."""
+    if len(scores) == 0:
+        return np.zeros(0)
+    order = np.argsort(np.argsort(scores, kind="stable"), kind="stable")
+    return (order + 1) / len(scores)
+
+
+def _added_score(scores: np.ndarray) -> float:
+    """Score given to SOT boxes: the lowest detection score, so NMS prefers the detector's boxes."""
+    return float(scores.min()) if len(scores) else 0.0
