@@ -116,6 +116,35 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def _track_for_inspection(args: argparse.Namespace):
+    from sotmot.pipeline import track_sequence
+
+    config = _build_config(args)
+    return config, track_sequence(args.seq_dir, config, merger=args.merger, progress=not args.quiet)
+
+
+def cmd_graph(args: argparse.Namespace) -> int:
+    from sotmot.explain import export_graph, parse_frames, run_graph
+
+    frames = parse_frames(args.frames)
+    config, result = _track_for_inspection(args)
+    graph = run_graph(result, config, frames)
+    paths = export_graph(graph, args.out)
+    taken = sum(1 for *_, d in graph.edges(data=True) if d["taken"])
+    print(f"{graph.number_of_nodes()} tracklets, {graph.number_of_edges()} candidate links "
+          f"({taken} taken by {args.merger}) -> " + ", ".join(str(p) for p in paths))
+    return 0
+
+
+def cmd_explain(args: argparse.Namespace) -> int:
+    from sotmot.explain import explain, parse_ids, run_graph
+
+    a, b = parse_ids(args.ids)
+    config, result = _track_for_inspection(args)
+    print(explain(run_graph(result, config), a, b, config, args.merger))
+    return 0
+
+
 EPILOG_COMPARE = """\
 Each sequence goes once through detection cleaning, appearance and tracklets; then every
 solver runs on those same tracklets. Columns: TrackEval HOTA, MOTA, IDF1, IDSW; the number of
@@ -170,6 +199,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", type=Path, metavar="FILE", help="also write the table as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_compare)
+
+    for name, func, text in (("graph", cmd_graph, "export the association graph (GraphML + JSON)"),
+                             ("explain", cmd_explain, "say why two output tracks were or were not merged")):
+        p = sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + ". The sequence is "
+                           "tracked first, with the same options as 'sotmot track'; track ids are those "
+                           "of the results file that run writes.")
+        p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR")
+        p.add_argument("--merger", default="greedy", choices=sorted(SOLVERS))
+        if name == "graph":
+            p.add_argument("--out", type=Path, required=True, metavar="DIR")
+            p.add_argument("--frames", metavar="A:B", help="only tracklets that touch frames A..B")
+        else:
+            p.add_argument("--ids", required=True, metavar="ID,ID", help="two output track ids, e.g. 3,17")
+        _add_tracker_options(p)
+        p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+        p.set_defaults(func=func)
     return parser
 
 

@@ -80,7 +80,9 @@ def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
     networkx.DiGraph
         Nodes are tracklet ids with attributes ``start``, ``end``, ``length``
         and ``mean_score``; edges have ``affinity``, ``weight`` (the float link
-        cost), ``gap``, ``velocity``, ``velocity_bound``, ``overlap_frames``,
+        cost), ``gap`` (frames between them, 0 if they overlap), ``max_gap`` (of
+        the merged trajectory), ``velocity_gap``, ``velocity``, ``velocity_bound``
+        (the worst checked gap), ``overlap_frames``,
         ``min_segment_iou``, ``allowed``, ``failed`` (comma-separated) and one
         boolean per constraint (``ok_iou``, ``ok_gap``, ...).
     """
@@ -104,7 +106,8 @@ def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
             else (tracklets[j], tracklets[i])
         attrs = {f"ok_{c}": c not in check.failed for c in CONSTRAINTS}
         graph.add_edge(u.id, v.id, affinity=check.affinity, weight=float(link_cost(check.affinity)),
-                       gap=max(0, v.start - u.end), velocity=check.velocity, velocity_bound=check.velocity_bound,
+                       gap=max(0, v.start - u.end), max_gap=check.max_gap, velocity_gap=check.gap_at_max_velocity,
+                       velocity=check.velocity, velocity_bound=check.velocity_bound,
                        overlap_frames=check.overlap_frames, min_segment_iou=check.min_segment_iou,
                        allowed=check.allowed, failed=",".join(check.failed), **attrs)
     return graph

@@ -55,19 +55,36 @@ def smooth(frames: np.ndarray, boxes: np.ndarray, window: int) -> np.ndarray:
     return (csum[hi] - csum[lo]) / (hi - lo)[:, None]
 
 
+def output_ids(trajectories: Sequence[Tracklet], config: PostprocessConfig = PostprocessConfig()) -> list[int | None]:
+    """The track id each trajectory gets in the output (None if it is dropped as too short).
+
+    Trajectories are numbered 1, 2, ... by first frame, then by first
+    detection index; one shorter than ``config.min_length`` boxes after
+    interpolation gets no id.
+    """
+    order = sorted(range(len(trajectories)), key=lambda k: (trajectories[k].start, int(trajectories[k].det_index[0])))
+    ids: list[int | None] = [None] * len(trajectories)
+    next_id = 1
+    for k in order:
+        t = trajectories[k]
+        length = t.end - t.start + 1 if config.interpolate else len(t)
+        if length >= config.min_length:
+            ids[k] = next_id
+            next_id += 1
+    return ids
+
+
 def to_tracks(trajectories: Sequence[Tracklet], detections: Detections,
               config: PostprocessConfig = PostprocessConfig()) -> Tracks:
     """Post-process trajectories into the final :class:`Tracks`.
 
-    Trajectories are numbered 1, 2, ... by first frame (then by first
-    detection index); each is interpolated (if enabled), smoothed, and dropped
-    if shorter than ``config.min_length`` boxes.
+    Each trajectory is interpolated (if enabled) and smoothed, and written
+    under the id :func:`output_ids` gives it (or dropped).
     """
-    order = sorted(range(len(trajectories)), key=lambda k: (trajectories[k].start, int(trajectories[k].det_index[0])))
     parts = []
-    next_id = 1
-    for k in order:
-        t = trajectories[k]
+    for t, track_id in zip(trajectories, output_ids(trajectories, config)):
+        if track_id is None:
+            continue
         frames, boxes, scores = t.frames, t.boxes, t.scores
         sot = detections.from_sot[t.det_index]
         filled = np.zeros(len(frames), dtype=bool)
@@ -76,12 +93,10 @@ def to_tracks(trajectories: Sequence[Tracklet], detections: Detections,
             full_sot = np.zeros(len(frames), dtype=bool)
             full_sot[~filled] = sot
             sot = full_sot
-        if len(frames) < config.min_length:
-            continue
         boxes = smooth(frames, boxes, config.smooth_window)
-        parts.append((frames, np.full(len(frames), next_id), boxes, scores, filled, sot))
-        next_id += 1
+        parts.append((frames, np.full(len(frames), track_id), boxes, scores, filled, sot))
     if not parts:
         return Tracks.empty()
+    parts.sort(key=lambda p: int(p[1][0]))
     cols = [np.concatenate(c) for c in zip(*parts)]
     return Tracks(*cols)

@@ -1,0 +1,163 @@
+"""Why the tracker linked what it linked: the association graph of a run, exported and explained.
+
+The graph is :func:`sotmot.graph.build_graph` with the rejected candidates
+kept, annotated with what the solver did: every node (tracklet) carries the
+output track id it ended in, and every edge whether the solver took it and,
+for the greedy merge, in which round.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import networkx as nx
+import numpy as np
+
+from sotmot.config import TrackerConfig
+from sotmot.errors import SotmotError
+from sotmot.graph import build_graph
+from sotmot.io import write_text_atomic
+from sotmot.pipeline import TrackResult
+from sotmot.postprocess import output_ids
+
+
+def run_graph(result: TrackResult, config: TrackerConfig, frames: tuple[int, int] | None = None) -> nx.DiGraph:
+    """The annotated association graph of ``result``, optionally of tracklets inside ``frames = (A, B)``.
+
+    Node attributes: ``start``, ``end``, ``length``, ``mean_score``,
+    ``sot_boxes`` (boxes added by the SOT step), ``track`` (output id, -1 if
+    the trajectory was dropped). Edge attributes: those of
+    :func:`~sotmot.graph.build_graph` plus ``taken`` and ``round`` (greedy
+    merge order, 0 when not taken or for solvers that decide at once).
+    """
+    tracklets = result.tracklets
+    if frames is not None:
+        a, b = frames
+        tracklets = [t for t in tracklets if t.end >= a and t.start <= b]
+    graph = build_graph(tracklets, config.association, include_rejected=True)
+    ids = output_ids(result.trajectories, config.postprocess)
+    track_of = {}
+    for group, track in zip(result.association.groups, ids):
+        for t in group:
+            track_of[t] = -1 if track is None else track
+    for t in tracklets:
+        graph.nodes[t.id]["track"] = track_of.get(t.id, -1)
+        graph.nodes[t.id]["sot_boxes"] = int(result.detections.from_sot[t.det_index].sum())
+    nx.set_edge_attributes(graph, False, "taken")
+    nx.set_edge_attributes(graph, 0, "round")
+    for link in result.association.links:
+        for u, v in ((link.a, link.b), (link.b, link.a)):
+            if graph.has_edge(u, v):
+                graph.edges[u, v]["taken"] = True
+                graph.edges[u, v]["round"] = link.round
+    return graph
+
+
+def _plain(value):
+    """GraphML and JSON friendly scalars (NaN and inf become strings)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else str(float(value))
+    return value
+
+
+def export_graph(graph: nx.DiGraph, out_dir: str | Path) -> list[Path]:
+    """Write ``graph.graphml`` and ``graph.json`` (networkx node-link) into ``out_dir``, atomically."""
+    out_dir = Path(out_dir)
+    clean = nx.DiGraph()
+    for n, data in graph.nodes(data=True):
+        clean.add_node(n, **{k: _plain(v) for k, v in data.items()})
+    for u, v, data in graph.edges(data=True):
+        clean.add_edge(u, v, **{k: _plain(v) for k, v in data.items()})
+    graphml = out_dir / "graph.graphml"
+    write_text_atomic(graphml, "\n".join(nx.generate_graphml(clean)) + "\n")
+    js = out_dir / "graph.json"
+    write_text_atomic(js, json.dumps(nx.node_link_data(clean, edges="edges"), indent=1) + "\n")
+    return [graphml, js]
+
+
+def _verdict(data: dict, config: TrackerConfig) -> list[str]:
+    a = config.association
+    lines = []
+    if data["overlap_frames"]:
+        lines.append(f"IoU: {data['overlap_frames']} shared frames, lowest segment mean IoU "
+                     f"{data['min_segment_iou']:.3f} (must be > {a.tau_iou}) -> "
+                     f"{'ok' if data['ok_iou'] else 'FAILS'}")
+    else:
+        lines.append("IoU: no shared frames (rule does not apply) -> ok")
+    lines.append(f"gap: largest gap of the merged trajectory {data['max_gap']} frames (max {a.l_max}) -> "
+                 f"{'ok' if data['ok_gap'] else 'FAILS'}")
+    if math.isfinite(data["velocity_bound"]):
+        lines.append(f"velocity: {data['velocity']:.2f} px/frame over the worst checked gap of "
+                     f"{data['velocity_gap']} frames (bound {data['velocity_bound']:.2f}) -> "
+                     f"{'ok' if data['ok_velocity'] else 'FAILS'}")
+    else:
+        lines.append("velocity: the merge creates or changes no gap -> ok")
+    lines.append(f"affinity: {data['affinity']:.3f} (min {a.min_affinity}) -> "
+                 f"{'ok' if data['ok_affinity'] else 'FAILS'}")
+    return lines
+
+
+def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig, merger: str) -> str:
+    """Plain words on why output tracks ``track_a`` and ``track_b`` were or were not merged."""
+    members = {}
+    for track in (track_a, track_b):
+        members[track] = sorted(n for n, d in graph.nodes(data=True) if d.get("track") == track)
+        if not members[track]:
+            raise SotmotError(f"track {track} has no tracklet in this graph (wrong id, or outside --frames)")
+    out = []
+    same = track_a == track_b
+    out.append(f"track {track_a}: tracklets {members[track_a]}; track {track_b}: tracklets {members[track_b]}")
+    for t in members[track_a] + ([] if same else members[track_b]):
+        d = graph.nodes[t]
+        out.append(f"  tracklet {t}: frames {d['start']}-{d['end']}, {d['length']} boxes "
+                   f"({d['sot_boxes']} from SOT), mean score {d['mean_score']:.2f}")
+    pairs = [(u, v) for u in members[track_a] for v in members[track_b] if u != v]
+    found = 0
+    for u, v in pairs:
+        for x, y in ((u, v), (v, u)):
+            if not graph.has_edge(x, y):
+                continue
+            found += 1
+            data = graph.edges[x, y]
+            state = (f"TAKEN by {merger}" + (f" in round {data['round']}" if data["round"] else "")) \
+                if data["taken"] else ("allowed, not taken" if data["allowed"] else
+                                       f"REJECTED by {data['failed'].replace(',', ', ')}")
+            out.append(f"candidate {x} -> {y}: {state}")
+            out.extend("    " + line for line in _verdict(data, config))
+    if not found:
+        out.append(f"no candidate pair between them: their tracklets are more than l_max = "
+                   f"{config.association.l_max} frames apart, so they were never compared")
+    verdict = "were merged" if same else "were not merged"
+    out.append(f"-> tracks {track_a} and {track_b} {verdict} ({merger}).")
+    return "\n".join(out)
+
+
+def parse_frames(text: str | None) -> tuple[int, int] | None:
+    """``"A:B"`` -> ``(A, B)`` (1-based, inclusive); None stays None."""
+    if text is None:
+        return None
+    try:
+        a, b = (int(x) for x in text.split(":"))
+    except ValueError:
+        raise SotmotError(f"--frames must look like A:B (e.g. 1:100), got {text!r}") from None
+    if a < 1 or b < a:
+        raise SotmotError(f"--frames {text}: need 1 <= A <= B")
+    return a, b
+
+
+def parse_ids(text: str) -> Sequence[int]:
+    """``"3,17"`` -> ``[3, 17]``."""
+    try:
+        ids = [int(x) for x in text.split(",")]
+    except ValueError:
+        raise SotmotError(f"--ids must be two track ids like 3,17, got {text!r}") from None
+    if len(ids) != 2:
+        raise SotmotError(f"--ids needs exactly two track ids, got {text!r}")
+    return ids

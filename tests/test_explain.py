@@ -1,0 +1,58 @@
+"""Graph export and explanations: the decisions of a run, in files and in words."""
+
+import networkx as nx
+
+from conftest import GeometryEmbedder, write_sequence
+from sotmot.config import TrackerConfig
+from sotmot.explain import explain, export_graph, run_graph
+from sotmot.pipeline import track_sequence
+
+
+def teleport_run(tmp_path):
+    # one 20x40 box walks 2 px/frame for frames 1-4, then the same-looking box is 240 px away in
+    # frames 5-8: 4 fps gives batches of 4 frames, so two tracklets, and the velocity rule must
+    # refuse to join them (240 px in 1 frame against a bound of w = 20 px/frame)
+    lines = [f"{f},-1,{10 + 2 * f},50,20,40,0.9" for f in range(1, 5)]
+    lines += [f"{f},-1,{250 + 2 * f},50,20,40,0.9" for f in range(5, 9)]
+    seq = write_sequence(tmp_path, lines, length=8, frame_rate=4, width=320, height=120)
+    config = TrackerConfig()
+    return config, track_sequence(seq, config, embedder=GeometryEmbedder())
+
+
+def test_velocity_rejection_is_exported_and_explained(tmp_path):
+    config, result = teleport_run(tmp_path)
+    assert result.tracks.n_tracks == 2
+    graph = run_graph(result, config)
+    (edge,) = graph.edges(data=True)
+    assert edge[2]["failed"] == "velocity" and not edge[2]["taken"]
+    text = explain(graph, 1, 2, config, "greedy")
+    assert "REJECTED by velocity" in text
+    assert "velocity: 242.00 px/frame" in text and "bound 20.00" in text
+    assert "were not merged" in text
+
+
+def test_graphml_and_json_round_trip(tmp_path):
+    config, result = teleport_run(tmp_path)
+    graph = run_graph(result, config)
+    export_graph(graph, tmp_path / "out")
+    back = nx.read_graphml(tmp_path / "out" / "graph.graphml", node_type=int)
+    assert sorted(back.nodes) == sorted(graph.nodes) and sorted(back.edges) == sorted(graph.edges)
+    u, v = next(iter(graph.edges))
+    assert back.edges[u, v]["failed"] == "velocity"
+    assert back.edges[u, v]["affinity"] == graph.edges[u, v]["affinity"]
+    assert back.nodes[u]["track"] == graph.nodes[u]["track"]
+    import json
+
+    data = nx.node_link_graph(json.loads((tmp_path / "out" / "graph.json").read_text()), edges="edges")
+    assert sorted(data.edges) == sorted(graph.edges)
+    assert data.edges[u, v]["velocity_bound"] == graph.edges[u, v]["velocity_bound"]
+
+
+def test_merged_tracks_are_explained_as_taken(tmp_path):
+    lines = [f"{f},-1,{10 + 2 * f},50,20,40,0.9" for f in range(1, 9)]
+    seq = write_sequence(tmp_path, lines, length=8, frame_rate=4, width=320, height=120)
+    config = TrackerConfig()
+    result = track_sequence(seq, config, embedder=GeometryEmbedder())
+    graph = run_graph(result, config)
+    text = explain(graph, 1, 1, config, "greedy")
+    assert "TAKEN by greedy in round 1" in text and "were merged" in text
