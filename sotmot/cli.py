@@ -67,6 +67,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     from sotmot.appearance import make_embedder
     from sotmot.io import read_seqinfo, write_results
     from sotmot.pipeline import track_sequence
+    from sotmot.render import write_flags
 
     config = _build_config(args)
     infos = [read_seqinfo(s) for s in args.seq_dirs]  # fail early on a bad folder
@@ -79,6 +80,7 @@ def cmd_track(args: argparse.Namespace) -> int:
         result = track_sequence(seq, config, merger=args.merger, embedder=embedder, progress=not args.quiet)
         out = args.out / f"{result.info.name}.txt"
         write_results(out, result.tracks)
+        write_flags(out, result.tracks)
         seconds = time.perf_counter() - start
         print(f"{result.info.name}: {result.tracks.n_tracks} tracks, {len(result.tracks)} boxes, "
               f"{result.info.length / seconds:.1f} frames/s -> {out}")
@@ -113,6 +115,19 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if args.json:
         write_text_atomic(args.json, json.dumps(result.to_dict(), indent=2) + "\n")
         print(f"comparison written to {args.json}")
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from sotmot.io import read_results, read_seqinfo
+    from sotmot.pipeline import progress_bar
+    from sotmot.render import read_flags, render
+
+    info = read_seqinfo(args.seq_dir)
+    tracks = read_flags(args.results, read_results(args.results, info.length))
+    out = render(info, tracks, args.out,
+                 progress=lambda it: progress_bar(it, f"{info.name}: render", not args.quiet, info.length))
+    print(f"{info.length} frames, {tracks.n_tracks} tracks -> {out}")
     return 0
 
 
@@ -199,6 +214,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", type=Path, metavar="FILE", help="also write the table as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("render", help="draw results on the frames (video or JPEG folder)",
+                       description="Draw tracking results on the frames: stable colour per id, id label, "
+                                   "short trail; SOT boxes dashed, interpolated boxes thin with an 'i' "
+                                   "(from the .flags.csv that 'sotmot track' writes beside the results).")
+    p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR")
+    p.add_argument("results", type=Path, metavar="RESULTS.txt")
+    p.add_argument("--out", type=Path, required=True, metavar="VIDEO.mp4|DIR",
+                   help="a .mp4/.avi file, or a folder for one JPEG per frame")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_render)
 
     for name, func, text in (("graph", cmd_graph, "export the association graph (GraphML + JSON)"),
                              ("explain", cmd_explain, "say why two output tracks were or were not merged")):

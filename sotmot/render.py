@@ -1,0 +1,151 @@
+"""Draw tracking results on the frames: a video (``.mp4``/``.avi``) or a folder of JPEGs.
+
+Each id keeps one colour (derived from the id, so two renders agree); boxes
+carry the id and a short trail of past centres. Boxes found by the SOT step
+are drawn dashed, boxes filled in by interpolation thin with an ``i`` after
+the id; those two flags come from the ``<name>.flags.csv`` file that
+``sotmot track`` writes beside each results file. Boxes are ``x, y, w, h``
+pixels, frames 1-based.
+"""
+
+from __future__ import annotations
+
+import colorsys
+from collections import deque
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import numpy as np
+
+from sotmot.errors import InputError
+from sotmot.io import FrameReader, SeqInfo, write_text_atomic
+from sotmot.types import Tracks
+
+TRAIL = 12
+
+
+def colour(track_id: int) -> tuple[int, int, int]:
+    """A stable, well-spread BGR colour for an id (golden-ratio hue steps)."""
+    hue = (track_id * 0.618033988749895) % 1.0
+    r, g, b = colorsys.hsv_to_rgb(hue, 0.85, 0.95)
+    return int(b * 255), int(g * 255), int(r * 255)
+
+
+def flags_path(results: str | Path) -> Path:
+    """The side file with the SOT / interpolation flags of a results file."""
+    results = Path(results)
+    return results.with_name(results.stem + ".flags.csv")
+
+
+def write_flags(results: str | Path, tracks: Tracks) -> None:
+    """Write ``frame,id,interpolated,from_sot`` for every box of ``tracks`` (atomically)."""
+    order = np.lexsort((tracks.ids, tracks.frames))
+    rows = ["frame,id,interpolated,from_sot\n"] + [
+        f"{tracks.frames[i]},{tracks.ids[i]},{int(tracks.interpolated[i])},{int(tracks.from_sot[i])}\n"
+        for i in order]
+    write_text_atomic(flags_path(results), "".join(rows))
+
+
+def read_flags(results: str | Path, tracks: Tracks) -> Tracks:
+    """``tracks`` with the flags of its side file, if there is one (else unchanged)."""
+    path = flags_path(results)
+    if not path.is_file():
+        return tracks
+    flags: dict[tuple[int, int], tuple[bool, bool]] = {}
+    for number, line in enumerate(path.read_text().splitlines()[1:], 2):
+        try:
+            f, i, interp, sot = (int(x) for x in line.split(","))
+        except ValueError:
+            raise InputError(path, "expected frame,id,interpolated,from_sot", line=number) from None
+        flags[f, i] = (bool(interp), bool(sot))
+    got = [flags.get((int(f), int(i)), (False, False)) for f, i in zip(tracks.frames, tracks.ids)]
+    return Tracks(tracks.frames, tracks.ids, tracks.boxes, tracks.scores,
+                  [g[0] for g in got], [g[1] for g in got])
+
+
+def _dashed_rectangle(img: np.ndarray, p1: tuple[int, int], p2: tuple[int, int], col, thickness: int) -> None:
+    import cv2
+
+    (x1, y1), (x2, y2) = p1, p2
+    dash = 8
+    for x in range(x1, x2, 2 * dash):
+        cv2.line(img, (x, y1), (min(x + dash, x2), y1), col, thickness)
+        cv2.line(img, (x, y2), (min(x + dash, x2), y2), col, thickness)
+    for y in range(y1, y2, 2 * dash):
+        cv2.line(img, (x1, y), (x1, min(y + dash, y2)), col, thickness)
+        cv2.line(img, (x2, y), (x2, min(y + dash, y2)), col, thickness)
+
+
+def draw_frame(image: np.ndarray, tracks: Tracks, rows: np.ndarray,
+               trails: dict[int, deque] | None = None) -> np.ndarray:
+    """A copy of ``image`` with the boxes ``rows`` of ``tracks`` drawn on it."""
+    import cv2
+
+    out = image.copy()
+    thick = max(1, round(out.shape[0] / 400))
+    for r in rows:
+        tid = int(tracks.ids[r])
+        x, y, w, h = tracks.boxes[r]
+        p1, p2 = (int(round(x)), int(round(y))), (int(round(x + w)), int(round(y + h)))
+        col = colour(tid)
+        if trails is not None:
+            trail = trails.setdefault(tid, deque(maxlen=TRAIL))
+            trail.append((int(round(x + w / 2)), int(round(y + h))))
+            for a, b in zip(list(trail)[:-1], list(trail)[1:]):
+                cv2.line(out, a, b, col, thick)
+        if tracks.from_sot[r]:
+            _dashed_rectangle(out, p1, p2, col, thick + 1)
+        else:
+            cv2.rectangle(out, p1, p2, col, 1 if tracks.interpolated[r] else thick + 1)
+        label = f"{tid}{'i' if tracks.interpolated[r] else ''}"
+        scale = 0.4 + out.shape[0] / 1500
+        (tw, th), _ = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
+        cv2.rectangle(out, (p1[0], p1[1] - th - 4), (p1[0] + tw + 4, p1[1]), col, -1)
+        cv2.putText(out, label, (p1[0] + 2, p1[1] - 3), cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 1, cv2.LINE_AA)
+    return out
+
+
+def render(info: SeqInfo, tracks: Tracks, out: str | Path,
+           progress: Callable[[Iterable[int]], Iterable[int]] | None = None) -> Path:
+    """Render every frame of the sequence with ``tracks`` into a video file or a folder of JPEGs.
+
+    A path ending in ``.mp4`` or ``.avi`` is a video (OpenCV's writer; the
+    file appears only when complete); anything else is a folder.
+    """
+    import cv2
+
+    out = Path(out)
+    reader = FrameReader(info, cache_size=1)
+    per_frame: dict[int, list[int]] = {}
+    for r, f in enumerate(tracks.frames.tolist()):
+        per_frame.setdefault(f, []).append(r)
+    frames = range(1, info.length + 1)
+    trails: dict[int, deque] = {}
+    video = out.suffix.lower() in (".mp4", ".avi")
+    if video:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
+        fourcc = cv2.VideoWriter_fourcc(*("mp4v" if out.suffix.lower() == ".mp4" else "MJPG"))
+        writer = cv2.VideoWriter(str(tmp), fourcc, float(info.frame_rate), (info.width, info.height))
+        if not writer.isOpened():
+            raise InputError(out, "OpenCV cannot write a video here (try .avi, or a folder)")
+    else:
+        out.mkdir(parents=True, exist_ok=True)
+    try:
+        for f in (progress(frames) if progress else frames):
+            image = draw_frame(reader(f), tracks, np.asarray(per_frame.get(f, []), int), trails)
+            if image.shape[:2] != (info.height, info.width):
+                image = cv2.resize(image, (info.width, info.height))
+            if video:
+                writer.write(image)
+            else:
+                cv2.imwrite(str(out / f"{f:06d}.jpg"), image)
+    except BaseException:
+        if video:
+            writer.release()
+            tmp.unlink(missing_ok=True)
+        raise
+    if video:
+        writer.release()
+        tmp.replace(out)
+    return out

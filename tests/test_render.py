@@ -1,0 +1,39 @@
+"""Rendering results on frames."""
+
+import cv2
+import numpy as np
+
+from conftest import write_sequence
+from sotmot.cli import main
+from sotmot.io import read_results, read_seqinfo, write_results
+from sotmot.render import colour, read_flags, render, write_flags
+from sotmot.types import Tracks
+
+
+def test_video_has_every_frame_and_flags_round_trip(tmp_path):
+    seq = write_sequence(tmp_path, ["1,-1,5,5,10,20,1"], length=6, width=96, height=64)
+    tracks = Tracks(frames=[1, 2, 3, 3], ids=[1, 1, 1, 2], boxes=[[5, 5, 10, 20]] * 4, scores=[1, 1, 1, 1],
+                    interpolated=[False, True, False, False], from_sot=[False, False, True, False])
+    results = tmp_path / "res" / "SYN.txt"
+    write_results(results, tracks)
+    write_flags(results, tracks)
+    back = read_flags(results, read_results(results))
+    assert back.interpolated.tolist() == [False, True, False, False]
+    assert back.from_sot.tolist() == [False, False, True, False]
+    assert main(["render", str(seq), str(results), "--out", str(tmp_path / "v.avi"), "-q"]) == 0
+    cap = cv2.VideoCapture(str(tmp_path / "v.avi"))
+    assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 6
+    ok, first = cap.read()
+    assert ok and first.shape == (64, 96, 3)
+    assert not any(p.name.startswith(".") for p in tmp_path.iterdir())  # no partial file left
+
+
+def test_frames_folder_and_drawing(tmp_path):
+    seq = write_sequence(tmp_path, ["1,-1,5,5,10,20,1"], length=2, width=96, height=64)
+    tracks = Tracks(frames=[1], ids=[7], boxes=[[20, 20, 30, 30]], scores=[1])
+    render(read_seqinfo(seq), tracks, tmp_path / "frames")
+    img = cv2.imread(str(tmp_path / "frames" / "000001.jpg"))
+    plain = cv2.imread(str(seq / "img1" / "000001.jpg"))
+    assert sorted(p.name for p in (tmp_path / "frames").iterdir()) == ["000001.jpg", "000002.jpg"]
+    assert np.abs(img.astype(int) - plain.astype(int)).max() > 50  # the box was drawn
+    assert colour(7) == colour(7) and colour(7) != colour(8)
