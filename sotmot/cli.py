@@ -140,11 +140,15 @@ def _track_for_inspection(args: argparse.Namespace):
 
 def cmd_graph(args: argparse.Namespace) -> int:
     from sotmot.explain import export_graph, parse_frames, run_graph
+    from sotmot.graph_view import draw_png, tracklet_crops, write_html
 
     frames = parse_frames(args.frames)
     config, result = _track_for_inspection(args)
     graph = run_graph(result, config, frames)
     paths = export_graph(graph, args.out)
+    title = f"{result.info.name}: association graph ({args.merger})"
+    paths.append(draw_png(graph, args.out / "graph.png"))
+    paths.append(write_html(graph, args.out / "graph.html", tracklet_crops(result, graph), title))
     taken = sum(1 for *_, d in graph.edges(data=True) if d["taken"])
     print(f"{graph.number_of_nodes()} tracklets, {graph.number_of_edges()} candidate links "
           f"({taken} taken by {args.merger}) -> " + ", ".join(str(p) for p in paths))
@@ -226,7 +230,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_render)
 
-    for name, func, text in (("graph", cmd_graph, "export the association graph (GraphML + JSON)"),
+    for name, func, text in (("graph", cmd_graph, "export the association graph (GraphML, JSON, PNG, HTML)"),
                              ("explain", cmd_explain, "say why two output tracks were or were not merged")):
         p = sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + ". The sequence is "
                            "tracked first, with the same options as 'sotmot track'; track ids are those "

@@ -2,8 +2,9 @@
 
 The graph is :func:`sotmot.graph.build_graph` with the rejected candidates
 kept, annotated with what the solver did: every node (tracklet) carries the
-output track id it ended in, and every edge whether the solver took it and,
-for the greedy merge, in which round.
+output track id it ended in; an edge is *taken* when its two tracklets ended
+in one trajectory, one right after the other (ordered by start, end, id), and
+for the greedy merge ``round`` says in which merge round they were joined.
 """
 
 from __future__ import annotations
@@ -48,12 +49,40 @@ def run_graph(result: TrackResult, config: TrackerConfig, frames: tuple[int, int
         graph.nodes[t.id]["sot_boxes"] = int(result.detections.from_sot[t.det_index].sum())
     nx.set_edge_attributes(graph, False, "taken")
     nx.set_edge_attributes(graph, 0, "round")
-    for link in result.association.links:
-        for u, v in ((link.a, link.b), (link.b, link.a)):
+    joined = _join_rounds(result.association)
+    by_id = {t.id: t for t in result.tracklets}
+    for group in result.association.groups:
+        chain = sorted(group, key=lambda t: (by_id[t].start, by_id[t].end, t))
+        for u, v in zip(chain, chain[1:]):
             if graph.has_edge(u, v):
                 graph.edges[u, v]["taken"] = True
-                graph.edges[u, v]["round"] = link.round
+                graph.edges[u, v]["round"] = joined(u, v)
     return graph
+
+
+def _join_rounds(association):
+    """``(u, v) -> round`` in which the solver's links first put ``u`` and ``v`` in one trajectory.
+
+    Replays the links in order with a union-find; 0 for solvers whose links
+    carry no round (they decide all at once).
+    """
+    links = association.links
+
+    def joined(u: int, v: int) -> int:
+        parent: dict[int, int] = {}
+
+        def find(x: int) -> int:
+            while parent.get(x, x) != x:
+                x = parent[x]
+            return x
+
+        for link in links:
+            parent[find(link.a)] = find(link.b)
+            if find(u) == find(v):
+                return link.round
+        return 0
+
+    return joined
 
 
 def _plain(value):

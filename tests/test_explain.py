@@ -1,10 +1,17 @@
 """Graph export and explanations: the decisions of a run, in files and in words."""
 
+import re
+import shutil
+import subprocess
+
+import cv2
 import networkx as nx
+import pytest
 
 from conftest import GeometryEmbedder, write_sequence
 from sotmot.config import TrackerConfig
 from sotmot.explain import explain, export_graph, run_graph
+from sotmot.graph_view import draw_png, tracklet_crops, write_html
 from sotmot.pipeline import track_sequence
 
 
@@ -56,3 +63,34 @@ def test_merged_tracks_are_explained_as_taken(tmp_path):
     graph = run_graph(result, config)
     text = explain(graph, 1, 1, config, "greedy")
     assert "TAKEN by greedy in round 1" in text and "were merged" in text
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROME_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                "--enable-logging=stderr", "--v=0"]
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed (.ci/run installs it)")
+def test_html_page_works_in_a_real_headless_browser(tmp_path):
+    config, result = teleport_run(tmp_path)
+    graph = run_graph(result, config)
+    page = write_html(graph, tmp_path / "graph.html", tracklet_crops(result, graph), "teleport")
+    png = draw_png(graph, tmp_path / "graph.png")
+    assert cv2.imread(str(png)) is not None
+    profile = ["--user-data-dir=" + str(tmp_path / "profile")]
+    url = page.resolve().as_uri() + "#click=edge-0"
+    run = subprocess.run([CHROMIUM, *CHROME_FLAGS, *profile, "--dump-dom", url],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    affinity = graph.edges[next(iter(graph.edges))]["affinity"]
+    # the click filled the details panel from the page's own data, through the page's script
+    shown = re.search(r'class="v-affinity">([^<]+)<', run.stdout)
+    assert shown and float(shown.group(1)) == pytest.approx(affinity, abs=1e-4)
+    assert 'class="v-failed">velocity<' in run.stdout
+    console = [line for line in run.stderr.splitlines() if "CONSOLE" in line or "Uncaught" in line]
+    assert not any("rror" in line or "Uncaught" in line for line in console), console
+    shot = tmp_path / "shot.png"
+    run = subprocess.run([CHROMIUM, *CHROME_FLAGS, *profile, f"--screenshot={shot}", "--window-size=1400,500",
+                          url], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0 and shot.is_file() and cv2.imread(str(shot)) is not None
