@@ -131,7 +131,7 @@ class TemplateSearch:
         import cv2
 
         img_h, img_w = frame.shape[:2]
-        grey = frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+        grey = frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)  # callers pass grey
         boxes, scores = [], []
         for s in self.scales:
             bw, bh = prior[2] * s, prior[3] * s
@@ -148,7 +148,11 @@ class TemplateSearch:
                 continue
             region = cv2.resize(grey[y1:y2, x1:x2], (rw, rh), interpolation=cv2.INTER_AREA).astype(np.float32)
             response = cv2.matchTemplate(region, tmpl, cv2.TM_CCOEFF_NORMED)
-            flat = np.argsort(response, axis=None)[::-1][: max(top * 4, top)]
+            if top == 1:
+                flat = [int(np.argmax(response))]
+            else:
+                flat = np.argpartition(response, -4 * top, axis=None)[-4 * top:] if response.size > 4 * top \
+                    else np.arange(response.size)
             for idx in flat:
                 py, px = np.unravel_index(idx, response.shape)
                 boxes.append([x1 + px / k, y1 + py / k, bw, bh])
@@ -205,19 +209,22 @@ class SotTracker:
         feats = np.stack([self._features[b] for b in box_ids])
         return affinity_rows(np.repeat(self._features[seed][None], len(box_ids), 0), feats)
 
-    def next(self, prior: np.ndarray, seed: int, frame: np.ndarray) -> tuple[np.ndarray, float, np.ndarray | None]:
+    def next(self, prior: np.ndarray, seed: int, frame: np.ndarray,
+             grey: np.ndarray | None = None) -> tuple[np.ndarray, float, np.ndarray | None]:
         """Paper's ``next(B, d_b, I)``: the best candidate around ``prior`` scored against the seed.
 
-        Returns ``(box, affinity, feature)``; ``box`` is None-like (empty) when
-        nothing scores above ``tau``.
+        ``grey`` is the frame in grey levels, if the caller has it. Returns
+        ``(box, affinity, feature)``; ``box`` is empty when nothing scores
+        above ``tau``.
         """
         self.steps += 1
+        search_in = frame if grey is None else grey
         if self.config.variant == "template":
-            boxes, scores = self.search.search(self._templates[seed], frame, prior, top=1)
+            boxes, scores = self.search.search(self._templates[seed], search_in, prior, top=1)
             if len(boxes) == 0 or scores[0] <= self.config.tau:
                 return np.zeros(0), 0.0, None
             return boxes[0], float(scores[0]), None
-        boxes, _ = self.search.search(self._templates[seed], frame, prior, top=self.config.rerank)
+        boxes, _ = self.search.search(self._templates[seed], search_in, prior, top=self.config.rerank)
         if len(boxes) == 0:
             return np.zeros(0), 0.0, None
         feats = self.embed(frame, boxes)
@@ -244,12 +251,18 @@ class SotTracker:
         starts = range(1, self.n_frames + 1, window)
         for w0 in (progress(starts) if progress else starts):
             w1 = min(self.n_frames, w0 + window - 1)
-            frames_cache: dict[int, np.ndarray] = {}
+            frames_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+            def cached(f: int) -> tuple[np.ndarray, np.ndarray]:
+                if f not in frames_cache:
+                    import cv2
+
+                    bgr = self.read_frame(f)
+                    frames_cache[f] = (bgr, cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY) if bgr.ndim == 3 else bgr)
+                return frames_cache[f]
 
             def image(f: int) -> np.ndarray:
-                if f not in frames_cache:
-                    frames_cache[f] = self.read_frame(f)
-                return frames_cache[f]
+                return cached(f)[0]
 
             in_frame: dict[int, list[int]] = {f: list(per_frame.get(f, [])) for f in range(w0, w1 + 1)}
             ends: dict[int, set[int]] = {}
@@ -286,7 +299,7 @@ class SotTracker:
                             ends[meet].discard(-end.direction)
                             links.append((end.box_id, meet) if end.direction == 1 else (meet, end.box_id))
                             continue
-                found, aff, feature = self.next(box, seed, image(g))
+                found, aff, feature = self.next(box, seed, *cached(g))
                 if len(found) == 0 or aff < cfg.tau_a:
                     continue
                 if others and iou_matrix(found, np.stack([self._boxes[b] for b in others]))[0].max() > cfg.tau_I:

@@ -70,9 +70,9 @@ def test_no_extension_where_the_object_is_gone():
 
 
 class RecordingTracker(SotTracker):
-    def next(self, prior, seed, frame):
+    def next(self, prior, seed, frame, grey=None):
         self.calls.append((tuple(np.round(prior, 1)), int(seed)))
-        return super().next(prior, seed, frame)
+        return super().next(prior, seed, frame, grey)
 
 
 def test_drift_guard_scores_against_the_seed_not_the_last_box():
