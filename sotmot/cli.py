@@ -125,7 +125,14 @@ def cmd_render(args: argparse.Namespace) -> int:
 
     info = read_seqinfo(args.seq_dir)
     tracks = read_flags(args.results, read_results(args.results, info.length))
-    out = render(info, tracks, args.out,
+    errors = None
+    if args.gt:
+        from sotmot.evaluate import frame_errors
+
+        errors = frame_errors(args.results, info.gt_path, info.length, info.name)
+        totals = errors.totals()
+        print(f"CLEAR matching (as TrackEval): FP {totals['FP']}, FN {totals['FN']}, IDSW {totals['IDSW']}")
+    out = render(info, tracks, args.out, errors=errors,
                  progress=lambda it: progress_bar(it, f"{info.name}: render", not args.quiet, info.length))
     print(f"{info.length} frames, {tracks.n_tracks} tracks -> {out}")
     return 0
@@ -222,11 +229,14 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("render", help="draw results on the frames (video or JPEG folder)",
                        description="Draw tracking results on the frames: stable colour per id, id label, "
                                    "short trail; SOT boxes dashed, interpolated boxes thin with an 'i' "
-                                   "(from the .flags.csv that 'sotmot track' writes beside the results).")
+                                   "(from the .flags.csv that 'sotmot track' writes beside the results). "
+                                   "With --gt, the ground truth is drawn beside them with the errors of "
+                                   "the CLEAR matching: FP red, FN dashed red, ID switches flagged.")
     p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR")
     p.add_argument("results", type=Path, metavar="RESULTS.txt")
     p.add_argument("--out", type=Path, required=True, metavar="VIDEO.mp4|DIR",
                    help="a .mp4/.avi file, or a folder for one JPEG per frame")
+    p.add_argument("--gt", action="store_true", help="draw SEQ_DIR/gt/gt.txt beside, with the errors marked")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_render)
 

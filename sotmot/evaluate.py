@@ -175,6 +175,106 @@ def evaluate_files(pairs: Sequence[tuple[str | Path, str | Path, int, str]]) -> 
     return report
 
 
+@dataclass
+class FrameErrors:
+    """Per-frame CLEAR matching of one sequence, for drawing (1-based frame -> rows).
+
+    Attributes
+    ----------
+    matched
+        Frame -> list of ``(gt_box, tracker_box, tracker_id, is_id_switch)``.
+    false_positives
+        Frame -> list of ``(tracker_box, tracker_id)``.
+    misses
+        Frame -> list of ground-truth boxes nobody matched.
+    """
+
+    matched: dict[int, list] = field(default_factory=dict)
+    false_positives: dict[int, list] = field(default_factory=dict)
+    misses: dict[int, list] = field(default_factory=dict)
+
+    def totals(self) -> dict[str, int]:
+        """Counts: TP, FP, FN, IDSW."""
+        return {"TP": sum(map(len, self.matched.values())),
+                "FP": sum(map(len, self.false_positives.values())),
+                "FN": sum(map(len, self.misses.values())),
+                "IDSW": sum(m[3] for rows in self.matched.values() for m in rows)}
+
+
+def frame_errors(results: str | Path, gt: str | Path, length: int, name: str) -> FrameErrors:
+    """Which boxes are matched, false, missed or switched, frame by frame.
+
+    The boxes come from TrackEval's own preprocessing (its distractor removal
+    for MOT16-style ground truth, its IoU similarities); the per-frame matching
+    follows the CLEAR MOT rule as TrackEval states it: Hungarian assignment on
+    IoU >= 0.5, with a large bonus for keeping the previous frame's match; an
+    ID switch when a ground-truth object is matched to a different tracker id
+    than the last time it was matched. A test checks that the counts equal
+    TrackEval's CLEAR FP, FN and IDSW.
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    te = _trackeval()
+    style = gt_style(gt)
+    out = FrameErrors()
+    with tempfile.TemporaryDirectory(prefix="sotmot-match-") as tmp:
+        root = Path(tmp)
+        (root / "gt" / name / "gt").mkdir(parents=True)
+        shutil.copyfile(gt, root / "gt" / name / "gt" / "gt.txt")
+        (root / "trackers" / "sotmot" / "data").mkdir(parents=True)
+        shutil.copyfile(results, root / "trackers" / "sotmot" / "data" / f"{name}.txt")
+        config = {"GT_FOLDER": str(root / "gt"), "TRACKERS_FOLDER": str(root / "trackers"),
+                  "TRACKERS_TO_EVAL": ["sotmot"], "CLASSES_TO_EVAL": ["pedestrian"], "BENCHMARK": style,
+                  "SPLIT_TO_EVAL": "train", "DO_PREPROC": True, "TRACKER_SUB_FOLDER": "data",
+                  "SKIP_SPLIT_FOL": True, "SEQ_INFO": {name: length},
+                  "GT_LOC_FORMAT": "{gt_folder}/{seq}/gt/gt.txt", "PRINT_CONFIG": False}
+        with contextlib.redirect_stdout(io.StringIO()):
+            dataset = te.datasets.MotChallenge2DBox(config)
+            raw = dataset.get_raw_seq_data("sotmot", name)
+            data = dataset.get_preprocessed_seq_data(raw, "pedestrian")
+    last_match: dict[int, int] = {}  # gt id -> tracker id it was last matched to
+    previous: dict[int, int] = {}  # gt id -> tracker id matched in the previous frame
+    for t in range(data["num_timesteps"]):
+        frame = t + 1
+        gt_ids, gt_boxes = data["gt_ids"][t], data["gt_dets"][t]
+        trk_boxes = data["tracker_dets"][t]
+        # TrackEval relabels tracker ids; recover the file's ids (its rows are kept in order)
+        raw_boxes, raw_ids = raw["tracker_dets"][t], raw["tracker_ids"][t]
+        trk_ids, k = [], 0
+        for box in trk_boxes:
+            while not np.array_equal(raw_boxes[k], box):
+                k += 1
+            trk_ids.append(int(raw_ids[k]))
+            k += 1
+        sim = np.asarray(data["similarity_scores"][t], dtype=np.float64)
+        matched_rows: list[tuple[int, int]] = []
+        if len(gt_ids) and len(trk_ids):
+            score = np.where(sim >= 0.5 - np.finfo(float).eps, sim, 0.0)
+            for i, g in enumerate(gt_ids):
+                for j, tid in enumerate(trk_ids):
+                    if previous.get(int(g)) == tid and score[i, j] > 0:
+                        score[i, j] += 1000.0
+            rows, cols = linear_sum_assignment(-score)
+            matched_rows = [(r, c) for r, c in zip(rows, cols) if sim[r, c] >= 0.5 - np.finfo(float).eps]
+        now: dict[int, int] = {}
+        for r, c in matched_rows:
+            g, tid = int(gt_ids[r]), trk_ids[c]
+            switch = g in last_match and last_match[g] != tid
+            out.matched.setdefault(frame, []).append((gt_boxes[r], trk_boxes[c], tid, switch))
+            last_match[g] = tid
+            now[g] = tid
+        previous = now
+        taken_gt = {r for r, _ in matched_rows}
+        taken_trk = {c for _, c in matched_rows}
+        misses = [gt_boxes[r] for r in range(len(gt_ids)) if r not in taken_gt]
+        false = [(trk_boxes[c], trk_ids[c]) for c in range(len(trk_ids)) if c not in taken_trk]
+        if misses:
+            out.misses[frame] = misses
+        if false:
+            out.false_positives[frame] = false
+    return out
+
+
 def evaluate(results_dir: str | Path, seq_dirs: Sequence[str | Path]) -> EvalReport:
     """Score ``results_dir/<name>.txt`` for each MOTChallenge sequence folder in ``seq_dirs``.
 

@@ -105,12 +105,44 @@ def draw_frame(image: np.ndarray, tracks: Tracks, rows: np.ndarray,
     return out
 
 
+RED, GREEN = (0, 0, 230), (0, 190, 0)
+
+
+def draw_errors(left: np.ndarray, plain: np.ndarray, frame: int, errors) -> np.ndarray:
+    """Side by side: the results with false positives (red, "FP") and ID switches ("IDSW") marked,
+    and the ground truth with matched boxes green and misses dashed red ("FN")."""
+    import cv2
+
+    left = left.copy()
+    right = plain.copy()
+    thick = max(1, round(left.shape[0] / 300))
+    for box, _ in errors.false_positives.get(frame, []):
+        x, y, w, h = (int(round(v)) for v in box)
+        cv2.rectangle(left, (x, y), (x + w, y + h), RED, thick + 1)
+        cv2.putText(left, "FP", (x + 2, y + h - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.5, RED, 2, cv2.LINE_AA)
+    for gt_box, trk_box, _, switch in errors.matched.get(frame, []):
+        x, y, w, h = (int(round(v)) for v in gt_box)
+        cv2.rectangle(right, (x, y), (x + w, y + h), GREEN, thick)
+        if switch:
+            tx, ty, _, th = (int(round(v)) for v in trk_box)
+            cv2.putText(left, "IDSW", (tx + 2, ty + th // 2), cv2.FONT_HERSHEY_SIMPLEX, 0.6, RED, 2, cv2.LINE_AA)
+    for box in errors.misses.get(frame, []):
+        x, y, w, h = (int(round(v)) for v in box)
+        _dashed_rectangle(right, (x, y), (x + w, y + h), RED, thick + 1)
+        cv2.putText(right, "FN", (x + 2, y + h - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.5, RED, 2, cv2.LINE_AA)
+    cv2.rectangle(right, (0, 0), (150, 32), (0, 0, 0), -1)
+    cv2.putText(right, "ground truth", (8, 22), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 1, cv2.LINE_AA)
+    return np.hstack([left, right])
+
+
 def render(info: SeqInfo, tracks: Tracks, out: str | Path,
-           progress: Callable[[Iterable[int]], Iterable[int]] | None = None) -> Path:
+           progress: Callable[[Iterable[int]], Iterable[int]] | None = None, errors=None) -> Path:
     """Render every frame of the sequence with ``tracks`` into a video file or a folder of JPEGs.
 
     A path ending in ``.mp4`` or ``.avi`` is a video (OpenCV's writer; the
-    file appears only when complete); anything else is a folder.
+    file appears only when complete); anything else is a folder. With
+    ``errors`` (:func:`sotmot.evaluate.frame_errors`), the ground truth is
+    drawn beside the results with the errors marked.
     """
     import cv2
 
@@ -126,16 +158,20 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
         fourcc = cv2.VideoWriter_fourcc(*("mp4v" if out.suffix.lower() == ".mp4" else "MJPG"))
-        writer = cv2.VideoWriter(str(tmp), fourcc, float(info.frame_rate), (info.width, info.height))
+        size = (info.width * (2 if errors is not None else 1), info.height)
+        writer = cv2.VideoWriter(str(tmp), fourcc, float(info.frame_rate), size)
         if not writer.isOpened():
             raise InputError(out, "OpenCV cannot write a video here (try .avi, or a folder)")
     else:
         out.mkdir(parents=True, exist_ok=True)
     try:
         for f in (progress(frames) if progress else frames):
-            image = draw_frame(reader(f), tracks, np.asarray(per_frame.get(f, []), int), trails)
-            if image.shape[:2] != (info.height, info.width):
-                image = cv2.resize(image, (info.width, info.height))
+            plain = reader(f)
+            if plain.shape[:2] != (info.height, info.width):
+                plain = cv2.resize(plain, (info.width, info.height))
+            image = draw_frame(plain, tracks, np.asarray(per_frame.get(f, []), int), trails)
+            if errors is not None:
+                image = draw_errors(image, plain, f, errors)
             if video:
                 writer.write(image)
             else:

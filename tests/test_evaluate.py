@@ -51,3 +51,12 @@ def test_malformed_results_are_reported_with_file_and_line(tmp_path):
     (out / "SYN.txt").write_text("1,1,10,10,20,40,1,-1,-1,-1\n3,1,10,10,20,40,1,-1,-1,-1\n")
     with pytest.raises(InputError, match=r"SYN.txt:2: frame 3 is outside 1..2"):
         evaluate(out, [seq])
+
+
+def test_frame_errors_count_what_trackeval_counts():
+    # the per-frame matching used for drawing errors must agree with TrackEval's CLEAR numbers
+    from sotmot.evaluate import frame_errors
+
+    path = tud_campus()
+    totals = frame_errors(path / "test.txt", path / "gt.txt", 71, "TUD-Campus").totals()
+    assert (totals["FP"], totals["FN"], totals["IDSW"]) == (13, 150, 7)

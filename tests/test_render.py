@@ -37,3 +37,21 @@ def test_frames_folder_and_drawing(tmp_path):
     assert sorted(p.name for p in (tmp_path / "frames").iterdir()) == ["000001.jpg", "000002.jpg"]
     assert np.abs(img.astype(int) - plain.astype(int)).max() > 50  # the box was drawn
     assert colour(7) == colour(7) and colour(7) != colour(8)
+
+
+def test_render_with_ground_truth_marks_errors_side_by_side(tmp_path):
+    gt = ["1,1,10,10,20,30,1,1,1", "2,1,12,10,20,30,1,1,1", "2,2,60,20,20,30,1,1,1"]
+    seq = write_sequence(tmp_path, ["1,-1,10,10,20,30,1"], length=2, width=96, height=64, gt_lines=gt)
+    results = tmp_path / "res" / "SYN.txt"
+    # frame 1: a hit and a false box; frame 2: person 1 found under another id (a switch), person 2 missed
+    results.parent.mkdir()
+    results.write_text("1,1,10,10,20,30,1,-1,-1,-1\n1,5,70,5,10,10,1,-1,-1,-1\n2,3,12,10,20,30,1,-1,-1,-1\n")
+    from sotmot.evaluate import frame_errors
+
+    errors = frame_errors(results, seq / "gt" / "gt.txt", 2, "SYN")
+    assert errors.totals() == {"TP": 2, "FP": 1, "FN": 1, "IDSW": 1}
+    assert [m[3] for m in errors.matched[2]] == [True]
+    assert main(["render", str(seq), str(results), "--out", str(tmp_path / "v.avi"), "--gt", "-q"]) == 0
+    cap = cv2.VideoCapture(str(tmp_path / "v.avi"))
+    ok, first = cap.read()
+    assert ok and first.shape == (64, 192, 3)  # results and ground truth side by side
