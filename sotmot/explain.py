@@ -85,14 +85,17 @@ def _join_rounds(association):
     return joined
 
 
-def _plain(value):
-    """GraphML and JSON friendly scalars (NaN and inf become strings)."""
+def plain(value, digits: int | None = None):
+    """GraphML and JSON friendly scalars: numpy types to Python, NaN and inf to strings,
+    floats rounded to ``digits`` decimals if given."""
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     if isinstance(value, (int, np.integer)):
         return int(value)
     if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else str(float(value))
+        if not math.isfinite(value):
+            return str(float(value))
+        return float(value) if digits is None else round(float(value), digits)
     return value
 
 
@@ -101,9 +104,9 @@ def export_graph(graph: nx.DiGraph, out_dir: str | Path) -> list[Path]:
     out_dir = Path(out_dir)
     clean = nx.DiGraph()
     for n, data in graph.nodes(data=True):
-        clean.add_node(n, **{k: _plain(v) for k, v in data.items()})
+        clean.add_node(n, **{k: plain(v) for k, v in data.items()})
     for u, v, data in graph.edges(data=True):
-        clean.add_edge(u, v, **{k: _plain(v) for k, v in data.items()})
+        clean.add_edge(u, v, **{k: plain(v) for k, v in data.items()})
     graphml = out_dir / "graph.graphml"
     write_text_atomic(graphml, "\n".join(nx.generate_graphml(clean)) + "\n")
     js = out_dir / "graph.json"

@@ -24,6 +24,7 @@ import networkx as nx
 import numpy as np
 
 from sotmot.constraints import CONSTRAINTS
+from sotmot.explain import plain
 from sotmot.io import write_text_atomic
 
 #: Colours as (B, G, R) for OpenCV and hex for SVG.
@@ -139,16 +140,6 @@ def draw_png(graph: nx.DiGraph, path: str | Path, width: int = 1400) -> Path:
     return path
 
 
-def _number(v):
-    if isinstance(v, (bool, np.bool_)):
-        return bool(v)
-    if isinstance(v, (int, np.integer)):
-        return int(v)
-    if isinstance(v, (float, np.floating)):
-        return round(float(v), 4) if math.isfinite(v) else str(float(v))
-    return v
-
-
 def write_html(graph: nx.DiGraph, path: str | Path, crops: dict | None = None, title: str = "association graph",
                width: int = 1400) -> Path:
     """Write the interactive page: SVG picture, details panel, rejection filters, all inline.
@@ -165,13 +156,13 @@ def write_html(graph: nx.DiGraph, path: str | Path, crops: dict | None = None, t
         colour = _hex(TAKEN if kind == "taken" else ALLOWED if kind == "allowed" else REJECT_COLOURS[kind])
         dash = "" if kind in ("taken", "allowed") else ' stroke-dasharray="5,4"'
         width_px = 3 if kind == "taken" else 1.5
-        info = {"link": f"{u} -> {v}", **{key: _number(val) for key, val in data.items()}}
+        info = {"link": f"{u} -> {v}", **{key: plain(val, 4) for key, val in data.items()}}
         parts.append(f'<line class="edge {kind}" id="edge-{k}" data-info="{html.escape(json.dumps(info))}" '
                      f'x1="{x1:.1f}" y1="{y1}" x2="{x2:.1f}" y2="{y2}" stroke="{colour}" '
                      f'stroke-width="{width_px}"{dash}/>')
     for n, (x1, x2, y) in pos.items():
         d = graph.nodes[n]
-        info = {"tracklet": n, **{key: _number(val) for key, val in d.items()}}
+        info = {"tracklet": n, **{key: plain(val, 4) for key, val in d.items()}}
         first, last = crops.get(n, (None, None))
         if first is not None:
             info["crop_first"] = "data:image/jpeg;base64," + base64.b64encode(first).decode()
