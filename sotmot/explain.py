@@ -104,9 +104,9 @@ def export_graph(graph: nx.DiGraph, out_dir: str | Path) -> list[Path]:
     out_dir = Path(out_dir)
     clean = nx.DiGraph()
     for n, data in graph.nodes(data=True):
-        clean.add_node(n, **{k: plain(v) for k, v in data.items()})
+        clean.add_node(n, **{key: plain(value) for key, value in data.items()})
     for u, v, data in graph.edges(data=True):
-        clean.add_edge(u, v, **{k: plain(v) for k, v in data.items()})
+        clean.add_edge(u, v, **{key: plain(value) for key, value in data.items()})
     graphml = out_dir / "graph.graphml"
     write_text_atomic(graphml, "\n".join(nx.generate_graphml(clean)) + "\n")
     js = out_dir / "graph.json"
