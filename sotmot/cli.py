@@ -64,26 +64,26 @@ def _build_config(args: argparse.Namespace):
 
 
 def cmd_track(args: argparse.Namespace) -> int:
-    from sotmot.appearance import make_embedder
-    from sotmot.io import read_seqinfo, write_results
-    from sotmot.pipeline import track_sequence
-    from sotmot.render import write_flags
+    from sotmot.batch import track_many
+    from sotmot.io import read_seqinfo
 
     config = _build_config(args)
-    infos = [read_seqinfo(s) for s in args.seq_dirs]  # fail early on a bad folder
+    infos = [read_seqinfo(s) for s in args.seq_dirs]  # fail early on a bad folder, before any work
     names = [i.name for i in infos]
     if len(set(names)) != len(names):
         raise SotmotError(f"two sequences share a name: {names}")
-    embedder = make_embedder(config.appearance)
-    for seq in args.seq_dirs:
-        start = time.perf_counter()
-        result = track_sequence(seq, config, merger=args.merger, embedder=embedder, progress=not args.quiet)
-        out = args.out / f"{result.info.name}.txt"
-        write_results(out, result.tracks)
-        write_flags(out, result.tracks)
-        seconds = time.perf_counter() - start
-        print(f"{result.info.name}: {result.tracks.n_tracks} tracks, {len(result.tracks)} boxes, "
-              f"{result.info.length / seconds:.1f} frames/s -> {out}")
+
+    def report(outcome) -> None:
+        print(outcome.message if outcome.status != "failed" else f"sotmot: error: {outcome.message}",
+              file=sys.stdout if outcome.status != "failed" else sys.stderr, flush=True)
+
+    outcomes = track_many(args.seq_dirs, args.out, config, merger=args.merger, workers=args.workers,
+                          resume=args.resume, progress=not args.quiet, report=report)
+    failed = [o for o in outcomes if o.status == "failed"]
+    if failed:
+        print(f"sotmot: {len(failed)} of {len(outcomes)} sequences failed; the others' results are in "
+              f"{args.out}", file=sys.stderr)
+        return 2
     if args.eval:
         return cmd_eval(argparse.Namespace(results_dir=args.out, seq_dirs=args.seq_dirs, json=None))
     return 0
@@ -206,6 +206,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "(min-cost flow, OR-Tools), flow-nx (the same with networkx, slow; for cross-checks)")
     _add_tracker_options(p)
     p.add_argument("--eval", action="store_true", help="score the results with TrackEval afterwards")
+    p.add_argument("--workers", type=int, default=1, metavar="N",
+                   help="track N sequences at once in separate processes (default: 1)")
+    p.add_argument("--resume", action="store_true",
+                   help="skip sequences whose results file already exists (files are written atomically)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_track)
 
