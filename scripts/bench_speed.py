@@ -1,0 +1,62 @@
+#!/usr/bin/env python3
+"""Where the time goes: seconds per stage, per sequence, and each stage's share.
+
+Stages: read (det.txt), preprocess (threshold + NMS), appearance (frame
+decoding + re-ID features), sot (the SOT step incl. features of added boxes,
+if enabled), tracklets, association, postprocess. Prints a table and writes
+JSON with the machine it ran on.
+
+    python scripts/bench_speed.py --model ../shared/models/person-reidentification-retail-0288.onnx [--sot template]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_accuracy import DEFAULT_DATA, machine, sequences  # noqa: E402
+
+from sotmot.appearance import make_embedder  # noqa: E402
+from sotmot.config import TrackerConfig  # noqa: E402
+from sotmot.pipeline import track_sequence  # noqa: E402
+
+STAGES = ("read", "preprocess", "appearance", "sot", "tracklets", "association", "postprocess")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    parser.add_argument("--model", required=True)
+    parser.add_argument("--sot", default="none", choices=["none", "template", "deep"])
+    parser.add_argument("--merger", default="greedy")
+    parser.add_argument("--json", type=Path)
+    args = parser.parse_args(argv)
+    config = TrackerConfig().replace("appearance", model=args.model).replace("sot", variant=args.sot)
+    embedder = make_embedder(config.appearance)
+    rows = {}
+    for seq in sequences(args.data):
+        start = time.perf_counter()
+        result = track_sequence(seq, config, merger=args.merger, embedder=embedder)
+        total = time.perf_counter() - start
+        rows[result.info.name] = {"frames": result.info.length, "seconds": total,
+                                  "fps": result.info.length / total, "stages": result.timings}
+    head = f"{'sequence':<17}{'fps':>7}" + "".join(f"{s:>13}" for s in STAGES)
+    lines = [head, "-" * len(head)]
+    for name, r in rows.items():
+        cells = "".join(f"{r['stages'].get(s, 0.0):7.2f}s{100 * r['stages'].get(s, 0.0) / r['seconds']:4.0f}%"
+                        for s in STAGES)
+        lines.append(f"{name:<17}{r['fps']:7.1f}{cells}")
+    print("\n".join(lines))
+    print(f"machine: {machine()}; sot: {args.sot}; merger: {args.merger}; device: cpu (onnxruntime CPU provider)")
+    if args.json:
+        args.json.write_text(json.dumps({"machine": machine(), "sot": args.sot, "merger": args.merger,
+                                         "rows": rows}, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
