@@ -6,7 +6,8 @@ decoding + re-ID features), sot (the SOT step incl. features of added boxes,
 if enabled), tracklets, association, postprocess. Prints a table and writes
 JSON with the machine it ran on.
 
-    python scripts/bench_speed.py --model ../shared/models/person-reidentification-retail-0288.onnx [--sot template]
+    python scripts/bench_speed.py --model ../shared/models/person-reidentification-retail-0288.onnx [--sot template] \
+        [--appearance torch --device cuda]
 """
 
 from __future__ import annotations
@@ -33,9 +34,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", required=True)
     parser.add_argument("--sot", default="none", choices=["none", "template", "deep"])
     parser.add_argument("--merger", default="greedy")
+    parser.add_argument("--appearance", default="onnx", choices=["onnx", "torch"])
+    parser.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    config = TrackerConfig().replace("appearance", model=args.model).replace("sot", variant=args.sot)
+    config = TrackerConfig().replace("appearance", model=args.model, backend=args.appearance, device=args.device)
+    config = config.replace("sot", variant=args.sot)
     embedder = make_embedder(config.appearance)
     rows = {}
     for seq in sequences(args.data):
@@ -51,9 +55,11 @@ def main(argv: list[str] | None = None) -> int:
                         for s in STAGES)
         lines.append(f"{name:<17}{r['fps']:7.1f}{cells}")
     print("\n".join(lines))
-    print(f"machine: {machine()}; sot: {args.sot}; merger: {args.merger}; device: cpu (onnxruntime CPU provider)")
+    print(f"machine: {machine()}; sot: {args.sot}; merger: {args.merger}; appearance: {args.appearance} "
+          f"on {args.device}")
     if args.json:
         args.json.write_text(json.dumps({"machine": machine(), "sot": args.sot, "merger": args.merger,
+                                         "appearance": args.appearance, "device": args.device,
                                          "rows": rows}, indent=2) + "\n")
     return 0
 

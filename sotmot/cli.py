@@ -38,6 +38,9 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                         "[postprocess] tables; unknown keys are errors")
     p.add_argument("--reid-model", metavar="PATH",
                    help="ONNX person re-ID model (overrides the config and SOTMOT_REID_MODEL)")
+    p.add_argument("--appearance", choices=["onnx", "torch"],
+                   help="run the re-ID model with onnxruntime (default) or torch (needs the torch extra)")
+    p.add_argument("--device", choices=["cpu", "cuda"], help="where the re-ID model runs (default: cpu)")
     p.add_argument("--score-threshold", type=float, metavar="S",
                    help="drop detections scoring below S (default: keep all)")
     p.add_argument("--nms", choices=["auto", "iou", "iom", "none"],
@@ -53,6 +56,10 @@ def _build_config(args: argparse.Namespace):
     config = load_config(args.config) if args.config else TrackerConfig()
     if args.reid_model:
         config = config.replace("appearance", model=args.reid_model)
+    if args.appearance:
+        config = config.replace("appearance", backend=args.appearance)
+    if args.device:
+        config = config.replace("appearance", device=args.device)
     if args.score_threshold is not None:
         config = config.replace("preprocess", score_threshold=args.score_threshold)
     if args.nms:

@@ -72,7 +72,9 @@ class AppearanceConfig:
     Attributes
     ----------
     backend
-        ``"onnx"``: a person re-ID network run with onnxruntime.
+        ``"onnx"``: a person re-ID network run with onnxruntime; ``"torch"``:
+        the same network executed by torch, weights read from the ONNX file
+        (needs the ``torch`` extra: ``torch==2.13.0`` and ``onnx``).
     model
         Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
         person-reidentification-retail-0288). ``None`` reads the environment
@@ -82,17 +84,23 @@ class AppearanceConfig:
     batch_size
         Crops per forward pass (a flipped crop counts as one).
     threads
-        onnxruntime intra-op threads; 0 lets onnxruntime choose.
+        Intra-op threads of onnxruntime or torch; 0 lets the runtime choose.
+    device
+        ``"cpu"`` or ``"cuda"`` (onnxruntime's CUDA provider, or torch on the GPU);
+        asking for ``"cuda"`` where there is none is an error, never a silent fallback.
     """
 
-    backend: Literal["onnx"] = "onnx"
+    backend: Literal["onnx", "torch"] = "onnx"
     model: str | None = None
     flip: bool = True
     batch_size: int = 64
     threads: int = 0
+    device: Literal["cpu", "cuda"] = "cpu"
 
     def __post_init__(self) -> None:
-        _check(self.backend == "onnx", "appearance", f"backend must be 'onnx'; got {self.backend!r}")
+        _check(self.backend in ("onnx", "torch"), "appearance",
+               f"backend must be 'onnx' or 'torch'; got {self.backend!r}")
+        _check(self.device in ("cpu", "cuda"), "appearance", f"device must be 'cpu' or 'cuda'; got {self.device!r}")
         _check(self.batch_size >= 1, "appearance", "batch_size must be >= 1")
         _check(self.threads >= 0, "appearance", "threads must be >= 0")
 

@@ -74,6 +74,7 @@ def _affinity_from_cosine(cos: np.ndarray) -> np.ndarray:
 #: Appearance backends by config name: "module:factory", the factory taking an AppearanceConfig.
 BACKENDS: dict[str, str] = {
     "onnx": "sotmot.appearance.onnx_reid:OnnxReidEmbedder",
+    "torch": "sotmot.appearance.torch_reid:TorchReidEmbedder",
 }
 
 
@@ -83,6 +84,11 @@ def make_embedder(config: AppearanceConfig) -> Embedder:
     if target is None:
         raise ConfigError(f"unknown appearance backend {config.backend!r}; valid: {', '.join(BACKENDS)}")
     module, name = target.split(":")
+    try:
+        importlib.import_module(module)
+    except ImportError as exc:
+        raise ConfigError(f"appearance backend {config.backend!r} needs {exc.name!r}: pip install "
+                          f"'sotmot[torch]' (torch==2.13.0 and onnx)") from exc
     factory: Callable[[AppearanceConfig], Embedder] = getattr(importlib.import_module(module), name)
     return factory(config)
 

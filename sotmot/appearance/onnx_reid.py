@@ -85,9 +85,14 @@ class OnnxReidEmbedder:
         options.log_severity_level = 3  # the Intel models trigger harmless "unused initializer" warnings
         if config.threads:
             options.intra_op_num_threads = config.threads
+        providers = ["CPUExecutionProvider"]
+        if config.device == "cuda":
+            if "CUDAExecutionProvider" not in ort.get_available_providers():
+                raise ModelError("device 'cuda' asked for, but this onnxruntime has no CUDA provider "
+                                 "(install onnxruntime-gpu, or use --appearance torch on a CUDA machine)")
+            providers = ["CUDAExecutionProvider"]
         try:
-            self.session = ort.InferenceSession(str(self.path), sess_options=options,
-                                                providers=["CPUExecutionProvider"])
+            self.session = ort.InferenceSession(str(self.path), sess_options=options, providers=providers)
         except Exception as exc:  # onnxruntime raises its own untyped errors
             raise ModelError(f"{self.path}: cannot be loaded as an ONNX model: {exc}") from exc
         inputs = self.session.get_inputs()

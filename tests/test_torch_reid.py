@@ -1,0 +1,66 @@
+"""The torch re-ID backend computes the ONNX model's embeddings."""
+
+import numpy as np
+import pytest
+
+from conftest import DATA, MODELS, require
+from sotmot.appearance import make_embedder
+from sotmot.appearance.onnx_reid import crop_boxes
+from sotmot.config import AppearanceConfig
+from sotmot.errors import ModelError
+from sotmot.io import FrameReader, read_ground_truth, read_seqinfo
+
+torch = pytest.importorskip("torch", reason="the torch extra is not installed (pip install 'sotmot[torch]')")
+onnx = pytest.importorskip("onnx", reason="the torch extra is not installed (pip install 'sotmot[torch]')")
+
+
+@pytest.fixture(scope="module")
+def real_crops():
+    info = read_seqinfo(require(DATA / "MOT16-04-clip30"))
+    gt = read_ground_truth(info.gt_path, info.length).pedestrians(0.5)
+    reader = FrameReader(info)
+    crops = [crop_boxes(reader(f), gt.boxes[gt.frames == f][:8]) for f in (1, 15, 30)]
+    return np.concatenate(crops)
+
+
+@pytest.mark.parametrize("model", ["person-reidentification-retail-0288.onnx",
+                                   "person-reidentification-retail-0277.onnx"])
+def test_torch_matches_onnxruntime_on_real_crops(model, real_crops):
+    path = str(require(MODELS / model))
+    ref = make_embedder(AppearanceConfig(model=path)).embed_crops(real_crops)
+    got = make_embedder(AppearanceConfig(model=path, backend="torch")).embed_crops(real_crops)
+    assert got.shape == ref.shape == (len(real_crops), 256)
+    assert np.abs(got - ref).max() < 1e-4
+
+
+def test_weights_are_trainable_and_a_state_dict_round_trips(model_0288, real_crops, tmp_path):
+    emb = make_embedder(AppearanceConfig(model=str(model_0288), backend="torch"))
+    params = [p for p in emb.module.parameters()]
+    assert len(params) > 100 and all(p.requires_grad for p in params)
+    torch.save(emb.module.state_dict(), tmp_path / "m.pt")
+    other = make_embedder(AppearanceConfig(model=str(model_0288), backend="torch"))
+    with torch.no_grad():
+        for p in other.module.parameters():
+            p.add_(0.01)
+    assert np.abs(other.embed_crops(real_crops[:4]) - emb.embed_crops(real_crops[:4])).max() > 1e-3
+    other.module.load_state_dict(torch.load(tmp_path / "m.pt"))
+    np.testing.assert_array_equal(other.embed_crops(real_crops[:4]), emb.embed_crops(real_crops[:4]))
+
+
+def test_a_model_of_the_wrong_shape_is_refused(tmp_path):
+    from onnx import TensorProto, helper
+
+    x = helper.make_tensor_value_info("x", TensorProto.FLOAT, ["N", 3, 64, 64])
+    y = helper.make_tensor_value_info("y", TensorProto.FLOAT, ["N", 3, 64, 64])
+    graph = helper.make_graph([helper.make_node("Relu", ["x"], ["y"])], "not-reid", [x], [y])
+    path = tmp_path / "classifier.onnx"
+    onnx.save(helper.make_model(graph), str(path))
+    with pytest.raises(ModelError, match="expected one input of shape N x 3 x 256 x 128"):
+        make_embedder(AppearanceConfig(model=str(path), backend="torch"))
+
+
+def test_cuda_without_a_gpu_is_an_error_not_a_fallback(model_0288):
+    if torch.cuda.is_available():
+        pytest.skip("this machine has a CUDA GPU")
+    with pytest.raises(ModelError, match="no CUDA GPU"):
+        make_embedder(AppearanceConfig(model=str(model_0288), backend="torch", device="cuda"))
