@@ -68,7 +68,8 @@ def balanced_threshold(pos: np.ndarray, neg: np.ndarray) -> float:
     return float(grid[np.argmin(np.abs(tpr - tnr))])
 
 
-def analyse(seq_dir: Path, models: list[Path], n_pairs: int, seed: int, progress: bool) -> list[dict]:
+def analyse(seq_dir: Path, models: list[Path], n_pairs: int, seed: int, progress: bool,
+            tuned: Path | None = None) -> list[dict]:
     info = read_seqinfo(seq_dir)
     gt = read_ground_truth(info.gt_path, info.length).pedestrians(min_visibility=0.5)
     rng = np.random.default_rng(seed)
@@ -76,20 +77,31 @@ def analyse(seq_dir: Path, models: list[Path], n_pairs: int, seed: int, progress
     needed = np.unique(np.concatenate([pos.ravel(), neg.ravel()]))
     thresholds = sorted({0.5, 0.75, TrackletConfig().min_affinity, AssociationConfig().min_affinity})
     rows = []
-    for model in models:
-        embedder = OnnxReidEmbedder(AppearanceConfig(model=str(model)))
+    runs = [(m, m.name, None) for m in models]
+    if tuned is not None:
+        import torch
+
+        base = Path(torch.load(tuned, map_location="cpu", weights_only=True)["onnx_model"])
+        runs.append((base, f"{base.stem} fine-tuned ({tuned.name})", tuned))
+    for model, label, weights in runs:
+        if weights is None:
+            embedder = OnnxReidEmbedder(AppearanceConfig(model=str(model)))
+        else:
+            from sotmot.appearance.torch_reid import TorchReidEmbedder
+
+            embedder = TorchReidEmbedder(AppearanceConfig(model=str(model), backend="torch", weights=str(weights)))
         reader = FrameReader(info, cache_size=1)
         features = np.zeros((len(gt.frames), embedder.dim), np.float32)
         start = time.perf_counter()
         frames = np.unique(gt.frames[needed])
-        for frame in progress_bar(frames, f"{info.name} {model.stem}", progress, len(frames)):
+        for frame in progress_bar(frames, f"{info.name} {label}", progress, len(frames)):
             idx = needed[gt.frames[needed] == frame]
             features[idx] = embedder.embed(reader(int(frame)), gt.boxes[idx])
         seconds = time.perf_counter() - start
         aff_pos = affinity_rows(features[pos[:, 0]], features[pos[:, 1]])
         aff_neg = affinity_rows(features[neg[:, 0]], features[neg[:, 1]])
         row = {
-            "sequence": info.name, "model": model.name, "pairs": n_pairs, "seed": seed,
+            "sequence": info.name, "model": label, "pairs": n_pairs, "seed": seed,
             "boxes_embedded": int(len(needed)), "embed_seconds": round(seconds, 2),
             "auc": roc_auc(aff_pos, aff_neg), "balanced_threshold": balanced_threshold(aff_pos, aff_neg),
             "positive_mean": float(aff_pos.mean()), "negative_mean": float(aff_neg.mean()),
@@ -105,14 +117,14 @@ def analyse(seq_dir: Path, models: list[Path], n_pairs: int, seed: int, progress
 
 def format_rows(rows: list[dict]) -> str:
     thresholds = list(rows[0]["at_threshold"]) if rows else []
-    head = (f"{'sequence':<18} {'model':<40} {'AUC':>6} {'bal.t':>6} {'pos/neg@bal':>12} "
+    head = (f"{'sequence':<18} {'model':<60} {'AUC':>6} {'bal.t':>6} {'pos/neg@bal':>12} "
             + " ".join(f"{'pos/neg@' + t:>13}" for t in thresholds))
     lines = [head, "-" * len(head)]
     for r in rows:
         cells = " ".join(f"{100 * v['positive_acc']:5.1f}/{100 * v['negative_acc']:5.1f}  "
                          for v in r["at_threshold"].values())
         bal = r["at_balanced"]
-        lines.append(f"{r['sequence']:<18} {r['model']:<40} {r['auc']:6.3f} {r['balanced_threshold']:6.3f} "
+        lines.append(f"{r['sequence']:<18} {r['model']:<60} {r['auc']:6.3f} {r['balanced_threshold']:6.3f} "
                      f"{100 * bal['positive_acc']:5.1f}/{100 * bal['negative_acc']:5.1f} {cells}")
     return "\n".join(lines)
 
@@ -123,12 +135,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--models", nargs="+", type=Path, required=True, help="ONNX re-ID models")
     parser.add_argument("--pairs", type=int, default=3000, help="positive and negative pairs each (paper: 3000)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--tuned", type=Path, help="also a checkpoint from 'sotmot train-appearance' (torch)")
     parser.add_argument("--json", type=Path, help="write the rows as JSON here")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
     rows = []
     for seq in args.seq_dirs:
-        rows.extend(analyse(seq, args.models, args.pairs, args.seed, not args.quiet))
+        rows.extend(analyse(seq, args.models, args.pairs, args.seed, not args.quiet, args.tuned))
     print(format_rows(rows))
     if args.json:
         args.json.write_text(json.dumps({"machine": f"{platform.node()} {platform.processor()} "

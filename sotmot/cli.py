@@ -41,6 +41,7 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--appearance", choices=["onnx", "torch"],
                    help="run the re-ID model with onnxruntime (default) or torch (needs the torch extra)")
     p.add_argument("--device", choices=["cpu", "cuda"], help="where the re-ID model runs (default: cpu)")
+    p.add_argument("--weights", metavar="FILE.pt", help="fine-tuned weights from train-appearance (torch backend)")
     p.add_argument("--score-threshold", type=float, metavar="S",
                    help="drop detections scoring below S (default: keep all)")
     p.add_argument("--nms", choices=["auto", "iou", "iom", "none"],
@@ -60,6 +61,8 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("appearance", backend=args.appearance)
     if args.device:
         config = config.replace("appearance", device=args.device)
+    if args.weights:
+        config = config.replace("appearance", backend="torch", weights=args.weights)
     if args.score_threshold is not None:
         config = config.replace("preprocess", score_threshold=args.score_threshold)
     if args.nms:
@@ -141,6 +144,25 @@ def cmd_render(args: argparse.Namespace) -> int:
     out = render(info, tracks, args.out, errors=errors,
                  progress=lambda it: progress_bar(it, f"{info.name}: render", not args.quiet, info.length))
     print(f"{info.length} frames, {tracks.n_tracks} tracks -> {out}")
+    return 0
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from sotmot.config import AppearanceConfig
+    from sotmot.pipeline import progress_bar
+    from sotmot.train import TrainConfig, train
+
+    config = TrainConfig(epochs=args.epochs, margin=args.margin, lr=args.lr, train_last=args.train_last,
+                         seed=args.seed)
+    appearance = AppearanceConfig(model=args.init, backend="torch", device=args.device)
+    summary = train(args.seq_dirs, appearance, args.out, config,
+                    progress=lambda it: progress_bar(it, "epochs", not args.quiet, config.epochs))
+    for h in summary["history"]:
+        print(f"epoch {h['epoch']}: train loss {h['train_loss']:.4f}, validation AUC {h['val_auc']:.4f}")
+    print(f"{summary['identities_train']} training / {summary['identities_val']} validation identities, "
+          f"{summary['crops']} crops; validation AUC {summary['val_auc_before']:.4f} before, "
+          f"{summary['val_auc_best']:.4f} best (epoch {summary['best_epoch']}); {summary['seconds']:.0f} s "
+          f"-> {summary['out']}")
     return 0
 
 
@@ -235,6 +257,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", type=Path, metavar="FILE", help="also write the table as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("train-appearance", help="fine-tune the re-ID model with triplet loss on ground truth",
+                       description="Fine-tune the re-ID model (torch backend) with a batch-hard triplet loss on "
+                                   "ground-truth crops of the given sequences; a quarter of the identities is "
+                                   "held out for validation; early layers are frozen. Use the result with "
+                                   "--appearance torch --weights FILE.",
+                       epilog="example:\n  sotmot train-appearance ../shared/data/PETS09-S2L1 --init "
+                              "../shared/models/person-reidentification-retail-0288.onnx --out tuned.pt",
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequences with gt/gt.txt and img1/")
+    p.add_argument("--init", required=True, metavar="MODEL.onnx", help="the re-ID model to start from")
+    p.add_argument("--out", type=Path, required=True, metavar="FILE.pt", help="checkpoint (best validation AUC)")
+    p.add_argument("--epochs", type=int, default=3)
+    p.add_argument("--margin", type=float, default=0.3, help="triplet margin (default: %(default)s)")
+    p.add_argument("--lr", type=float, default=1e-4)
+    p.add_argument("--train-last", type=int, default=12, metavar="K",
+                   help="train only the last K weight tensors (default: %(default)s; 0 = all)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--device", choices=["cpu", "cuda"], default="cpu")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=cmd_train)
 
     p = sub.add_parser("render", help="draw results on the frames (video or JPEG folder)",
                        description="Draw tracking results on the frames: stable colour per id, id label, "

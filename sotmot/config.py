@@ -88,6 +88,9 @@ class AppearanceConfig:
     device
         ``"cpu"`` or ``"cuda"`` (onnxruntime's CUDA provider, or torch on the GPU);
         asking for ``"cuda"`` where there is none is an error, never a silent fallback.
+    weights
+        ``torch`` backend: a checkpoint from ``sotmot train-appearance`` whose
+        weights replace the ONNX file's (the file still gives the network).
     """
 
     backend: Literal["onnx", "torch"] = "onnx"
@@ -96,8 +99,11 @@ class AppearanceConfig:
     batch_size: int = 64
     threads: int = 0
     device: Literal["cpu", "cuda"] = "cpu"
+    weights: str | None = None
 
     def __post_init__(self) -> None:
+        _check(self.weights is None or self.backend == "torch", "appearance",
+               "weights (a fine-tuned checkpoint) need backend = 'torch'")
         _check(self.backend in ("onnx", "torch"), "appearance",
                f"backend must be 'onnx' or 'torch'; got {self.backend!r}")
         _check(self.device in ("cpu", "cuda"), "appearance", f"device must be 'cpu' or 'cuda'; got {self.device!r}")

@@ -64,3 +64,38 @@ def test_cuda_without_a_gpu_is_an_error_not_a_fallback(model_0288):
         pytest.skip("this machine has a CUDA GPU")
     with pytest.raises(ModelError, match="no CUDA GPU"):
         make_embedder(AppearanceConfig(model=str(model_0288), backend="torch", device="cuda"))
+
+
+def test_one_training_step_lowers_the_triplet_loss_on_a_fixed_batch(model_0288, real_crops):
+    from sotmot.train import batch_hard_triplet
+
+    emb = make_embedder(AppearanceConfig(model=str(model_0288), backend="torch"))
+    batch = real_crops[:12]
+    labels = torch.tensor([0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3])  # a hard, arbitrary grouping
+    params = list(emb.module.parameters())[-12:]
+    opt = torch.optim.SGD(params, lr=1e-2)
+    before = batch_hard_triplet(emb.forward_crops(batch), labels, 0.3)
+    opt.zero_grad()
+    before.backward()
+    opt.step()
+    with torch.no_grad():
+        after = batch_hard_triplet(emb.forward_crops(batch), labels, 0.3)
+    assert float(after) < float(before.detach())
+
+
+def test_a_trained_checkpoint_loads_back_with_identical_embeddings(model_0288, real_crops, tmp_path):
+    from sotmot.train import TrainConfig, train
+
+    seq = require(DATA / "MOT16-05-clip30")
+    out = tmp_path / "tuned.pt"
+    summary = train([seq], AppearanceConfig(model=str(model_0288), backend="torch"), out,
+                    TrainConfig(epochs=1, per_identity=4, lr=1e-3))
+    assert out.is_file() and summary["identities_train"] >= 2 and len(summary["history"]) == 1
+    saved = torch.load(out, weights_only=True)
+    a = make_embedder(AppearanceConfig(model=str(model_0288), backend="torch", weights=str(out)))
+    b = make_embedder(AppearanceConfig(model=str(model_0288), backend="torch"))
+    b.module.load_state_dict(saved["state_dict"])
+    np.testing.assert_array_equal(a.embed_crops(real_crops[:4]), b.embed_crops(real_crops[:4]))
+    with pytest.raises(ModelError, match="not weights for"):
+        make_embedder(AppearanceConfig(model=str(MODELS / "person-reidentification-retail-0277.onnx"),
+                                       backend="torch", weights=str(out)))

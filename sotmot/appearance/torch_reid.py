@@ -163,12 +163,29 @@ class TorchReidEmbedder:
         self.device = torch.device(config.device)
         if config.threads:
             torch.set_num_threads(config.threads)
-        self.module = _build_module(self.path).to(self.device).eval()
+        self.module = _build_module(self.path)
+        if config.weights:
+            self.load_weights(config.weights)
+        self.module = self.module.to(self.device).eval()
         with torch.no_grad():
             probe = self.module(torch.zeros(1, 3, CROP_HEIGHT, CROP_WIDTH, device=self.device))
         if probe.dim() != 2:
             raise ModelError(f"{self.path}: expected an N x D embedding, got shape {tuple(probe.shape)}")
         self.dim = int(probe.shape[1])
+
+    def load_weights(self, path: str | Path) -> None:
+        """Load a checkpoint written by ``sotmot train-appearance`` (or a bare state dict)."""
+        import torch
+
+        path = Path(path)
+        if not path.is_file():
+            raise ModelError(f"fine-tuned weights not found: {path}")
+        try:
+            payload = torch.load(path, map_location="cpu", weights_only=True)
+            state = payload["state_dict"] if isinstance(payload, dict) and "state_dict" in payload else payload
+            self.module.load_state_dict(state)
+        except (RuntimeError, KeyError, TypeError, ValueError) as exc:
+            raise ModelError(f"{path}: not weights for {self.path.name}: {exc}") from exc
 
     def forward_crops(self, crops: np.ndarray):
         """Raw model outputs ``(N, D)`` (a torch tensor on the device) of ``(N, 256, 128, 3)`` BGR crops."""
