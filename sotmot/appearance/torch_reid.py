@@ -145,6 +145,45 @@ def _build_module(path: Path):
     return OnnxGraph()
 
 
+def crop_boxes_torch(frame, boxes: np.ndarray, height: int = CROP_HEIGHT, width: int = CROP_WIDTH):
+    """All boxes of a frame cropped and resized in one ``grid_sample`` call.
+
+    Parameters
+    ----------
+    frame
+        ``(3, H, W)`` float tensor (BGR, 0-255) on any device.
+    boxes
+        ``(N, 4)`` ``x, y, w, h`` pixels; clipped to the image exactly as
+        :func:`~sotmot.appearance.onnx_reid.crop_boxes` does, then sampled
+        bilinearly at the pixel centres of the output, as OpenCV's linear
+        resize does.
+
+    Returns
+    -------
+    torch.Tensor
+        ``(N, 3, height, width)`` float crops.
+    """
+    import torch
+    import torch.nn.functional as F
+
+    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    img_h, img_w = frame.shape[1:]
+    x1 = np.clip(np.floor(b[:, 0]), 0, img_w - 1)
+    y1 = np.clip(np.floor(b[:, 1]), 0, img_h - 1)
+    x2 = np.clip(np.ceil(b[:, 0] + b[:, 2]), x1 + 1, img_w)
+    y2 = np.clip(np.ceil(b[:, 1] + b[:, 3]), y1 + 1, img_h)
+    # source pixel coordinate of each output pixel centre, then to grid_sample's [-1, 1] (align_corners=False)
+    xs = x1[:, None] + (np.arange(width) + 0.5)[None, :] * ((x2 - x1) / width)[:, None] - 0.5
+    ys = y1[:, None] + (np.arange(height) + 0.5)[None, :] * ((y2 - y1) / height)[:, None] - 0.5
+    xs = np.clip(xs, x1[:, None], x2[:, None] - 1)  # OpenCV replicates the crop's own border
+    ys = np.clip(ys, y1[:, None], y2[:, None] - 1)
+    gx = torch.as_tensor((xs + 0.5) / img_w * 2 - 1, dtype=frame.dtype, device=frame.device)
+    gy = torch.as_tensor((ys + 0.5) / img_h * 2 - 1, dtype=frame.dtype, device=frame.device)
+    grid = torch.stack([gx[:, None, :].expand(-1, height, -1), gy[:, :, None].expand(-1, -1, width)], dim=-1)
+    return F.grid_sample(frame[None].expand(len(b), -1, -1, -1), grid, mode="bilinear",
+                         padding_mode="border", align_corners=False)
+
+
 class TorchReidEmbedder:
     """Flip-averaged re-ID features computed with torch (CPU, or CUDA with ``device="cuda"``).
 
@@ -212,5 +251,22 @@ class TorchReidEmbedder:
         return normalize(normalize(feats[:n]) + normalize(feats[n:]))
 
     def embed(self, frame: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-        """Features ``(N, D)`` float32, unit length, of ``(N, 4)`` ``x, y, w, h`` boxes in ``frame``."""
-        return self.embed_crops(crop_boxes(frame, boxes))
+        """Features ``(N, D)`` float32, unit length, of ``(N, 4)`` ``x, y, w, h`` boxes in ``frame``.
+
+        Crops are cut on the device in one :func:`crop_boxes_torch` call.
+        """
+        import torch
+
+        if len(boxes) == 0:
+            return np.zeros((0, self.dim), dtype=np.float32)
+        image = torch.from_numpy(np.ascontiguousarray(frame.transpose(2, 0, 1))).to(self.device).float()
+        with torch.no_grad():
+            crops = crop_boxes_torch(image, boxes).round()  # the ONNX path feeds uint8 crops
+            feats = [self.module(crops[i:i + self.batch_size]) for i in range(0, len(crops), self.batch_size)]
+            if self.flip:
+                mirrored = crops.flip(-1)
+                back = [self.module(mirrored[i:i + self.batch_size]) for i in range(0, len(crops), self.batch_size)]
+        out = torch.cat(feats).float().cpu().numpy()
+        if not self.flip:
+            return normalize(out)
+        return normalize(normalize(out) + normalize(torch.cat(back).float().cpu().numpy()))
