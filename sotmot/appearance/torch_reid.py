@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import normalize
-from sotmot.appearance.onnx_reid import CROP_HEIGHT, CROP_WIDTH, crop_boxes, resolve_model_path
+from sotmot.appearance.onnx_reid import CROP_HEIGHT, CROP_WIDTH, resolve_model_path
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
 
