@@ -98,22 +98,27 @@ def cmd_track(args: argparse.Namespace) -> int:
     return 0
 
 
+def _write_json(path: Path | None, data: dict, what: str) -> None:
+    """Write ``data`` as JSON to ``path`` (atomically) when a path was given, and say so."""
+    if path:
+        from sotmot.io import write_text_atomic
+
+        write_text_atomic(path, json.dumps(data, indent=2) + "\n")
+        print(f"{what} written to {path}")
+
+
 def cmd_eval(args: argparse.Namespace) -> int:
     from sotmot.evaluate import evaluate, format_table
-    from sotmot.io import write_text_atomic
 
     report = evaluate(args.results_dir, args.seq_dirs)
     print(format_table(report))
-    if args.json:
-        write_text_atomic(args.json, json.dumps(report.to_dict(), indent=2) + "\n")
-        print(f"scores written to {args.json}")
+    _write_json(args.json, report.to_dict(), "scores")
     return 0
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
     from solvers import get_solver
     from sotmot.compare import compare, format_comparison
-    from sotmot.io import write_text_atomic
 
     mergers = [m.strip() for m in args.mergers.split(",") if m.strip()]
     for m in mergers:
@@ -121,9 +126,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     config = _build_config(args)
     result = compare(args.seq_dirs, mergers, config, progress=not args.quiet)
     print(format_comparison(result))
-    if args.json:
-        write_text_atomic(args.json, json.dumps(result.to_dict(), indent=2) + "\n")
-        print(f"comparison written to {args.json}")
+    _write_json(args.json, result.to_dict(), "comparison")
     return 0
 
 
