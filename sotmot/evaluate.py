@@ -100,6 +100,27 @@ def _metric_objects(te: Any) -> list[Any]:
             te.metrics.Identity({"THRESHOLD": 0.5, "PRINT_CONFIG": False})]
 
 
+def _trackeval_layout(root: Path, members: Sequence[tuple[Path, Path, int, str]], benchmark: str) -> dict:
+    """Copy results and ground truth into the folder layout TrackEval reads; return its dataset config.
+
+    ``members`` are ``(results_txt, gt_txt, seq_length, seq_name)``; the
+    tracker is called ``sotmot``.
+    """
+    for results, gt, _, name in members:
+        (root / "gt" / name / "gt").mkdir(parents=True)
+        shutil.copyfile(gt, root / "gt" / name / "gt" / "gt.txt")
+        (root / "trackers" / "sotmot" / "data").mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(results, root / "trackers" / "sotmot" / "data" / f"{name}.txt")
+    return {
+        "GT_FOLDER": str(root / "gt"), "TRACKERS_FOLDER": str(root / "trackers"),
+        "OUTPUT_FOLDER": str(root / "out"), "TRACKERS_TO_EVAL": ["sotmot"],
+        "CLASSES_TO_EVAL": ["pedestrian"], "BENCHMARK": benchmark, "SPLIT_TO_EVAL": "train",
+        "DO_PREPROC": True, "TRACKER_SUB_FOLDER": "data", "SKIP_SPLIT_FOL": True,
+        "SEQ_INFO": {name: length for _, _, length, name in members},
+        "GT_LOC_FORMAT": "{gt_folder}/{seq}/gt/gt.txt", "PRINT_CONFIG": False,
+    }
+
+
 def evaluate_files(pairs: Sequence[tuple[str | Path, str | Path, int, str]]) -> EvalReport:
     """Score results files against ground truth files.
 
@@ -130,20 +151,7 @@ def evaluate_files(pairs: Sequence[tuple[str | Path, str | Path, int, str]]) -> 
         groups.setdefault(gt_style(gt), []).append((results, gt, length, name))
     for benchmark, members in groups.items():
         with tempfile.TemporaryDirectory(prefix="sotmot-eval-") as tmp:
-            root = Path(tmp)
-            for results, gt, _, name in members:
-                (root / "gt" / name / "gt").mkdir(parents=True)
-                shutil.copyfile(gt, root / "gt" / name / "gt" / "gt.txt")
-                (root / "trackers" / "sotmot" / "data").mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(results, root / "trackers" / "sotmot" / "data" / f"{name}.txt")
-            dataset_config = {
-                "GT_FOLDER": str(root / "gt"), "TRACKERS_FOLDER": str(root / "trackers"),
-                "OUTPUT_FOLDER": str(root / "out"), "TRACKERS_TO_EVAL": ["sotmot"],
-                "CLASSES_TO_EVAL": ["pedestrian"], "BENCHMARK": benchmark, "SPLIT_TO_EVAL": "train",
-                "DO_PREPROC": True, "TRACKER_SUB_FOLDER": "data", "SKIP_SPLIT_FOL": True,
-                "SEQ_INFO": {name: length for _, _, length, name in members},
-                "GT_LOC_FORMAT": "{gt_folder}/{seq}/gt/gt.txt", "PRINT_CONFIG": False,
-            }
+            dataset_config = _trackeval_layout(Path(tmp), members, benchmark)
             eval_config = {
                 "USE_PARALLEL": False, "PRINT_RESULTS": False, "PRINT_ONLY_COMBINED": True,
                 "PRINT_CONFIG": False, "TIME_PROGRESS": False, "DISPLAY_LESS_PROGRESS": True,
@@ -218,16 +226,7 @@ def frame_errors(results: str | Path, gt: str | Path, length: int, name: str) ->
     style = gt_style(gt)
     out = FrameErrors()
     with tempfile.TemporaryDirectory(prefix="sotmot-match-") as tmp:
-        root = Path(tmp)
-        (root / "gt" / name / "gt").mkdir(parents=True)
-        shutil.copyfile(gt, root / "gt" / name / "gt" / "gt.txt")
-        (root / "trackers" / "sotmot" / "data").mkdir(parents=True)
-        shutil.copyfile(results, root / "trackers" / "sotmot" / "data" / f"{name}.txt")
-        config = {"GT_FOLDER": str(root / "gt"), "TRACKERS_FOLDER": str(root / "trackers"),
-                  "TRACKERS_TO_EVAL": ["sotmot"], "CLASSES_TO_EVAL": ["pedestrian"], "BENCHMARK": style,
-                  "SPLIT_TO_EVAL": "train", "DO_PREPROC": True, "TRACKER_SUB_FOLDER": "data",
-                  "SKIP_SPLIT_FOL": True, "SEQ_INFO": {name: length},
-                  "GT_LOC_FORMAT": "{gt_folder}/{seq}/gt/gt.txt", "PRINT_CONFIG": False}
+        config = _trackeval_layout(Path(tmp), [(Path(results), Path(gt), length, name)], style)
         with contextlib.redirect_stdout(io.StringIO()):
             dataset = te.datasets.MotChallenge2DBox(config)
             raw = dataset.get_raw_seq_data("sotmot", name)
