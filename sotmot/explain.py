@@ -49,40 +49,48 @@ def run_graph(result: TrackResult, config: TrackerConfig, frames: tuple[int, int
         graph.nodes[t.id]["sot_boxes"] = int(result.detections.from_sot[t.det_index].sum())
     nx.set_edge_attributes(graph, False, "taken")
     nx.set_edge_attributes(graph, 0, "round")
-    joined = _join_rounds(result.association)
     by_id = {t.id: t for t in result.tracklets}
-    for group in result.association.groups:
-        chain = sorted(group, key=lambda t: (by_id[t].start, by_id[t].end, t))
-        for u, v in zip(chain, chain[1:]):
-            if graph.has_edge(u, v):
-                graph.edges[u, v]["taken"] = True
-                graph.edges[u, v]["round"] = joined(u, v)
+    chain_pairs = [(u, v) for group in result.association.groups
+                   for chain in [sorted(group, key=lambda t: (by_id[t].start, by_id[t].end, t))]
+                   for u, v in zip(chain, chain[1:])]
+    rounds = _join_rounds(result.association, chain_pairs)
+    for u, v in chain_pairs:
+        if graph.has_edge(u, v):
+            graph.edges[u, v]["taken"] = True
+            graph.edges[u, v]["round"] = rounds.get((u, v), 0)
     return graph
 
 
-def _join_rounds(association):
-    """``(u, v) -> round`` in which the solver's links first put ``u`` and ``v`` in one trajectory.
+def _join_rounds(association, pairs: list[tuple[int, int]]) -> dict[tuple[int, int], int]:
+    """For each ``(u, v)`` of ``pairs``: the round in which the solver's links first put both in one trajectory.
 
-    Replays the links in order with a union-find; 0 for solvers whose links
-    carry no round (they decide all at once).
+    Replays the links once, in order, merging member lists (smaller into
+    larger); when two groups join, every asked pair split between them gets
+    that link's round. Solvers whose links carry no round give 0.
     """
-    links = association.links
-
-    def joined(u: int, v: int) -> int:
-        parent: dict[int, int] = {}
-
-        def find(x: int) -> int:
-            while parent.get(x, x) != x:
-                x = parent[x]
-            return x
-
-        for link in links:
-            parent[find(link.a)] = find(link.b)
-            if find(u) == find(v):
-                return link.round
-        return 0
-
-    return joined
+    partner: dict[int, list[int]] = {}
+    for u, v in pairs:
+        partner.setdefault(u, []).append(v)
+        partner.setdefault(v, []).append(u)
+    group_of: dict[int, int] = {}
+    members: dict[int, list[int]] = {}
+    rounds: dict[tuple[int, int], int] = {}
+    for link in association.links:
+        ga, gb = group_of.setdefault(link.a, link.a), group_of.setdefault(link.b, link.b)
+        members.setdefault(ga, [ga])
+        members.setdefault(gb, [gb])
+        if ga == gb:
+            continue
+        if len(members[ga]) < len(members[gb]):
+            ga, gb = gb, ga
+        for x in members[gb]:
+            for y in partner.get(x, ()):
+                if group_of.get(y, y) == ga:
+                    rounds[(x, y)] = rounds[(y, x)] = link.round
+        for x in members[gb]:
+            group_of[x] = ga
+        members[ga].extend(members.pop(gb))
+    return rounds
 
 
 def plain(value, digits: int | None = None):
