@@ -29,7 +29,7 @@ import numpy as np
 from solvers.base import Association, Link
 from sotmot.appearance import affinity_rows
 from sotmot.config import AssociationConfig
-from sotmot.constraints import candidate_pair_array, check_pairs, merge
+from sotmot.constraints import candidate_pairs, check_pairs, merge
 from sotmot.types import Tracklet
 
 #: How many heap entries are checked together.
@@ -98,7 +98,7 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
                 return -neg_aff, i, j
         return None
 
-    push(candidate_pair_array(nodes, config.l_max))
+    push(candidate_pairs(nodes, config.l_max))
     links: list[Link] = []
     while (best := next_allowed()) is not None:
         aff, i, j = best

@@ -389,17 +389,12 @@ def check_pair(a: Tracklet, b: Tracklet, config: AssociationConfig,
     return check_pairs((a, b), np.array([[0, 1]]), np.array([aff]), config, complete=True).check(0)
 
 
-def candidate_pairs(tracklets: Sequence[Tracklet], l_max: int) -> list[tuple[int, int]]:
+def candidate_pairs(tracklets: Sequence[Tracklet], l_max: int) -> np.ndarray:
     """Index pairs ``(i, j)``, ``i < j``, of trajectories whose time spans are within ``l_max`` frames.
 
     Only these can pass the gap constraint; the rest are never checked.
-    Returned sorted.
+    Returned as a sorted ``(K, 2)`` int64 array.
     """
-    return [tuple(p) for p in candidate_pair_array(tracklets, l_max).tolist()]
-
-
-def candidate_pair_array(tracklets: Sequence[Tracklet], l_max: int) -> np.ndarray:
-    """:func:`candidate_pairs` as a sorted ``(K, 2)`` int64 array."""
     if not tracklets:
         return np.zeros((0, 2), np.int64)
     starts = np.array([t.start for t in tracklets])

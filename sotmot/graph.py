@@ -36,7 +36,7 @@ import numpy as np
 
 from sotmot.appearance import affinity_rows
 from sotmot.config import AssociationConfig
-from sotmot.constraints import CONSTRAINTS, candidate_pair_array, check_pairs
+from sotmot.constraints import CONSTRAINTS, candidate_pairs, check_pairs
 from sotmot.errors import SolverError
 from sotmot.types import Tracklet
 
@@ -92,7 +92,7 @@ def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
     graph = nx.DiGraph()
     for t in tracklets:
         graph.add_node(t.id, start=t.start, end=t.end, length=len(t), mean_score=float(t.scores.mean()))
-    pairs = candidate_pair_array(tracklets, config.l_max)
+    pairs = candidate_pairs(tracklets, config.l_max)
     if len(pairs) == 0:
         return graph
     aff = affinity_rows(np.stack([tracklets[i].feature for i in pairs[:, 0]]),

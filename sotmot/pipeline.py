@@ -13,6 +13,7 @@ import logging
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import TypeVar
 
@@ -87,8 +88,8 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedde
     reader = FrameReader(info, cache_size=1)
     tracker = SotTracker(config.sot, reader, info.length, embed=embedder.embed if deep else None,
                          det_features=features if deep else None)
-    windows = lambda it: progress_bar(it, f"{info.name}: SOT ({config.sot.variant})", progress)  # noqa: E731
-    result = tracker.run(detections, progress=windows)
+    result = tracker.run(detections, progress=partial(progress_bar, desc=f"{info.name}: SOT ({config.sot.variant})",
+                                                      enabled=progress))
     n = len(detections)
     enlarged = result.detections
     added = enlarged.subset(np.arange(n, len(enlarged)))

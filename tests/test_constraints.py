@@ -110,7 +110,7 @@ def test_check_is_symmetric_and_does_not_mutate():
 
 def test_candidate_pairs_are_those_within_l_max():
     ts = [tk(1, [1, 2], BOX), tk(2, [50, 51], BOX), tk(3, [120, 121], BOX), tk(4, [1, 200], BOX)]
-    assert candidate_pairs(ts, l_max=60) == [(0, 1), (0, 3), (1, 3), (2, 3)]  # 51 -> 120 is 69 frames
+    assert candidate_pairs(ts, l_max=60).tolist() == [[0, 1], [0, 3], [1, 3], [2, 3]]  # 51 -> 120 is 69 frames
     assert time_distance(ts[0], ts[1]) == 48 and time_distance(ts[0], ts[3]) == 0
 
 
