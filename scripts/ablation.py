@@ -29,7 +29,7 @@ from sotmot.appearance import make_embedder  # noqa: E402
 from sotmot.boxes import iou_matrix  # noqa: E402
 from sotmot.config import TrackerConfig, load_config  # noqa: E402
 from sotmot.evaluate import evaluate_files  # noqa: E402
-from sotmot.io import read_detections, read_ground_truth, read_seqinfo, write_results  # noqa: E402
+from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_path, write_results  # noqa: E402
 from sotmot.pipeline import embed_detections, finish_sequence, preprocess, prepare_sequence  # noqa: E402
 
 ROWS = {
@@ -86,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
                 prepared = prepare_sequence(seq, config, embedder, features=features)
                 run = finish_sequence(prepared, config)
                 seconds = time.perf_counter() - start + embed_seconds
-                path = Path(tmp) / row / f"{info.name}.txt"
+                path = results_path(Path(tmp) / row, info.name)
                 write_results(path, run.tracks)
                 pairs[row].append((path, info.gt_path, info.length, info.name))
                 n_added, precision = added_precision(prepared)

@@ -28,7 +28,7 @@ from pathlib import Path
 
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import evaluate_files
-from sotmot.io import write_results
+from sotmot.io import results_path, write_results
 from sotmot.pipeline import track_sequence
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
             start = time.perf_counter()
             result = track_sequence(seq, config, merger=args.merger, progress=sys.stderr.isatty())
             seconds = time.perf_counter() - start
-            path = out / f"{result.info.name}.txt"
+            path = results_path(out, result.info.name)
             write_results(path, result.tracks)
             pairs.append((path, result.info.gt_path, result.info.length, result.info.name))
             runs[result.info.name] = {"frames": result.info.length, "seconds": seconds,

@@ -24,7 +24,7 @@ from sotmot.config import TrackerConfig  # noqa: E402
 from sotmot.evaluate import evaluate_files  # noqa: E402
 from sotmot.explain import run_graph  # noqa: E402
 from sotmot.graph_view import draw_png  # noqa: E402
-from sotmot.io import FrameReader, read_detections, read_seqinfo, write_results  # noqa: E402
+from sotmot.io import FrameReader, read_detections, read_seqinfo, results_path, write_results  # noqa: E402
 from sotmot.pipeline import finish_sequence, prepare_sequence, preprocess, resolve_nms  # noqa: E402
 from sotmot.render import draw_frame  # noqa: E402
 from sotmot.types import Tracks  # noqa: E402
@@ -131,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         rows = []
         for merger, run in runs.items():
-            path = Path(tmp) / merger / f"{info.name}.txt"
+            path = results_path(Path(tmp) / merger, info.name)
             write_results(path, run.tracks)
             score = evaluate_files([(path, info.gt_path, info.length, info.name)]).sequences[info.name]
             rows.append(f"| {merger} | {len(run.association.groups)} | {score['HOTA']:.1f} | {score['MOTA']:.1f} | "

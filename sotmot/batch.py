@@ -55,13 +55,13 @@ def _init_worker(config: TrackerConfig) -> None:
 def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
               progress: bool = False, embedder=None) -> Outcome:
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
-    from sotmot.io import read_seqinfo, write_results
+    from sotmot.io import read_seqinfo, results_path, write_results
     from sotmot.pipeline import track_sequence
     from sotmot.render import write_flags
 
     try:
         info = read_seqinfo(seq_dir)
-        out = Path(out_dir) / f"{info.name}.txt"
+        out = results_path(out_dir, info.name)
         if resume and out.is_file():
             return Outcome(seq_dir, "skipped", str(out), f"{info.name}: results exist, skipped (--resume)")
         start = time.perf_counter()
@@ -121,9 +121,9 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
 
 
 def _has_results(seq_dir: str, out_dir: str) -> bool:
-    from sotmot.io import read_seqinfo
+    from sotmot.io import read_seqinfo, results_path
 
     try:
-        return (Path(out_dir) / f"{read_seqinfo(seq_dir).name}.txt").is_file()
+        return results_path(out_dir, read_seqinfo(seq_dir).name).is_file()
     except SotmotError:
         return False

@@ -25,7 +25,7 @@ from sotmot.config import TrackerConfig
 from sotmot.errors import SotmotError
 from sotmot.evaluate import evaluate_files
 from sotmot.graph import flow_objective
-from sotmot.io import write_results
+from sotmot.io import results_path, write_results
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracklet
 
@@ -76,7 +76,7 @@ def compare(seq_dirs: Sequence[str | Path], mergers: Sequence[str], config: Trac
                 seconds = run.timings["association"]
                 if fingerprint(prepared.tracklets) != before:
                     raise SotmotError(f"solver {merger!r} changed the tracklets of {name}")
-                path = Path(tmp) / merger / f"{name}.txt"
+                path = results_path(Path(tmp) / merger, name)
                 write_results(path, run.tracks)
                 pairs[merger].append((path, prepared.info.gt_path, prepared.info.length, name))
                 result.rows[name][merger] = {

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from sotmot.errors import EvaluationError, InputError
-from sotmot.io import gt_style, read_ground_truth, read_results, read_seqinfo
+from sotmot.io import gt_style, read_ground_truth, read_results, read_seqinfo, results_path
 
 #: Reported metrics: name -> (TrackEval metric family, field, is a fraction to show as %).
 METRICS: dict[str, tuple[str, str, bool]] = {
@@ -285,7 +285,7 @@ def evaluate(results_dir: str | Path, seq_dirs: Sequence[str | Path]) -> EvalRep
     pairs = []
     for seq in seq_dirs:
         info = read_seqinfo(seq)
-        results = results_dir / f"{info.name}.txt"
+        results = results_path(results_dir, info.name)
         if not results.is_file():
             raise InputError(results, f"no results for sequence {info.name}; run 'sotmot track {seq} "
                              f"--out {results_dir}' first")

@@ -10,11 +10,12 @@ from sotmot.io.mot import (
     read_ground_truth,
     read_results,
     read_seqinfo,
+    results_path,
     write_results,
     write_text_atomic,
 )
 
 __all__ = [
     "FrameReader", "GroundTruth", "SeqInfo", "format_results", "gt_style", "read_detections",
-    "read_ground_truth", "read_results", "read_seqinfo", "write_results", "write_text_atomic",
+    "read_ground_truth", "read_results", "read_seqinfo", "results_path", "write_results", "write_text_atomic",
 ]

@@ -275,6 +275,11 @@ def read_results(path: str | Path, seq_length: int | None = None) -> Tracks:
     return Tracks(arr[:, 0].astype(np.int64), ids, arr[:, 2:6], arr[:, 6])
 
 
+def results_path(out_dir: str | Path, seq_name: str) -> Path:
+    """Where the results of sequence ``seq_name`` live in ``out_dir``: ``<out_dir>/<name>.txt``."""
+    return Path(out_dir) / f"{seq_name}.txt"
+
+
 def format_results(tracks: Tracks) -> str:
     """MOTChallenge text for ``tracks``, sorted by frame then id, 2 decimals for boxes."""
     order = np.lexsort((tracks.ids, tracks.frames))
