@@ -93,10 +93,7 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedde
     n = len(detections)
     enlarged = result.detections
     added = enlarged.subset(np.arange(n, len(enlarged)))
-    if deep:
-        added_features = result.features.reshape(len(added), -1) if len(added) else np.zeros((0, features.shape[1]))
-    else:
-        added_features = embed_detections(info, added, embedder, progress)
+    added_features = result.features if deep else embed_detections(info, added, embedder, progress)
     all_features = np.concatenate([features, added_features.astype(features.dtype)])
     keep = nms_per_frame(enlarged, resolve_nms(config.preprocess, detections), config.preprocess.nms_threshold)
     remap = np.full(len(enlarged), -1)

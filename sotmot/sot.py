@@ -318,8 +318,10 @@ class SotTracker:
         scores = np.concatenate([detections.scores, np.full(added, _added_score(detections.scores))])
         enlarged = Detections(np.asarray(self._frames), np.asarray(self._boxes).reshape(-1, 4), scores,
                               np.r_[detections.from_sot, np.ones(added, bool)])
-        feats = (np.stack(self._features[n:]) if cfg.variant == "deep" and added
-                 else (np.zeros((0, 0), np.float32) if cfg.variant == "deep" else None))
+        feats = None
+        if cfg.variant == "deep":
+            feats = (np.stack(self._features[n:]) if added
+                     else np.zeros((0, self.det_features.shape[1]), np.float32))
         log.info("SOT (%s) added %d boxes to %d detections in %d steps", cfg.variant, added, n, self.steps)
         return SotResult(enlarged, np.asarray(links, dtype=np.int64).reshape(-1, 2), feats, self.steps)
 
