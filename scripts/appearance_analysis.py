@@ -25,9 +25,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import rankdata
 
-from sotmot.appearance import affinity_rows
+from sotmot.appearance import affinity_rows, roc_auc
 from sotmot.appearance.onnx_reid import OnnxReidEmbedder
 from sotmot.config import AppearanceConfig, AssociationConfig, TrackletConfig
 from sotmot.io import FrameReader, read_ground_truth, read_seqinfo
@@ -52,12 +51,6 @@ def sample_pairs(ids: np.ndarray, frames: np.ndarray, n: int, rng: np.random.Gen
                 neg[row] = a, b
                 break
     return pos, neg
-
-
-def roc_auc(pos: np.ndarray, neg: np.ndarray) -> float:
-    """Probability that a random positive scores above a random negative (ties count half)."""
-    ranks = rankdata(np.concatenate([pos, neg]))
-    return float((ranks[:len(pos)].sum() - len(pos) * (len(pos) + 1) / 2) / (len(pos) * len(neg)))
 
 
 def balanced_threshold(pos: np.ndarray, neg: np.ndarray) -> float:

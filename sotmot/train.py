@@ -49,8 +49,8 @@ class TrainConfig:
     seed: int = 0
 
 
-def collect_crops(seq_dirs: Sequence[str | Path], per_identity: int, min_visibility: float,
-                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def collect_crops(seq_dirs: Sequence[str | Path], per_identity: int,
+                  min_visibility: float) -> tuple[np.ndarray, np.ndarray]:
     """``(N, 256, 128, 3)`` uint8 crops and ``(N,)`` identity labels (0..K-1 over all sequences)."""
     crops, labels = [], []
     next_label = 0
@@ -92,19 +92,12 @@ def batch_hard_triplet(features, labels, margin: float):
 
 def pair_auc(features: np.ndarray, labels: np.ndarray) -> float:
     """ROC AUC of sotmot's affinity over all same-identity vs different-identity pairs."""
-    from scipy.stats import rankdata
+    from sotmot.appearance import affinity, roc_auc
 
-    from sotmot.appearance import affinity
-
-    aff = affinity(features, features)
     iu = np.triu_indices(len(labels), 1)
     same = (labels[:, None] == labels[None, :])[iu]
-    scores = aff[iu]
-    pos, neg = scores[same], scores[~same]
-    if len(pos) == 0 or len(neg) == 0:
-        return float("nan")
-    ranks = rankdata(np.concatenate([pos, neg]))
-    return float((ranks[:len(pos)].sum() - len(pos) * (len(pos) + 1) / 2) / (len(pos) * len(neg)))
+    scores = affinity(features, features)[iu]
+    return roc_auc(scores[same], scores[~same])
 
 
 def _save(path: Path, payload: dict) -> None:
@@ -135,7 +128,7 @@ def train(seq_dirs: Sequence[str | Path], appearance: AppearanceConfig, out: str
     start = time.perf_counter()
     torch.manual_seed(config.seed)
     rng = np.random.default_rng(config.seed)
-    crops, labels = collect_crops(seq_dirs, config.per_identity, config.min_visibility, rng)
+    crops, labels = collect_crops(seq_dirs, config.per_identity, config.min_visibility)
     ids = np.unique(labels)
     rng.shuffle(ids)
     n_val = max(1, int(round(config.val_fraction * len(ids))))

@@ -65,6 +65,21 @@ def affinity_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return _affinity_from_cosine(np.einsum("nd,nd->n", an, bn))
 
 
+def roc_auc(positive: np.ndarray, negative: np.ndarray) -> float:
+    """ROC AUC of scores: the probability that a positive outscores a negative (ties count half).
+
+    Used to judge an appearance model on same-person (``positive``) and
+    different-person (``negative``) pair affinities; NaN if either is empty.
+    """
+    from scipy.stats import rankdata
+
+    pos, neg = np.asarray(positive, float), np.asarray(negative, float)
+    if len(pos) == 0 or len(neg) == 0:
+        return float("nan")
+    ranks = rankdata(np.concatenate([pos, neg]))
+    return float((ranks[:len(pos)].sum() - len(pos) * (len(pos) + 1) / 2) / (len(pos) * len(neg)))
+
+
 def _affinity_from_cosine(cos: np.ndarray) -> np.ndarray:
     """``1 - ||a - b|| / 2`` for unit vectors, from their cosine: ``||a - b||^2 = 2 - 2 cos``."""
     cos = np.clip(cos, -1.0, 1.0)
@@ -93,4 +108,4 @@ def make_embedder(config: AppearanceConfig) -> Embedder:
     return factory(config)
 
 
-__all__ = ["BACKENDS", "Embedder", "affinity", "affinity_rows", "make_embedder", "normalize"]
+__all__ = ["BACKENDS", "Embedder", "affinity", "affinity_rows", "make_embedder", "normalize", "roc_auc"]
