@@ -110,6 +110,14 @@ def merge(a: Tracklet, b: Tracklet, new_id: int) -> Tracklet:
     Ties in score keep ``a``'s box. The mean feature is the mean over both
     trajectories' detections.
     """
+    n = a.n_features + b.n_features
+    feature = (a.feature.astype(np.float64) * a.n_features + b.feature.astype(np.float64) * b.n_features) / n
+    if a.end < b.start or b.end < a.start:  # disjoint spans: one after the other
+        early, late = (a, b) if a.end < b.start else (b, a)
+        return Tracklet(id=new_id, frames=np.concatenate([early.frames, late.frames]),
+                        boxes=np.concatenate([early.boxes, late.boxes]),
+                        scores=np.concatenate([early.scores, late.scores]),
+                        det_index=np.concatenate([early.det_index, late.det_index]), feature=feature, n_features=n)
     frames = np.concatenate([a.frames, b.frames])
     scores = np.concatenate([a.scores, b.scores])
     origin = np.r_[np.zeros(len(a), np.int64), np.ones(len(b), np.int64)]
@@ -118,31 +126,39 @@ def merge(a: Tracklet, b: Tracklet, new_id: int) -> Tracklet:
     frames = frames[order]
     first = np.r_[True, frames[1:] != frames[:-1]]
     take = order[first]
-    n = a.n_features + b.n_features
-    feature = (a.feature.astype(np.float64) * a.n_features + b.feature.astype(np.float64) * b.n_features) / n
     return Tracklet(id=new_id, frames=np.concatenate([a.frames, b.frames])[take],
                     boxes=np.concatenate([a.boxes, b.boxes])[take], scores=np.concatenate([a.scores, b.scores])[take],
                     det_index=np.concatenate([a.det_index, b.det_index])[take], feature=feature, n_features=n)
 
 
-class _FrameIndex:
+class _Ends:
+    """First and last frame and box, and largest inner gap, of several trajectories."""
+
+    def __init__(self, tracklets: Sequence[Tracklet], nodes: np.ndarray) -> None:
+        chosen = [tracklets[n] for n in nodes.tolist()]
+        self.starts = np.array([t.frames[0] for t in chosen], dtype=np.int64)
+        self.ends = np.array([t.frames[-1] for t in chosen], dtype=np.int64)
+        self.first_box = np.array([t.boxes[0] for t in chosen], dtype=np.float64).reshape(-1, 4)
+        self.last_box = np.array([t.boxes[-1] for t in chosen], dtype=np.float64).reshape(-1, 4)
+        self.inner = np.array([t.max_gap for t in chosen], dtype=np.int64)
+
+
+class _FrameIndex(_Ends):
     """Boxes and scores of several trajectories, looked up by (trajectory, frame) in one search."""
 
     def __init__(self, tracklets: Sequence[Tracklet], nodes: np.ndarray) -> None:
-        frames = [tracklets[n].frames for n in nodes]
-        self.span = int(max(f[-1] for f in frames)) + 2 if frames else 1
+        super().__init__(tracklets, nodes)
+        frames = [tracklets[n].frames for n in nodes.tolist()]
+        self.span = int(self.ends.max()) + 2 if frames else 1
         self.keys = np.concatenate([code * self.span + f for code, f in enumerate(frames)]) if frames \
             else np.zeros(0, np.int64)
-        self.boxes = np.concatenate([tracklets[n].boxes for n in nodes]) if frames else np.zeros((0, 4))
-        self.scores = np.concatenate([tracklets[n].scores for n in nodes]) if frames else np.zeros(0)
-        self.starts = np.array([f[0] for f in frames], dtype=np.int64)
-        self.ends = np.array([f[-1] for f in frames], dtype=np.int64)
-        self.inner = np.array([tracklets[n].max_gap for n in nodes], dtype=np.int64)
+        self.boxes = np.concatenate([tracklets[n].boxes for n in nodes.tolist()]) if frames else np.zeros((0, 4))
+        self.scores = np.concatenate([tracklets[n].scores for n in nodes.tolist()]) if frames else np.zeros(0)
 
     def lookup(self, codes: np.ndarray, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Whether trajectory ``codes[i]`` has a box in ``frames[i]``, and its row."""
         q = codes * self.span + frames
-        pos = np.clip(np.searchsorted(self.keys, q), 0, max(len(self.keys) - 1, 0))
+        pos = np.minimum(np.searchsorted(self.keys, q), max(len(self.keys) - 1, 0))
         return self.keys[pos] == q, pos
 
 
@@ -179,42 +195,38 @@ def _segment_ious(index: _FrameIndex, local: np.ndarray) -> tuple[np.ndarray, np
     return overlap, min_iou
 
 
-def _merged_gaps(index: _FrameIndex, local: np.ndarray,
-                 config: AssociationConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Gap numbers of merging each pair: max gap, and gap, speed, bound of the worst checked gap.
+def _junction_gaps(ends: _Ends, early: np.ndarray, late: np.ndarray,
+                   config: AssociationConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Gap numbers of merging disjoint trajectories, ``early`` ending before ``late`` starts.
+
+    The merge creates one gap, joining the last box of ``early`` to the first
+    box of ``late``; it is the only checked gap. Returns the largest gap of
+    the merged trajectory (inner gaps included) and that gap, its speed and bound.
+    """
+    gaps, speed, bound = gap_velocity(ends.ends[early], ends.last_box[early], ends.starts[late],
+                                      ends.first_box[late], config)
+    return np.maximum(np.maximum(ends.inner[early], ends.inner[late]), gaps), gaps, speed, bound
+
+
+def _overlap_gaps(index: _FrameIndex, local: np.ndarray,
+                  config: AssociationConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Gap numbers of merging pairs whose spans meet: max gap, and gap, speed, bound of the worst checked gap.
 
     With ``lo`` the later start and ``hi`` the earlier end, the merge can only
-    change gaps that touch the window ``[w0, w1]``: the common span
-    ``[lo, hi]`` when the spans meet, the open junction ``[hi + 1, lo - 1]``
-    when they do not. Checked gaps ``(f1, f2)`` are those with ``f2 >= w0``
-    and ``f1 <= w1`` (for two disjoint trajectories: exactly the new gap
-    between them, computed directly). For pairs whose spans meet, the merged
+    change gaps that touch the common span ``[lo, hi]``: checked gaps
+    ``(f1, f2)`` are those with ``f2 >= lo`` and ``f1 <= hi``. The merged
     trajectory (higher-score box per shared frame, ties to the first of the
-    pair) is built only over the window widened by ``l_max + 1`` frames,
-    enough to see every such gap whole (a longer one is an inner gap of an
-    input, counted through ``Tracklet.max_gap``).
+    pair) is built only over the span widened by ``l_max + 1`` frames, enough
+    to see every such gap whole (a longer one is an inner gap of an input,
+    counted through ``Tracklet.max_gap``).
     """
     k = len(local)
     lo = index.starts[local].max(axis=1)
     hi = index.ends[local].min(axis=1)
-    meet = lo <= hi
     max_gap = np.maximum(index.inner[local[:, 0]], index.inner[local[:, 1]])
     worst_gap, speed, bound = np.zeros(k, np.int64), np.zeros(k), np.full(k, np.inf)
-    # Disjoint spans: the only checked gap joins the earlier one's last box to the later one's first.
-    apart = np.flatnonzero(~meet)
-    if len(apart):
-        a_first = index.ends[local[apart, 0]] < index.starts[local[apart, 1]]
-        early = np.where(a_first, local[apart, 0], local[apart, 1])
-        late = np.where(a_first, local[apart, 1], local[apart, 0])
-        _, pos_end = index.lookup(early, index.ends[early])
-        _, pos_start = index.lookup(late, index.starts[late])
-        worst_gap[apart], speed[apart], bound[apart] = gap_velocity(
-            index.ends[early], index.boxes[pos_end], index.starts[late], index.boxes[pos_start], config)
-        max_gap[apart] = np.maximum(max_gap[apart], worst_gap[apart])
-    rows = np.flatnonzero(meet)
-    if len(rows) == 0:
+    if k == 0:
         return max_gap, worst_gap, speed, bound
-    local, lo, hi = local[rows], lo[rows], hi[rows]
     first = np.maximum(index.starts[local].min(axis=1), lo - config.l_max - 1)
     last = np.minimum(index.ends[local].max(axis=1), hi + config.l_max + 1)
     which, frame = _expand(first, last)
@@ -227,7 +239,7 @@ def _merged_gaps(index: _FrameIndex, local: np.ndarray,
     step = np.flatnonzero((which[1:] == which[:-1]) & (frame[1:] >= lo[which[1:]]) & (frame[:-1] <= hi[which[:-1]]))
     if len(step) == 0:
         return max_gap, worst_gap, speed, bound
-    pair = rows[which[step]]
+    pair = which[step]
     gaps, spd, bnd = gap_velocity(frame[step], boxes[step], frame[step + 1], boxes[step + 1], config)
     np.maximum.at(max_gap, pair, gaps)
     order = np.lexsort((-(spd / bnd), pair))  # by pair, worst ratio first
@@ -296,6 +308,12 @@ class Screen:
     speed: np.ndarray
     bound: np.ndarray
 
+    def take(self, rows: np.ndarray) -> Screen:
+        """The screen of the pairs ``rows`` only."""
+        return dataclasses.replace(self, **{f.name: getattr(self, f.name)[rows] for f in dataclasses.fields(self)
+                                            if f.name != "failures"},
+                                   failures={c: v[rows] for c, v in self.failures.items()})
+
     def check(self, row: int) -> PairCheck:
         """The :class:`PairCheck` of one pair."""
         overlap = int(self.overlap[row])
@@ -336,15 +354,25 @@ def check_pairs(tracklets: Sequence[Tracklet], pairs: np.ndarray, affinities: np
     k = len(pairs)
     nodes, local = np.unique(pairs, return_inverse=True)
     local = local.reshape(-1, 2)
-    index = _FrameIndex(tracklets, nodes)
+    ends = _Ends(tracklets, nodes)
+    meet = ends.starts[local].max(axis=1) <= ends.ends[local].min(axis=1)
+    met, apart = np.flatnonzero(meet), np.flatnonzero(~meet)
+    # only the trajectories of pairs whose spans meet are needed frame by frame
+    sub, met_local = np.unique(local[met], return_inverse=True)
+    index = _FrameIndex(tracklets, nodes[sub])
+    met_local = met_local.reshape(-1, 2)
     overlap, min_iou = np.zeros(k, np.int64), np.full(k, np.nan)
-    spans_meet = index.starts[local].max(axis=1) <= index.ends[local].min(axis=1) if k else np.zeros(0, bool)
-    rows = np.flatnonzero(spans_meet)
-    overlap[rows], min_iou[rows] = _segment_ious(index, local[rows])
+    overlap[met], min_iou[met] = _segment_ious(index, met_local)
     failures = rule_failures(overlap, min_iou, 0, 0.0, np.inf, affinities, config)
     max_gap, worst_gap, speed, bound = np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros(k), np.full(k, np.inf)
-    rows = np.arange(k) if complete else np.flatnonzero(~(failures["iou"] | failures["affinity"]))
-    max_gap[rows], worst_gap[rows], speed[rows], bound[rows] = _merged_gaps(index, local[rows], config)
+    measure = np.ones(k, bool) if complete else ~(failures["iou"] | failures["affinity"])
+    rows = apart[measure[apart]]
+    a_first = ends.ends[local[rows, 0]] < ends.starts[local[rows, 1]]
+    early, late = np.where(a_first, local[rows, 0], local[rows, 1]), np.where(a_first, local[rows, 1], local[rows, 0])
+    max_gap[rows], worst_gap[rows], speed[rows], bound[rows] = _junction_gaps(ends, early, late, config)
+    sel = np.flatnonzero(measure[met])
+    max_gap[met[sel]], worst_gap[met[sel]], speed[met[sel]], bound[met[sel]] = _overlap_gaps(
+        index, met_local[sel], config)
     failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config)
     allowed = ~np.any(np.stack([failures[c] for c in CONSTRAINTS]), axis=0) if k else np.zeros(0, bool)
     return Screen(allowed=allowed, failures=failures, affinity=affinities, overlap=overlap, min_iou=min_iou,
