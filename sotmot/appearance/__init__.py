@@ -50,9 +50,7 @@ def affinity(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     Inputs need not be normalised (mean features are not): they are normalised
     here. Returns ``(N, M)`` float64 in [0, 1].
     """
-    an = normalize(np.atleast_2d(a)).astype(np.float64)
-    bn = normalize(np.atleast_2d(b)).astype(np.float64)
-    return _affinity_from_cosine(an @ bn.T)
+    return _affinity_from_cosine(unit(a) @ unit(b).T)
 
 
 def affinity_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -60,9 +58,17 @@ def affinity_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
     The same quantity as :func:`affinity`, without the ``(N, M)`` matrix.
     """
-    an = normalize(np.atleast_2d(a)).astype(np.float64)
-    bn = normalize(np.atleast_2d(b)).astype(np.float64)
-    return _affinity_from_cosine(np.einsum("nd,nd->n", an, bn))
+    return unit_affinity_rows(unit(a), unit(b))
+
+
+def unit(features: np.ndarray) -> np.ndarray:
+    """Rows of ``features`` as :func:`affinity` compares them: unit length, float64, ``(N, D)``."""
+    return normalize(np.atleast_2d(features)).astype(np.float64)
+
+
+def unit_affinity_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`affinity_rows` of rows already passed through :func:`unit` (saves normalising them again)."""
+    return _affinity_from_cosine(np.einsum("nd,nd->n", a, b))
 
 
 def roc_auc(positive: np.ndarray, negative: np.ndarray) -> float:
