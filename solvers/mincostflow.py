@@ -6,6 +6,10 @@ same IoU, velocity and gap rules as the greedy merge, on every link it makes.
 Unlike the greedy merge it optimises all links at once: the set of links that
 minimises ``entry cost x trajectories + sum of (1 - affinity)``.
 A status other than OPTIMAL raises :class:`~sotmot.errors.SolverError`.
+
+It builds the network straight from the arrays of
+:func:`sotmot.graph.candidate_links` (the networkx graph of the same links is
+what :mod:`solvers.networkx_flow` and the inspection tools use).
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ from solvers.base import Association
 from solvers.flow_common import association_from_links
 from sotmot.config import AssociationConfig
 from sotmot.errors import SolverError
-from sotmot.graph import build_graph, flow_network
+from sotmot.graph import candidate_links, flow_arcs, link_cost
 from sotmot.types import Tracklet
 
 
@@ -28,8 +32,10 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
 
     if not tracklets:
         return Association(groups=())
-    graph = build_graph(tracklets, config)
-    nodes, tails, heads, capacities, costs = flow_network(graph, config)
+    cands = candidate_links(tracklets, config)
+    ids = np.array([t.id for t in tracklets], dtype=np.int64)
+    u, v, affinity = ids[cands.u], ids[cands.v], cands.screen.affinity
+    nodes, tails, heads, capacities, costs = flow_arcs(ids, u, v, link_cost(affinity), config)
     smcf = min_cost_flow.SimpleMinCostFlow()
     arcs = smcf.add_arcs_with_capacity_and_unit_cost(tails, heads, capacities, costs)
     supplies = np.zeros(len(nodes), dtype=np.int64)
@@ -39,6 +45,10 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
     if status != smcf.OPTIMAL:
         raise SolverError(f"OR-Tools min-cost flow ended with status {status!r}, not OPTIMAL")
     flows = smcf.flows(arcs)
-    links = [(nodes[t][1], nodes[h][1]) for t, h, f in zip(tails, heads, flows)
-             if f > 0 and isinstance(nodes[t], tuple) and isinstance(nodes[h], tuple) and nodes[t][0] == "out"]
-    return association_from_links(tracklets, graph, links)
+    # link arcs come last, sorted by (u, v), as flow_arcs lays them out
+    n_links = len(u)
+    order = np.lexsort((v, u))
+    used = np.flatnonzero(flows[len(flows) - n_links:] > 0) if n_links else np.zeros(0, np.int64)
+    chosen = order[used]
+    links = list(zip(u[chosen].tolist(), v[chosen].tolist()))
+    return association_from_links(tracklets, links, dict(zip(links, affinity[chosen].tolist())))

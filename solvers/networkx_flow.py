@@ -44,4 +44,4 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
         raise SolverError(f"networkx min-cost flow failed: {exc}") from exc
     links = [(u[1], v[1]) for u, targets in flow.items() if isinstance(u, tuple) and u[0] == "out"
              for v, f in targets.items() if f > 0 and isinstance(v, tuple)]
-    return association_from_links(tracklets, graph, links)
+    return association_from_links(tracklets, links, {(u, v): graph.edges[u, v]["affinity"] for u, v in links})

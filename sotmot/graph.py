@@ -30,13 +30,14 @@ the fewest, most similar trajectories.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import networkx as nx
 import numpy as np
 
-from sotmot.appearance import affinity_rows
+from sotmot.appearance import affinity_rows, unit, unit_affinity_rows
 from sotmot.config import AssociationConfig
-from sotmot.constraints import CONSTRAINTS, candidate_pairs, check_pairs
+from sotmot.constraints import CONSTRAINTS, Screen, candidate_pairs, check_pairs
 from sotmot.errors import SolverError
 from sotmot.types import Tracklet
 
@@ -58,7 +59,48 @@ def entry_cost(config: AssociationConfig) -> float:
 
 
 def _order_key(t: Tracklet) -> tuple[int, int, int]:
+    """The orientation of links: the tracklet that starts first (ties: ends first, then smaller id) leads."""
     return (t.start, t.end, t.id)
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """Candidate links as arrays, oriented ``u -> v`` (see :func:`candidate_links`).
+
+    Attributes
+    ----------
+    u, v
+        ``(K,)`` positions in the tracklet sequence of each link's earlier and later tracklet.
+    screen
+        The constraint check of each link (``screen.allowed``, ``screen.affinity``, ...).
+    """
+
+    u: np.ndarray
+    v: np.ndarray
+    screen: Screen
+
+
+def candidate_links(tracklets: Sequence[Tracklet], config: AssociationConfig,
+                    include_rejected: bool = False) -> Candidates:
+    """Every candidate link of ``tracklets`` checked at once; only the allowed ones unless ``include_rejected``.
+
+    A link joins tracklets within ``l_max`` frames, oriented by :func:`_order_key`.
+    """
+    ids = [t.id for t in tracklets]
+    if len(set(ids)) != len(ids):
+        raise SolverError("tracklet ids must be unique")
+    pairs = candidate_pairs(tracklets, config.l_max)
+    features = unit(np.stack([t.feature for t in tracklets])) if tracklets else np.zeros((0, 1))
+    aff = unit_affinity_rows(features[pairs[:, 0]], features[pairs[:, 1]])
+    screen = check_pairs(tracklets, pairs, aff, config, complete=include_rejected)
+    if not include_rejected:
+        keep = np.flatnonzero(screen.allowed)
+        pairs, screen = pairs[keep], screen.take(keep)
+    order = np.empty(len(tracklets), dtype=np.int64)
+    order[sorted(range(len(tracklets)), key=lambda i: _order_key(tracklets[i]))] = np.arange(len(tracklets))
+    forward = order[pairs[:, 0]] < order[pairs[:, 1]]
+    return Candidates(u=np.where(forward, pairs[:, 0], pairs[:, 1]), v=np.where(forward, pairs[:, 1], pairs[:, 0]),
+                      screen=screen)
 
 
 def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
@@ -86,24 +128,13 @@ def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
         ``min_segment_iou``, ``allowed``, ``failed`` (comma-separated) and one
         boolean per constraint (``ok_iou``, ``ok_gap``, ...).
     """
-    ids = [t.id for t in tracklets]
-    if len(set(ids)) != len(ids):
-        raise SolverError("tracklet ids must be unique")
+    links = candidate_links(tracklets, config, include_rejected)
     graph = nx.DiGraph()
     for t in tracklets:
         graph.add_node(t.id, start=t.start, end=t.end, length=len(t), mean_score=float(t.scores.mean()))
-    pairs = candidate_pairs(tracklets, config.l_max)
-    if len(pairs) == 0:
-        return graph
-    aff = affinity_rows(np.stack([tracklets[i].feature for i in pairs[:, 0]]),
-                        np.stack([tracklets[j].feature for j in pairs[:, 1]]))
-    screen = check_pairs(tracklets, pairs, aff, config, complete=include_rejected)
-    rows = np.arange(len(pairs)) if include_rejected else np.flatnonzero(screen.allowed)
-    checks = [(r, screen.check(r)) for r in rows.tolist()]
-    for r, check in checks:
-        i, j = pairs[r]
-        u, v = (tracklets[i], tracklets[j]) if _order_key(tracklets[i]) < _order_key(tracklets[j]) \
-            else (tracklets[j], tracklets[i])
+    for r, (i, j) in enumerate(zip(links.u.tolist(), links.v.tolist())):
+        u, v = tracklets[i], tracklets[j]
+        check = links.screen.check(r)
         attrs = {f"ok_{c}": c not in check.failed for c in CONSTRAINTS}
         graph.add_edge(u.id, v.id, affinity=check.affinity, weight=float(link_cost(check.affinity)),
                        gap=max(0, v.start - u.end), max_gap=check.max_gap, velocity_gap=check.gap_at_max_velocity,
@@ -135,41 +166,46 @@ def integer_costs(costs: np.ndarray, n_paths: int, scale: int = COST_SCALE) -> n
     return scaled.astype(np.int64)
 
 
-def flow_network(graph: nx.DiGraph, config: AssociationConfig) -> tuple[list, np.ndarray, np.ndarray,
-                                                                        np.ndarray, np.ndarray]:
-    """The min-cost-flow network of an association graph, as arc arrays.
+def flow_arcs(tracklet_ids: Sequence[int], link_u: np.ndarray, link_v: np.ndarray, link_weight: np.ndarray,
+              config: AssociationConfig) -> tuple[list, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The min-cost-flow network as arc arrays, from links given as tracklet ids and float costs.
 
     Returns
     -------
     nodes
-        Node keys: ``"S"``, ``"T"``, then ``("in", u)``, ``("out", u)`` per tracklet.
+        Node keys: ``"S"``, ``"T"``, then ``("in", u)``, ``("out", u)`` per tracklet, by id.
     tails, heads
-        ``(A,)`` indices into ``nodes`` of each arc.
+        ``(A,)`` indices into ``nodes`` of each arc: the bypass ``S -> T``,
+        then per tracklet its entry, observation and exit arcs, then the
+        links sorted by ``(u, v)``.
     capacities
         ``(A,)`` all 1 except the bypass ``S -> T`` (the number of tracklets).
     costs
         ``(A,)`` integer costs (see the module docstring).
     """
-    tracklet_ids = sorted(graph.nodes)
-    nodes: list = [SOURCE, SINK]
-    index = {SOURCE: 0, SINK: 1}
-    for u in tracklet_ids:
-        for side in ("in", "out"):
-            index[(side, u)] = len(nodes)
-            nodes.append((side, u))
-    n = len(tracklet_ids)
+    ids = np.sort(np.asarray(tracklet_ids, dtype=np.int64))
+    n = len(ids)
+    nodes: list = [SOURCE, SINK] + [(side, int(u)) for u in ids.tolist() for side in ("in", "out")]
+    inn, out = 2 + 2 * np.arange(n), 3 + 2 * np.arange(n)
+    link_u, link_v = np.asarray(link_u, dtype=np.int64), np.asarray(link_v, dtype=np.int64)
+    order = np.lexsort((link_v, link_u))
+    lu, lv = np.searchsorted(ids, link_u[order]), np.searchsorted(ids, link_v[order])
     enter = entry_cost(config)
-    arcs: list[tuple[int, int, int, float]] = [(0, 1, n, 0.0)]
-    for u in tracklet_ids:
-        arcs.append((0, index[("in", u)], 1, enter))
-        arcs.append((index[("in", u)], index[("out", u)], 1, -(enter + 1.0)))
-        arcs.append((index[("out", u)], 1, 1, 0.0))
-    for u, v, data in sorted(graph.edges(data=True)):
-        if data.get("allowed", True):
-            arcs.append((index[("out", u)], index[("in", v)], 1, data["weight"]))
-    arr = np.asarray(arcs, dtype=np.float64).reshape(-1, 4)
+    per_tracklet = np.stack([np.stack([np.zeros(n), inn, np.ones(n), np.full(n, enter)], axis=1),
+                             np.stack([inn, out, np.ones(n), np.full(n, -(enter + 1.0))], axis=1),
+                             np.stack([out, np.ones(n), np.ones(n), np.zeros(n)], axis=1)], axis=1).reshape(-1, 4)
+    links = np.stack([out[lu], inn[lv], np.ones(len(lu)), np.asarray(link_weight, dtype=np.float64)[order]], axis=1)
+    arr = np.concatenate([[[0, 1, n, 0.0]], per_tracklet, links.reshape(-1, 4)])
     costs = integer_costs(arr[:, 3], n)
     return nodes, arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), arr[:, 2].astype(np.int64), costs
+
+
+def flow_network(graph: nx.DiGraph, config: AssociationConfig) -> tuple[list, np.ndarray, np.ndarray,
+                                                                        np.ndarray, np.ndarray]:
+    """The min-cost-flow network of an association graph (its allowed edges), as :func:`flow_arcs` gives it."""
+    edges = [(u, v, data["weight"]) for u, v, data in graph.edges(data=True) if data.get("allowed", True)]
+    u, v, w = (np.array(col) for col in zip(*edges)) if edges else (np.zeros(0, np.int64),) * 3
+    return flow_arcs(list(graph.nodes), u, v, w, config)
 
 
 def chains_from_links(tracklet_ids: Sequence[int], links: Sequence[tuple[int, int]]) -> tuple[tuple[int, ...], ...]:
