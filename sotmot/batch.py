@@ -1,26 +1,35 @@
-"""Tracking many sequences: one after another, or in parallel worker processes on this machine.
+"""Tracking many sequences: one after another, in worker processes on this machine, or on a Dask cluster.
 
 Each sequence is one job that reads its own frames (nothing but paths and
-the configuration crosses process boundaries), writes ``<name>.flags.csv``
-then ``<name>.txt`` atomically, and reports success or its error. A failing
-sequence never loses the others' results; with ``resume`` a sequence whose
-results file exists is skipped (results are written atomically and last, so
-an existing file is a complete one).
+the configuration crosses process or machine boundaries), writes
+``<name>.flags.csv`` then ``<name>.txt`` atomically, and reports success or
+its error. A failing sequence never loses the others' results; with
+``resume`` a sequence whose results file exists is skipped (results are
+written atomically and last, so an existing file is a complete one).
+
+On a Dask cluster (``cluster="dask://HOST:PORT"``, the scheduler of an
+existing ``distributed`` cluster) the paths must name the same files on the
+workers as here (a shared filesystem); they are made absolute before the
+jobs are sent. Each worker process loads the appearance model once.
 """
 
 from __future__ import annotations
 
 import os
+import threading
 import time
 import traceback
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
-from sotmot.config import TrackerConfig
-from sotmot.errors import SotmotError
+from sotmot.config import AppearanceConfig, TrackerConfig
+from sotmot.errors import ConfigError, SotmotError
 
 _EMBEDDER = None  # one appearance model per worker process
+_DASK_EMBEDDERS: dict[AppearanceConfig, object] = {}  # per Dask worker process, shared by its threads
+_DASK_LOCK = threading.Lock()
+DASK_HINT = "install Dask's scheduler client with: pip install -e '.[dask]' (distributed)"
 
 
 @dataclass(frozen=True)
@@ -79,17 +88,29 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
 
 
 def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerConfig, merger: str = "greedy",
-               workers: int = 1, resume: bool = False, progress: bool = False, report=None) -> list[Outcome]:
-    """Track every sequence; ``workers > 1`` runs them in that many processes.
+               workers: int = 1, resume: bool = False, progress: bool = False, report=None,
+               cluster: str | None = None) -> list[Outcome]:
+    """Track every sequence; ``workers > 1`` runs them in that many processes, ``cluster`` on Dask.
 
     With several workers each gets ``cpu_count // workers`` onnxruntime
     threads (unless the config sets them), so the machine is not
-    oversubscribed. ``report`` is called with each :class:`Outcome` as it
-    arrives. Outcomes come back in the order of ``seq_dirs``.
+    oversubscribed. ``cluster`` is ``"dask://HOST:PORT"``, the address of a
+    running Dask scheduler. ``report`` is called with each :class:`Outcome`
+    as it arrives. Outcomes come back in the order of ``seq_dirs``.
+
+    Raises
+    ------
+    ConfigError
+        Both ``workers > 1`` and ``cluster``; a malformed cluster address,
+        an unreachable scheduler, or ``distributed`` not installed.
     """
     seq_dirs = [str(s) for s in seq_dirs]
     out_dir = str(out_dir)
     report = report or (lambda outcome: None)
+    if cluster is not None:
+        if workers > 1:
+            raise ConfigError("use --workers (this machine) or --cluster (Dask), not both")
+        return _track_on_dask(cluster, seq_dirs, out_dir, config, merger, resume, progress, report)
     if workers <= 1 or len(seq_dirs) <= 1:
         from sotmot.appearance import make_embedder
 
@@ -117,6 +138,69 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
             outcome = future.result()
             by_seq[futures[future]] = outcome
             report(outcome)
+    return [by_seq[s] for s in seq_dirs]
+
+
+def dask_address(cluster: str) -> str:
+    """The scheduler address ``tcp://HOST:PORT`` of ``dask://HOST:PORT``."""
+    host, sep, port = cluster.removeprefix("dask://").rpartition(":")
+    if not cluster.startswith("dask://") or not sep or not host or not port.isdigit():
+        raise ConfigError(f"cluster address must look like dask://HOST:PORT, got {cluster!r}")
+    return f"tcp://{host}:{port}"
+
+
+def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool) -> Outcome:
+    """One sequence on a Dask worker, with that worker process's appearance model."""
+    embedder = None
+    if not (resume and _has_results(seq_dir, out_dir)):
+        try:
+            with _DASK_LOCK:
+                if config.appearance not in _DASK_EMBEDDERS:
+                    from sotmot.appearance import make_embedder
+
+                    _DASK_EMBEDDERS[config.appearance] = make_embedder(config.appearance)
+                embedder = _DASK_EMBEDDERS[config.appearance]
+        except SotmotError as exc:
+            return Outcome(seq_dir, "failed", None, f"{seq_dir}: {exc}")
+    return track_one(seq_dir, out_dir, config, merger, resume, embedder=embedder)
+
+
+def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: TrackerConfig, merger: str,
+                   resume: bool, progress: bool, report) -> list[Outcome]:
+    address = dask_address(cluster)
+    try:
+        from distributed import Client, as_completed as dask_completed
+    except ImportError as exc:
+        raise ConfigError(f"--cluster needs the 'distributed' package ({exc}); {DASK_HINT}") from exc
+    # the workers resolve paths on their side: send absolute ones (a shared filesystem is assumed)
+    seq_dirs_abs = [str(Path(s).resolve()) for s in seq_dirs]
+    out_dir = str(Path(out_dir).resolve())
+    model = config.appearance.model
+    if model and Path(model).exists():
+        config = config.replace("appearance", model=str(Path(model).resolve()))
+    try:
+        client = Client(address, timeout="10s")
+    except (OSError, TimeoutError) as exc:
+        raise ConfigError(f"cannot reach the Dask scheduler at {cluster} ({address}): {exc}") from exc
+    by_seq: dict[str, Outcome] = {}
+    try:
+        futures = {client.submit(_dask_job, seq, out_dir, config, merger, resume, pure=False): (seq, orig)
+                   for seq, orig in zip(seq_dirs_abs, seq_dirs)}
+        done = dask_completed(list(futures))
+        if progress:
+            from tqdm import tqdm
+
+            done = tqdm(done, total=len(futures), desc="sequences", unit="seq", dynamic_ncols=True)
+        for future in done:
+            seq, orig = futures[future]
+            try:
+                outcome = future.result()
+            except Exception as exc:  # the worker died or the job could not run: this sequence only
+                outcome = Outcome(orig, "failed", None, f"{orig}: on the cluster: {type(exc).__name__}: {exc}")
+            by_seq[orig] = outcome
+            report(outcome)
+    finally:
+        client.close()
     return [by_seq[s] for s in seq_dirs]
 
 

@@ -15,7 +15,9 @@ examples:
   sotmot track ../shared/data/PETS09-S2L1 --out results \\
       --reid-model ../shared/models/person-reidentification-retail-0288.onnx
   sotmot track ../shared/data/MOT16-*-clip30 --out results --eval
-  sotmot track SEQ --out results --config my.toml   # every threshold, see docs/reference.md
+  sotmot track SEQ --out results --config my.toml   # every threshold, see docs/configuration.md
+  sotmot track DATA/* --out results --workers 2 --resume   # 2 processes, skip finished sequences
+  sotmot track /shared/DATA/* --out /shared/results --cluster dask://scheduler:8786
 
 The re-ID model path may also come from the environment variable SOTMOT_REID_MODEL.
 Results are written as DIR/<name>.txt (MOTChallenge format: frame, id, x, y, w, h,
@@ -87,7 +89,7 @@ def cmd_track(args: argparse.Namespace) -> int:
               file=sys.stdout if outcome.status != "failed" else sys.stderr, flush=True)
 
     outcomes = track_many(args.seq_dirs, args.out, config, merger=args.merger, workers=args.workers,
-                          resume=args.resume, progress=not args.quiet, report=report)
+                          resume=args.resume, progress=not args.quiet, report=report, cluster=args.cluster)
     failed = [o for o in outcomes if o.status == "failed"]
     if failed:
         print(f"sotmot: {len(failed)} of {len(outcomes)} sequences failed; the others' results are in "
@@ -239,6 +241,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--eval", action="store_true", help="score the results with TrackEval afterwards")
     p.add_argument("--workers", type=int, default=1, metavar="N",
                    help="track N sequences at once in separate processes (default: 1)")
+    p.add_argument("--cluster", metavar="dask://HOST:PORT",
+                   help="run the sequences on an existing Dask cluster (its scheduler's address); the "
+                        "workers must see the same paths (shared filesystem) and have sotmot installed "
+                        "(pip install -e '.[dask]')")
     p.add_argument("--resume", action="store_true",
                    help="skip sequences whose results file already exists (files are written atomically)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")

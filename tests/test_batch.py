@@ -2,6 +2,8 @@
 
 import shutil
 
+import pytest
+
 from conftest import DATA, require
 from sotmot.cli import main
 
@@ -32,3 +34,47 @@ def test_resume_skips_sequences_with_results(tmp_path, model_0288, capsys):
     assert main(["track", str(a), "--resume", *common]) == 0
     assert "skipped (--resume)" in capsys.readouterr().out
     assert (out / "MOT16-05-clip30.txt").stat().st_mtime_ns == first
+
+
+def test_dask_cluster_runs_the_same_jobs_and_keeps_failures_local(tmp_path, model_0288, capsys):
+    # a LocalCluster on loopback stands in for a real cluster; frames are read by the worker processes
+    distributed = pytest.importorskip("distributed")
+    a = require(DATA / "MOT16-05-clip30")
+    broken = tmp_path / "BROKEN"
+    shutil.copytree(a, broken, ignore=shutil.ignore_patterns("img1"))
+    (broken / "seqinfo.ini").write_text((a / "seqinfo.ini").read_text().replace("MOT16-05-clip30", "BROKEN"))
+    common = ["--reid-model", str(model_0288), "-q"]
+    assert main(["track", str(a), "--out", str(tmp_path / "serial"), *common]) == 0
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        url = "dask://" + cluster.scheduler_address.removeprefix("tcp://")
+        out = tmp_path / "dask"
+        code = main(["track", str(a), str(broken), "--out", str(out), "--cluster", url, *common])
+        err = capsys.readouterr().err
+        assert code == 2 and "BROKEN" in err and "1 of 2 sequences failed" in err
+        assert (out / "MOT16-05-clip30.txt").read_text() == (tmp_path / "serial" / "MOT16-05-clip30.txt").read_text()
+        assert not (out / "BROKEN.txt").exists()
+        assert main(["track", str(a), "--out", str(out), "--cluster", url, "--resume", *common]) == 0
+        assert "skipped (--resume)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("address", ["tcp://127.0.0.1:8786", "dask://127.0.0.1", "dask://:8786", "dask://h:port"])
+def test_malformed_cluster_addresses_are_refused(address):
+    from sotmot.batch import dask_address
+    from sotmot.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="dask://HOST:PORT"):
+        dask_address(address)
+
+
+def test_unreachable_scheduler_is_a_clear_error(tmp_path, model_0288, capsys):
+    pytest.importorskip("distributed")
+    import socket
+
+    with socket.socket() as s:  # a loopback port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    a = require(DATA / "MOT16-05-clip30")
+    code = main(["track", str(a), "--out", str(tmp_path), "--cluster", f"dask://127.0.0.1:{port}",
+                 "--reid-model", str(model_0288), "-q"])
+    assert code == 2 and "cannot reach the Dask scheduler" in capsys.readouterr().err
