@@ -43,6 +43,12 @@ def progress_bar(items: Iterable[T], desc: str, enabled: bool, total: int | None
     yield from tqdm(items, desc=desc, total=total, leave=False, dynamic_ncols=True, unit="frame")
 
 
+def scores_are_probabilities(scores: np.ndarray) -> bool:
+    """Whether detection scores all lie in [0, 1] (the public DPM detections' do not)."""
+    scores = np.asarray(scores)
+    return not len(scores) or bool(scores.min() >= 0.0 and scores.max() <= 1.0)
+
+
 def resolve_nms(config: PreprocessConfig, detections: Detections) -> str:
     """The NMS overlap to use: ``config.nms`` with ``"auto"`` decided from the scores.
 
@@ -52,8 +58,7 @@ def resolve_nms(config: PreprocessConfig, detections: Detections) -> str:
     """
     if config.nms != "auto":
         return config.nms
-    s = detections.scores
-    return "iom" if len(s) and (s.min() < 0.0 or s.max() > 1.0) else "iou"
+    return "iou" if scores_are_probabilities(detections.scores) else "iom"
 
 
 def nms_per_frame(detections: Detections, kind: str, threshold: float) -> np.ndarray:

@@ -1,0 +1,345 @@
+#!/usr/bin/env python3
+"""sotmot against established trackers: same detections, same evaluator, same machine, one run.
+
+Trackers:
+
+* sotmot with the default configuration (MOT only), with the template SOT
+  step and with the deep SOT step, each with the greedy merge and the flow
+  solver;
+* SORT, ByteTrack and OC-SORT from the ``trackers`` package (Roboflow,
+  Apache-2.0), default settings, frame rate from ``seqinfo.ini``;
+* DeepSORT from ``deep-sort-realtime``, fed sotmot's own re-ID embeddings
+  (so the comparison isolates association, not the feature model), its
+  cosine gate set to sotmot's calibrated affinity gate (see below).
+
+Same input for everyone: ``det.txt`` cleaned by sotmot's preprocessing with
+the default configuration (no score threshold; per-frame NMS at 0.6, by IoM
+for DPM scores and by IoU for probability scores). Peers that need scores in
+[0, 1] get them as they are when all scores of the sequence lie in [0, 1]
+(PETS09-S2L1), otherwise as the per-sequence rank of each score divided by
+the number of detections (the MOT16 DPM scores): a monotone map, so each
+peer's own confidence thresholds keep their meaning as quantiles.
+
+Scores come from TrackEval (HOTA, DetA, AssA, MOTA, IDF1, IDSW, FP, FN) per
+sequence, for PETS09-S2L1 and for the MOT16 clips combined. Speed is frames
+per second of each tracker's tracking loop, median of ``--runs`` runs, all
+in this process: detections are in memory, results are written after the
+clock stops. The re-ID features of the detector boxes are computed once per
+sequence, outside the clock, and given to sotmot and DeepSORT alike (their
+time is printed separately); sotmot's SOT variants read frames and embed
+the boxes they add inside the clock, since that is part of their work.
+
+Needs the benchmark extras (not needed to use sotmot)::
+
+    bash scripts/bootstrap.sh --bench
+    .venv/bin/python scripts/bench_peers.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
+        --out bench_peers
+
+Writes ``peers.md``, ``peers.json``, ``peers.png`` and every results file under ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sotmot.appearance import make_embedder
+from sotmot.boxes import xywh_to_xyxy, xyxy_to_xywh
+from sotmot.config import TrackerConfig
+from sotmot.evaluate import evaluate_files
+from sotmot.io import read_detections, read_seqinfo, results_path, write_results
+from sotmot.pipeline import embed_detections, finish_sequence, prepare_sequence, preprocess, scores_are_probabilities
+from sotmot.types import Detections, Tracks
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_accuracy import DEFAULT_DATA, machine, sequences  # noqa: E402
+
+COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
+SOTMOT = {  # name -> (SOT variant, solver)
+    "sotmot": ("none", "greedy"),
+    "sotmot flow": ("none", "flow"),
+    "sotmot SOT-template": ("template", "greedy"),
+    "sotmot SOT-template flow": ("template", "flow"),
+    "sotmot SOT-deep": ("deep", "greedy"),
+    "sotmot SOT-deep flow": ("deep", "flow"),
+}
+PEERS = ("SORT", "ByteTrack", "OC-SORT", "DeepSORT")
+GROUPS = {"PETS09-S2L1": lambda name: name.startswith("PETS09"), "MOT16 clips": lambda name: name.startswith("MOT16")}
+
+
+@dataclass
+class SeqInput:
+    """What every tracker gets for one sequence."""
+
+    path: Path
+    info: object
+    detections: Detections
+    features: np.ndarray
+    peer_scores: np.ndarray
+    reid_seconds: float
+
+
+def peer_scores(scores: np.ndarray) -> np.ndarray:
+    """Scores in [0, 1] for peers: unchanged if they already are, else rank / count (see the module docstring)."""
+    scores = np.asarray(scores, dtype=np.float64)
+    if scores_are_probabilities(scores):
+        return scores
+    from scipy.stats import rankdata
+
+    return rankdata(scores, method="average") / len(scores)
+
+
+def frames_of(seq: SeqInput) -> list[np.ndarray]:
+    """Row indices of the detections of each frame, 1..length."""
+    frames = seq.detections.frames
+    order = np.argsort(frames, kind="stable")
+    bounds = np.searchsorted(frames[order], np.arange(1, seq.info.length + 2))
+    return [order[bounds[f]:bounds[f + 1]] for f in range(seq.info.length)]
+
+
+def run_trackers_package(name: str, seq: SeqInput) -> tuple[Tracks, float]:
+    """SORT, ByteTrack or OC-SORT from ``trackers``: boxes of detections given a track id, per frame."""
+    import supervision as sv
+    from trackers import ByteTrackTracker, OCSORTTracker, SORTTracker
+
+    cls = {"SORT": SORTTracker, "ByteTrack": ByteTrackTracker, "OC-SORT": OCSORTTracker}[name]
+    tracker = cls(frame_rate=float(seq.info.frame_rate))
+    per_frame = frames_of(seq)
+    xyxy = xywh_to_xyxy(seq.detections.boxes)
+    inputs = [sv.Detections(xyxy=xyxy[rows], confidence=seq.peer_scores[rows],
+                            class_id=np.zeros(len(rows), dtype=int)) for rows in per_frame]
+    out: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
+    start = time.perf_counter()
+    for frame, dets in enumerate(inputs, start=1):
+        result = tracker.update(dets)
+        keep = np.asarray(result.tracker_id) >= 0
+        out.append((frame, np.asarray(result.tracker_id)[keep], result.xyxy[keep],
+                    np.asarray(result.confidence)[keep]))
+    seconds = time.perf_counter() - start
+    return _tracks(out, boxes_are_xyxy=True), seconds
+
+
+def run_deepsort(seq: SeqInput, min_affinity: float) -> tuple[Tracks, float]:
+    """DeepSORT (deep-sort-realtime) on sotmot's features; confirmed tracks matched in the frame."""
+    from deep_sort_realtime.deepsort_tracker import DeepSort
+
+    # sotmot's affinity is 1 - ||a - b|| / 2 on unit features, and cosine distance is ||a - b||^2 / 2,
+    # so the affinity gate g is the cosine distance 2 (1 - g)^2
+    tracker = DeepSort(max_cosine_distance=2.0 * (1.0 - min_affinity) ** 2, embedder=None)
+    per_frame = frames_of(seq)
+    boxes, scores = seq.detections.boxes, seq.peer_scores
+    inputs = [([(boxes[r].tolist(), float(scores[r]), "person") for r in rows], [seq.features[r] for r in rows])
+              for rows in per_frame]
+    out = []
+    start = time.perf_counter()
+    for frame, (raw, embeds) in enumerate(inputs, start=1):
+        tracks = tracker.update_tracks(raw, embeds=embeds)
+        live = [t for t in tracks if t.is_confirmed() and t.time_since_update == 0]
+        out.append((frame, np.array([int(t.track_id) for t in live], dtype=np.int64),
+                    np.array([t.to_ltwh(orig=True) for t in live], dtype=np.float64).reshape(-1, 4),
+                    np.array([t.get_det_conf() or 0.0 for t in live], dtype=np.float64)))
+    seconds = time.perf_counter() - start
+    return _tracks(out, boxes_are_xyxy=False), seconds
+
+
+def _tracks(rows: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]], boxes_are_xyxy: bool) -> Tracks:
+    frames = np.concatenate([np.full(len(ids), f) for f, ids, _, _ in rows]) if rows else np.zeros(0)
+    ids = np.concatenate([ids for _, ids, _, _ in rows]) if rows else np.zeros(0)
+    boxes = np.concatenate([b for _, _, b, _ in rows]).reshape(-1, 4) if rows else np.zeros((0, 4))
+    scores = np.concatenate([s for _, _, _, s in rows]) if rows else np.zeros(0)
+    if boxes_are_xyxy:
+        boxes = xyxy_to_xywh(boxes)
+    _, ids = np.unique(ids, return_inverse=True)  # 1-based consecutive identities
+    return Tracks(frames=frames, ids=ids + 1, boxes=boxes, scores=scores)
+
+
+def run_sotmot(seq: SeqInput, config: TrackerConfig, variant: str, solvers: list[str],
+               embedder) -> dict[str, tuple[Tracks, float]]:
+    """sotmot with one SOT variant, then each solver on the same tracklets; seconds exclude reading det.txt."""
+    cfg = config.replace("sot", variant=variant)
+    start = time.perf_counter()
+    prepared = prepare_sequence(seq.path, cfg, embedder, features=seq.features)
+    shared = time.perf_counter() - start - prepared.timings.get("read", 0.0)
+    out = {}
+    for solver in solvers:
+        start = time.perf_counter()
+        result = finish_sequence(prepared, cfg, solver)
+        out[solver] = (result.tracks, shared + time.perf_counter() - start)
+    return out
+
+
+def load(path: Path, config: TrackerConfig, embedder) -> SeqInput:
+    info = read_seqinfo(path)
+    dets = preprocess(read_detections(info.det_path, info.length), config.preprocess)
+    start = time.perf_counter()
+    features = embed_detections(info, dets, embedder)
+    return SeqInput(path, info, dets, features, peer_scores(dets.scores), time.perf_counter() - start)
+
+
+def bar_chart(path: Path, table: dict[str, dict[str, dict[str, float]]], trackers: list[str]) -> None:
+    """HOTA and IDF1 per tracker, one panel per group, drawn with OpenCV."""
+    import cv2
+
+    groups = [g for g in GROUPS if any(g in table[t] for t in trackers)]
+    row_h, label_w, panel_w, top = 34, 250, 420, 70
+    width = label_w + panel_w * len(groups) + 20
+    height = top + row_h * len(trackers) + 40
+    img = np.full((height, width, 3), 255, np.uint8)
+    colours = {"HOTA": (180, 119, 31), "IDF1": (14, 127, 255)}  # BGR
+    font = cv2.FONT_HERSHEY_SIMPLEX
+    cv2.putText(img, "HOTA and IDF1 (TrackEval), same detections", (10, 24), font, 0.65, (0, 0, 0), 1, cv2.LINE_AA)
+    for key, colour in colours.items():
+        x = width - (200 if key == "HOTA" else 100)
+        cv2.rectangle(img, (x, 12), (x + 14, 26), colour, -1)
+        cv2.putText(img, key, (x + 20, 25), font, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
+    for g, group in enumerate(groups):
+        x0 = label_w + g * panel_w
+        cv2.putText(img, group, (x0 + 10, top - 12), font, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.line(img, (x0, top - 4), (x0, height - 30), (160, 160, 160), 1)
+        for tick in range(0, 101, 25):
+            x = x0 + int(tick / 100 * (panel_w - 60))
+            cv2.line(img, (x, height - 32), (x, height - 28), (0, 0, 0), 1)
+            cv2.putText(img, str(tick), (x - 8, height - 12), font, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+        for r, name in enumerate(trackers):
+            values = table[name].get(group)
+            if values is None:
+                continue
+            y = top + r * row_h
+            for b, (key, colour) in enumerate(colours.items()):
+                length = int(values[key] / 100 * (panel_w - 60))
+                y0 = y + 4 + b * 13
+                cv2.rectangle(img, (x0 + 1, y0), (x0 + 1 + length, y0 + 11), colour, -1)
+                cv2.putText(img, f"{values[key]:.1f}", (x0 + length + 5, y0 + 10), font, 0.38, (0, 0, 0), 1,
+                            cv2.LINE_AA)
+    for r, name in enumerate(trackers):
+        cv2.putText(img, name, (10, top + r * row_h + 21), font, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
+    if not cv2.imwrite(str(path), img):
+        raise OSError(f"could not write {path}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
+    parser.add_argument("--model", required=True, help="ONNX re-ID model (sotmot and DeepSORT)")
+    parser.add_argument("--out", type=Path, required=True, help="folder for results files, peers.md/json/png")
+    parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
+    parser.add_argument("--trackers", default=",".join([*SOTMOT, *PEERS]),
+                        help="comma-separated subset (default: all): " + ", ".join([*SOTMOT, *PEERS]))
+    parser.add_argument("--runs", type=int, default=3, help="timed runs per tracker and sequence; the median counts")
+    args = parser.parse_args(argv)
+    trackers = [t.strip() for t in args.trackers.split(",") if t.strip()]
+    unknown = [t for t in trackers if t not in SOTMOT and t not in PEERS]
+    if unknown:
+        parser.error(f"unknown trackers {unknown}; choose from {[*SOTMOT, *PEERS]}")
+    try:
+        import deep_sort_realtime  # noqa: F401
+        import trackers as _trackers  # noqa: F401
+    except ImportError as exc:
+        print(f"bench_peers needs the benchmark extras ({exc}); run: bash scripts/bootstrap.sh --bench",
+              file=sys.stderr)
+        return 2
+    config = TrackerConfig().replace("appearance", model=args.model)
+    embedder = make_embedder(config.appearance)
+    from ortools.graph.python import min_cost_flow  # noqa: F401  (imported before any clock starts)
+    seqs = sequences(args.data)
+    if args.sequences:
+        seqs = [s for s in seqs if s.name in args.sequences.split(",")]
+    if not seqs:
+        print(f"no sequences with frames under {args.data}", file=sys.stderr)
+        return 1
+
+    seconds: dict[str, dict[str, list[float]]] = {t: {} for t in trackers}
+    files: dict[str, list[tuple[Path, Path, int, str]]] = {t: [] for t in trackers}
+    reid: dict[str, float] = {}
+    frames: dict[str, int] = {}
+    for path in seqs:
+        seq = load(path, config, embedder)
+        name = seq.info.name
+        reid[name], frames[name] = seq.reid_seconds, seq.info.length
+        print(f"{name}: {len(seq.detections)} detections after preprocessing, re-ID {seq.reid_seconds:.1f} s",
+              file=sys.stderr, flush=True)
+        for run in range(args.runs):
+            made: dict[str, tuple[Tracks, float]] = {}
+            for variant in dict.fromkeys(SOTMOT[t][0] for t in trackers if t in SOTMOT):
+                names = [t for t in trackers if t in SOTMOT and SOTMOT[t][0] == variant]
+                got = run_sotmot(seq, config, variant, [SOTMOT[t][1] for t in names], embedder)
+                made.update({t: got[SOTMOT[t][1]] for t in names})
+            for peer in (t for t in trackers if t in PEERS):
+                made[peer] = run_deepsort(seq, config.association.min_affinity) if peer == "DeepSORT" \
+                    else run_trackers_package(peer, seq)
+            for tracker, (tracks, secs) in made.items():
+                seconds[tracker].setdefault(name, []).append(secs)
+                if run == 0:
+                    out = results_path(args.out / "results" / tracker.replace(" ", "_"), name)
+                    write_results(out, tracks)
+                    files[tracker].append((out, seq.info.gt_path, seq.info.length, name))
+            print(f"  run {run + 1}/{args.runs}: " + ", ".join(f"{t} {s:.2f} s" for t, (_, s) in made.items()),
+                  file=sys.stderr, flush=True)
+
+    table: dict[str, dict[str, dict[str, float]]] = {}
+    for tracker in trackers:
+        report = evaluate_files(files[tracker])
+        table[tracker] = dict(report.sequences)
+        for group, member in GROUPS.items():
+            chosen = [f for f in files[tracker] if member(f[3])]
+            if chosen:
+                table[tracker][group] = evaluate_files(chosen).combined if len(chosen) > 1 \
+                    else report.sequences[chosen[0][3]]
+        table[tracker]["ALL"] = report.combined
+        med = {n: statistics.median(v) for n, v in seconds[tracker].items()}
+        for n, s in med.items():
+            table[tracker][n]["fps"] = frames[n] / s
+        for group, member in [*GROUPS.items(), ("ALL", lambda n: True)]:
+            names = [n for n in med if member(n)]
+            if names and group in table[tracker]:
+                table[tracker][group]["fps"] = sum(frames[n] for n in names) / sum(med[n] for n in names)
+
+    rows = [*dict.fromkeys(n for t in trackers for n in table[t])]
+    lines = [f"Machine: {machine()}; median of {args.runs} runs; re-ID model {Path(args.model).name}.", ""]
+    for row in rows:
+        lines += [f"**{row}**", "", "| tracker | " + " | ".join(COLUMNS) + " | fps |",
+                  "|---|" + "---|" * (len(COLUMNS) + 1)]
+        for tracker in trackers:
+            v = table[tracker][row]
+            cells = [f"{v[c]:.1f}" if c in ("HOTA", "DetA", "AssA", "MOTA", "IDF1") else f"{v[c]:.0f}"
+                     for c in COLUMNS]
+            lines.append(f"| {tracker} | " + " | ".join(cells) + f" | {v['fps']:.1f} |")
+        lines.append("")
+    lines.append("re-ID features of the detector boxes (computed once, shared by sotmot and DeepSORT, not in fps): "
+                 + ", ".join(f"{n} {s:.1f} s" for n, s in reid.items()))
+    goal = []
+    peers_run = [t for t in trackers if t in PEERS]
+    if "sotmot" in trackers and peers_run:
+        for group in GROUPS:
+            if group not in table["sotmot"]:
+                continue
+            for metric in ("HOTA", "IDF1"):
+                best = max(peers_run, key=lambda t: table[t][group][metric])
+                margin = table["sotmot"][group][metric] - table[best][group][metric]
+                goal.append(f"- {group} {metric}: sotmot {table['sotmot'][group][metric]:.1f}, best peer {best} "
+                            f"{table[best][group][metric]:.1f} ({'ahead' if margin > 0 else 'BEHIND'} by "
+                            f"{abs(margin):.1f})")
+    lines += ["", "Goal (default sotmot above every peer on HOTA and IDF1):", *goal]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "peers.md").write_text(text)
+    (args.out / "peers.json").write_text(json.dumps({
+        "machine": machine(), "runs": args.runs, "model": str(args.model), "table": table,
+        "seconds": seconds, "reid_seconds": reid, "frames": frames,
+        "preprocessing": "sotmot default: no score threshold, per-frame NMS 0.6 (IoM for DPM scores, IoU otherwise)",
+        "peer_scores": "as given when all in [0, 1], else per-sequence rank / count",
+    }, indent=2) + "\n")
+    bar_chart(args.out / "peers.png", table, trackers)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
