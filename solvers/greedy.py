@@ -36,7 +36,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from solvers.base import Association, Link
-from sotmot.appearance import unit, unit_affinity_rows
+from sotmot.appearance import pair_affinities, unit
 from sotmot.config import AssociationConfig
 from sotmot.constraints import candidate_pairs, check_pairs, merge
 from sotmot.types import Tracklet
@@ -154,7 +154,7 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
         # the orientation makes ties in box score independent of the input order
         lead = first_member[pairs[:, 0]] > first_member[pairs[:, 1]]
         pairs = np.where(lead[:, None], pairs[:, ::-1], pairs)
-        aff = unit_affinity_rows(features[pairs[:, 0]], features[pairs[:, 1]])
+        aff = pair_affinities(features, pairs)
         keep = aff >= config.min_affinity
         return pairs[keep], aff[keep], first_member[pairs[keep]]
 

@@ -39,6 +39,10 @@ from sotmot.types import Tracklet
 
 Constraint = Literal["iou", "velocity", "gap", "affinity"]
 
+#: Frames one :func:`check_pairs` call walks through at once (about 250 bytes each); larger
+#: checks are split into pieces of about this size, so memory stays bounded on long sequences.
+CHECK_FRAMES = 400_000
+
 #: The order in which a failed constraint is reported when several fail.
 CONSTRAINTS: tuple[Constraint, ...] = ("iou", "gap", "velocity", "affinity")
 
@@ -308,6 +312,13 @@ class Screen:
     speed: np.ndarray
     bound: np.ndarray
 
+    @staticmethod
+    def concat(parts: Sequence[Screen]) -> Screen:
+        """One screen of the pairs of ``parts``, in order."""
+        fields = [f.name for f in dataclasses.fields(Screen) if f.name != "failures"]
+        return Screen(**{name: np.concatenate([getattr(p, name) for p in parts]) for name in fields},
+                      failures={c: np.concatenate([p.failures[c] for p in parts]) for c in CONSTRAINTS})
+
     def take(self, rows: np.ndarray) -> Screen:
         """The screen of the pairs ``rows`` only."""
         return dataclasses.replace(self, **{f.name: getattr(self, f.name)[rows] for f in dataclasses.fields(self)
@@ -357,6 +368,14 @@ def check_pairs(tracklets: Sequence[Tracklet], pairs: np.ndarray, affinities: np
     ends = _Ends(tracklets, nodes)
     meet = ends.starts[local].max(axis=1) <= ends.ends[local].min(axis=1)
     met, apart = np.flatnonzero(meet), np.flatnonzero(~meet)
+    if k > 1:
+        # frames a pair's check walks through (its span widened by l_max + 1 on both sides, if they meet)
+        work = np.where(meet, ends.ends[local].max(axis=1) - ends.starts[local].min(axis=1) + 2 * config.l_max + 3, 1)
+        if work.sum() > CHECK_FRAMES:
+            cut = np.flatnonzero(np.diff(np.cumsum(work) // CHECK_FRAMES)) + 1
+            parts = [check_pairs(tracklets, pairs[a:b], affinities[a:b], config, complete)
+                     for a, b in zip(np.r_[0, cut], np.r_[cut, k])]
+            return Screen.concat(parts)
     # only the trajectories of pairs whose spans meet are needed frame by frame
     sub, met_local = np.unique(local[met], return_inverse=True)
     index = _FrameIndex(tracklets, nodes[sub])

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from sotmot.appearance import affinity_rows, unit, unit_affinity_rows
+from sotmot.appearance import affinity_rows, pair_affinities, unit
 from sotmot.config import AssociationConfig
 from sotmot.constraints import CONSTRAINTS, Screen, candidate_pairs, check_pairs
 from sotmot.errors import SolverError
@@ -91,7 +91,7 @@ def candidate_links(tracklets: Sequence[Tracklet], config: AssociationConfig,
         raise SolverError("tracklet ids must be unique")
     pairs = candidate_pairs(tracklets, config.l_max)
     features = unit(np.stack([t.feature for t in tracklets])) if tracklets else np.zeros((0, 1))
-    aff = unit_affinity_rows(features[pairs[:, 0]], features[pairs[:, 1]])
+    aff = pair_affinities(features, pairs)
     screen = check_pairs(tracklets, pairs, aff, config, complete=include_rejected)
     if not include_rejected:
         keep = np.flatnonzero(screen.allowed)

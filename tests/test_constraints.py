@@ -176,3 +176,30 @@ def test_regression_interleaved_pair_checks_the_gaps_it_fills():
     b = tk(2, [2], moved(200))
     c = check_pair(a, b, CFG)
     assert c.failed == ("velocity",) and c.velocity == 200 and c.gap_at_max_velocity == 1
+
+
+def test_a_large_check_split_into_pieces_gives_the_same_answers(monkeypatch):
+    import sotmot.constraints as constraints
+
+    rng = np.random.default_rng(3)
+    ts = [tk(k, np.arange(s, s + n), [100 + 15 * (k % 4), 100, 30, 60], feature=(1.0, 0.1 * (k % 3)))
+          for k, (s, n) in enumerate(zip(rng.integers(1, 80, 40), rng.integers(1, 25, 40)))]
+    pairs = candidate_pairs(ts, CFG.l_max)
+    aff = rng.uniform(0.3, 1.0, len(pairs))
+    whole = check_pairs(ts, pairs, aff, CFG, complete=True)
+    monkeypatch.setattr(constraints, "CHECK_FRAMES", 200)
+    pieces = check_pairs(ts, pairs, aff, CFG, complete=True)
+    for name in ("allowed", "overlap", "max_gap", "worst_gap", "speed", "bound"):
+        np.testing.assert_array_equal(getattr(pieces, name), getattr(whole, name))
+    np.testing.assert_array_equal(pieces.min_iou, whole.min_iou)  # NaN where no shared frames, in both
+    assert whole.allowed.any() and not whole.allowed.all()
+
+
+def test_pair_affinities_in_chunks_equal_affinity_rows():
+    from sotmot.appearance import affinity_rows, pair_affinities, unit
+
+    rng = np.random.default_rng(0)
+    feats = rng.normal(size=(50, 8))
+    pairs = rng.integers(0, 50, (300, 2))
+    np.testing.assert_allclose(pair_affinities(unit(feats), pairs, chunk=7),
+                               affinity_rows(feats[pairs[:, 0]], feats[pairs[:, 1]]), atol=1e-12)

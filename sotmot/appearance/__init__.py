@@ -71,6 +71,20 @@ def unit_affinity_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return _affinity_from_cosine(np.einsum("nd,nd->n", a, b))
 
 
+def pair_affinities(units: np.ndarray, pairs: np.ndarray, chunk: int = 8192) -> np.ndarray:
+    """Affinity of ``units[i]`` with ``units[j]`` for each row ``(i, j)`` of ``pairs``; ``units`` from :func:`unit`.
+
+    Works through the pairs ``chunk`` at a time, so that a million pairs of
+    256-D features never gather gigabytes of rows at once. Returns ``(K,)``.
+    """
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    out = np.empty(len(pairs))
+    for a in range(0, len(pairs), chunk):
+        p = pairs[a:a + chunk]
+        out[a:a + chunk] = unit_affinity_rows(units[p[:, 0]], units[p[:, 1]])
+    return out
+
+
 def roc_auc(positive: np.ndarray, negative: np.ndarray) -> float:
     """ROC AUC of scores: the probability that a positive outscores a negative (ties count half).
 
