@@ -27,6 +27,7 @@ from sotmot.config import AppearanceConfig, TrackerConfig
 from sotmot.errors import ConfigError, SotmotError
 
 _EMBEDDER = None  # one appearance model per worker process
+_SLOTS = None  # free terminal lines for the per-sequence progress bars of pool workers
 _DASK_EMBEDDERS: dict[AppearanceConfig, object] = {}  # per Dask worker process, shared by its threads
 _DASK_LOCK = threading.Lock()
 DASK_HINT = "install Dask's scheduler client with: pip install -e '.[dask]' (distributed)"
@@ -54,11 +55,33 @@ class Outcome:
     message: str
 
 
-def _init_worker(config: TrackerConfig) -> None:
-    global _EMBEDDER
+def _init_worker(config: TrackerConfig, bar_lock=None, slots=None) -> None:
+    """Load the appearance model; with progress bars, share tqdm's lock and take a terminal line."""
+    global _EMBEDDER, _SLOTS
     from sotmot.appearance import make_embedder
 
     _EMBEDDER = make_embedder(config.appearance)
+    if bar_lock is not None:
+        from tqdm import tqdm
+
+        tqdm.set_lock(bar_lock)
+    _SLOTS = slots
+
+
+def _pooled_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
+                progress: bool) -> Outcome:
+    """One sequence in a pool worker; with progress, its bars drawn on a free line under the overall bar."""
+    from sotmot import pipeline
+
+    if not (progress and _SLOTS is not None):
+        return track_one(seq_dir, out_dir, config, merger, resume)
+    slot = _SLOTS.get()
+    pipeline.BAR_POSITION = slot
+    try:
+        return track_one(seq_dir, out_dir, config, merger, resume, progress=True)
+    finally:
+        pipeline.BAR_POSITION = None
+        _SLOTS.put(slot)
 
 
 def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
@@ -111,9 +134,9 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         if workers > 1:
             raise ConfigError("use --workers (this machine) or --cluster (Dask), not both")
         return _track_on_dask(cluster, seq_dirs, out_dir, config, merger, resume, progress, report)
-    if workers <= 1 or len(seq_dirs) <= 1:
-        from sotmot.appearance import make_embedder
+    from sotmot.appearance import make_embedder
 
+    if workers <= 1 or len(seq_dirs) <= 1:
         embedder = None
         outcomes = []
         for seq in seq_dirs:
@@ -125,15 +148,24 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         return outcomes
     if config.appearance.threads == 0:
         config = config.replace("appearance", threads=max(1, (os.cpu_count() or 1) // workers))
-    _init_worker(config)  # fail here, once, on a bad model path rather than in every worker
+    make_embedder(config.appearance)  # fail here, once, on a bad model path rather than in every worker
     by_seq: dict[str, Outcome] = {}
-    with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=(config,)) as pool:
-        futures = {pool.submit(track_one, seq, out_dir, config, merger, resume): seq for seq in seq_dirs}
+    initargs: tuple = (config,)
+    if progress:  # line 0: the overall bar; lines 1..workers: one per running sequence
+        import multiprocessing
+
+        from tqdm import tqdm
+
+        slots = multiprocessing.Queue()  # handed to the workers as they start
+        for line in range(1, workers + 1):
+            slots.put(line)
+        initargs = (config, tqdm.get_lock(), slots)
+    with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=initargs) as pool:
+        futures = {pool.submit(_pooled_job, seq, out_dir, config, merger, resume, progress): seq
+                   for seq in seq_dirs}
         done = as_completed(futures)
         if progress:
-            from tqdm import tqdm
-
-            done = tqdm(done, total=len(futures), desc="sequences", unit="seq", dynamic_ncols=True)
+            done = tqdm(done, total=len(futures), desc="sequences", unit="seq", dynamic_ncols=True, position=0)
         for future in done:
             outcome = future.result()
             by_seq[futures[future]] = outcome

@@ -85,8 +85,12 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise SotmotError(f"two sequences share a name: {names}")
 
     def report(outcome) -> None:
-        print(outcome.message if outcome.status != "failed" else f"sotmot: error: {outcome.message}",
-              file=sys.stdout if outcome.status != "failed" else sys.stderr, flush=True)
+        from tqdm import tqdm
+
+        failed = outcome.status == "failed"
+        # tqdm.write keeps the lines clear of the progress bars
+        tqdm.write(f"sotmot: error: {outcome.message}" if failed else outcome.message,
+                   file=sys.stderr if failed else sys.stdout)
 
     outcomes = track_many(args.seq_dirs, args.out, config, merger=args.merger, workers=args.workers,
                           resume=args.resume, progress=not args.quiet, report=report, cluster=args.cluster)

@@ -32,6 +32,10 @@ from sotmot.types import Detections, Tracklet, Tracks
 log = logging.getLogger(__name__)
 T = TypeVar("T")
 
+#: Terminal line of this process's progress bars (set by worker processes of ``track --workers``,
+#: so that each worker draws on its own line under the overall bar); None: tqdm decides.
+BAR_POSITION: int | None = None
+
 
 def progress_bar(items: Iterable[T], desc: str, enabled: bool, total: int | None = None) -> Iterator[T]:
     """Wrap ``items`` in a tqdm progress bar on stderr when ``enabled``."""
@@ -40,7 +44,8 @@ def progress_bar(items: Iterable[T], desc: str, enabled: bool, total: int | None
         return
     from tqdm import tqdm
 
-    yield from tqdm(items, desc=desc, total=total, leave=False, dynamic_ncols=True, unit="frame")
+    yield from tqdm(items, desc=desc, total=total, leave=False, dynamic_ncols=True, unit="frame",
+                    position=BAR_POSITION)
 
 
 def scores_are_probabilities(scores: np.ndarray) -> bool:
