@@ -22,10 +22,10 @@ How it scales (the result is exactly that of the plain loop above):
   skipped when a list's head moves past them, and a retired trajectory's own
   list is dropped whole.
 * A list whose head is unchecked when it reaches the top checks its next
-  few unchecked entries in one call. A pair
-  whose two trajectories are alive has the answer it would have had when
-  listed, so checking late changes nothing, while most pairs are never
-  checked because a merge retires them first.
+  few unchecked entries in one call. A pair whose two trajectories are
+  alive has the answer it would have had when listed, so checking late
+  changes nothing, while most pairs are never checked because a merge
+  retires them first.
 """
 
 from __future__ import annotations

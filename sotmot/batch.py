@@ -26,10 +26,9 @@ from pathlib import Path
 from sotmot.config import AppearanceConfig, TrackerConfig
 from sotmot.errors import ConfigError, SotmotError
 
-_EMBEDDER = None  # one appearance model per worker process
+_EMBEDDERS: dict[AppearanceConfig, object] = {}  # per worker process (pool or Dask), shared by its threads
+_EMBEDDERS_LOCK = threading.Lock()
 _SLOTS = None  # free terminal lines for the per-sequence progress bars of pool workers
-_DASK_EMBEDDERS: dict[AppearanceConfig, object] = {}  # per Dask worker process, shared by its threads
-_DASK_LOCK = threading.Lock()
 DASK_HINT = "install Dask's scheduler client with: pip install -e '.[dask]' (distributed)"
 
 
@@ -56,11 +55,9 @@ class Outcome:
 
 
 def _init_worker(config: TrackerConfig, bar_lock=None, slots=None) -> None:
-    """Load the appearance model; with progress bars, share tqdm's lock and take a terminal line."""
-    global _EMBEDDER, _SLOTS
-    from sotmot.appearance import make_embedder
-
-    _EMBEDDER = make_embedder(config.appearance)
+    """Load the appearance model; with progress bars, share tqdm's lock and the free terminal lines."""
+    global _SLOTS
+    _worker_embedder(config.appearance)
     if bar_lock is not None:
         from tqdm import tqdm
 
@@ -68,17 +65,28 @@ def _init_worker(config: TrackerConfig, bar_lock=None, slots=None) -> None:
     _SLOTS = slots
 
 
+def _worker_embedder(appearance: AppearanceConfig):
+    """This process's appearance model for ``appearance``, loaded on first use."""
+    with _EMBEDDERS_LOCK:
+        if appearance not in _EMBEDDERS:
+            from sotmot.appearance import make_embedder
+
+            _EMBEDDERS[appearance] = make_embedder(appearance)
+        return _EMBEDDERS[appearance]
+
+
 def _pooled_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
                 progress: bool) -> Outcome:
     """One sequence in a pool worker; with progress, its bars drawn on a free line under the overall bar."""
     from sotmot import pipeline
 
+    embedder = _worker_embedder(config.appearance)
     if not (progress and _SLOTS is not None):
-        return track_one(seq_dir, out_dir, config, merger, resume)
+        return track_one(seq_dir, out_dir, config, merger, resume, embedder=embedder)
     slot = _SLOTS.get()
     pipeline.BAR_POSITION = slot
     try:
-        return track_one(seq_dir, out_dir, config, merger, resume, progress=True)
+        return track_one(seq_dir, out_dir, config, merger, resume, progress=True, embedder=embedder)
     finally:
         pipeline.BAR_POSITION = None
         _SLOTS.put(slot)
@@ -97,7 +105,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
         if resume and out.is_file():
             return Outcome(seq_dir, "skipped", str(out), f"{info.name}: results exist, skipped (--resume)")
         start = time.perf_counter()
-        result = track_sequence(seq_dir, config, merger=merger, embedder=embedder or _EMBEDDER, progress=progress)
+        result = track_sequence(seq_dir, config, merger=merger, embedder=embedder, progress=progress)
         write_flags(out, result.tracks)
         write_results(out, result.tracks)
         fps = info.length / (time.perf_counter() - start)
@@ -186,12 +194,7 @@ def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
     embedder = None
     if not (resume and _has_results(seq_dir, out_dir)):
         try:
-            with _DASK_LOCK:
-                if config.appearance not in _DASK_EMBEDDERS:
-                    from sotmot.appearance import make_embedder
-
-                    _DASK_EMBEDDERS[config.appearance] = make_embedder(config.appearance)
-                embedder = _DASK_EMBEDDERS[config.appearance]
+            embedder = _worker_embedder(config.appearance)
         except SotmotError as exc:
             return Outcome(seq_dir, "failed", None, f"{seq_dir}: {exc}")
     return track_one(seq_dir, out_dir, config, merger, resume, embedder=embedder)
