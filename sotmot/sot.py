@@ -251,6 +251,8 @@ class SotTracker:
         starts = range(1, self.n_frames + 1, window)
         for w0 in (progress(starts) if progress else starts):
             w1 = min(self.n_frames, w0 + window - 1)
+            # every extension in this window starts from a seed in it: earlier seeds' templates are done with
+            self._templates.clear()
             frames_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
             def cached(f: int) -> tuple[np.ndarray, np.ndarray]:
