@@ -157,7 +157,6 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     if config.appearance.threads == 0:
         config = config.replace("appearance", threads=max(1, (os.cpu_count() or 1) // workers))
     make_embedder(config.appearance)  # fail here, once, on a bad model path rather than in every worker
-    by_seq: dict[str, Outcome] = {}
     initargs: tuple = (config,)
     if progress:  # line 0: the overall bar; lines 1..workers: one per running sequence
         import multiprocessing
@@ -171,14 +170,31 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=initargs) as pool:
         futures = {pool.submit(_pooled_job, seq, out_dir, config, merger, resume, progress): seq
                    for seq in seq_dirs}
-        done = as_completed(futures)
-        if progress:
-            done = tqdm(done, total=len(futures), desc="sequences", unit="seq", dynamic_ncols=True, position=0)
-        for future in done:
-            outcome = future.result()
-            by_seq[futures[future]] = outcome
-            report(outcome)
+        by_seq = _gather(futures, as_completed(futures), "in a worker process", progress, report)
     return [by_seq[s] for s in seq_dirs]
+
+
+def _gather(futures: dict, completed, where: str, progress: bool, report) -> dict[str, Outcome]:
+    """Outcome per sequence as the ``futures`` (future -> sequence) complete, under the overall bar.
+
+    A job that raised instead of returning (its worker died) becomes a ``failed`` outcome of its
+    sequence only.
+    """
+    if progress:
+        from tqdm import tqdm
+
+        completed = tqdm(completed, total=len(futures), desc="sequences", unit="seq", dynamic_ncols=True,
+                         position=0)
+    by_seq: dict[str, Outcome] = {}
+    for future in completed:
+        seq = futures[future]
+        try:
+            outcome = future.result()
+        except Exception as exc:
+            outcome = Outcome(seq, "failed", None, f"{seq}: {where}: {type(exc).__name__}: {exc}")
+        by_seq[seq] = outcome
+        report(outcome)
+    return by_seq
 
 
 def dask_address(cluster: str) -> str:
@@ -217,23 +233,10 @@ def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: Trac
         client = Client(address, timeout="10s")
     except (OSError, TimeoutError) as exc:
         raise ConfigError(f"cannot reach the Dask scheduler at {cluster} ({address}): {exc}") from exc
-    by_seq: dict[str, Outcome] = {}
     try:
-        futures = {client.submit(_dask_job, seq, out_dir, config, merger, resume, pure=False): (seq, orig)
+        futures = {client.submit(_dask_job, seq, out_dir, config, merger, resume, pure=False): orig
                    for seq, orig in zip(seq_dirs_abs, seq_dirs)}
-        done = dask_completed(list(futures))
-        if progress:
-            from tqdm import tqdm
-
-            done = tqdm(done, total=len(futures), desc="sequences", unit="seq", dynamic_ncols=True)
-        for future in done:
-            seq, orig = futures[future]
-            try:
-                outcome = future.result()
-            except Exception as exc:  # the worker died or the job could not run: this sequence only
-                outcome = Outcome(orig, "failed", None, f"{orig}: on the cluster: {type(exc).__name__}: {exc}")
-            by_seq[orig] = outcome
-            report(outcome)
+        by_seq = _gather(futures, dask_completed(list(futures)), "on the cluster", progress, report)
     finally:
         client.close()
     return [by_seq[s] for s in seq_dirs]
