@@ -13,6 +13,7 @@ import os
 import tempfile
 from collections import OrderedDict
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Literal
 
@@ -22,6 +23,7 @@ from sotmot.errors import InputError
 from sotmot.types import Detections, Tracks
 
 GtStyle = Literal["MOT15", "MOT16"]
+_LINK_STUB_BYTES = 1024  # a checked-out symbolic link is a text file no longer than its target path
 
 _SEQINFO_KEYS = {
     "name": str, "imDir": str, "frameRate": float, "seqLength": int,
@@ -68,9 +70,29 @@ class SeqInfo:
         """``gt/gt.txt`` of this sequence."""
         return self.path / "gt" / "gt.txt"
 
+    @cached_property
+    def frames_dir(self) -> Path:
+        """The folder of the frames, ``imDir`` of the sequence folder.
+
+        Sequences that share frames (MOT17's three detector variants of one
+        video) link ``img1`` to another sequence's folder. Where the link was
+        checked out as a small text file holding the relative path (git with
+        ``core.symlinks=false``, copies that do not keep links), that path is
+        followed.
+        """
+        folder = self.path / self.im_dir
+        if folder.is_file() and folder.stat().st_size <= _LINK_STUB_BYTES:
+            try:
+                target = folder.parent / folder.read_text(encoding="utf-8").strip()
+            except (OSError, UnicodeDecodeError):
+                return folder
+            if target.is_dir():
+                return target
+        return folder
+
     def frame_path(self, frame: int) -> Path:
         """Image file of a 1-based ``frame``."""
-        return self.path / self.im_dir / f"{frame:06d}{self.im_ext}"
+        return self.frames_dir / f"{frame:06d}{self.im_ext}"
 
 
 def read_seqinfo(seq_dir: str | Path) -> SeqInfo:
