@@ -2,7 +2,8 @@
 
 Each sequence is one job that reads its own frames (nothing but paths and
 the configuration crosses process or machine boundaries), writes
-``<name>.flags.csv`` then ``<name>.txt`` atomically, and reports success or
+``<name>.low.txt`` (with ``[confirm] low_confidence = "file"``), ``<name>.flags.csv``
+then ``<name>.txt`` atomically, and reports success or
 its error. A failing sequence never loses the others' results; with
 ``resume`` a sequence whose results file exists is skipped (results are
 written atomically and last, so an existing file is a complete one).
@@ -92,6 +93,11 @@ def _pooled_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, 
         _SLOTS.put(slot)
 
 
+def low_confidence_path(results: Path) -> Path:
+    """``<name>.low.txt`` beside ``<name>.txt``: the boxes confirmation dropped (``low_confidence = "file"``)."""
+    return results.with_name(results.stem + ".low.txt")
+
+
 def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
               progress: bool = False, embedder=None) -> Outcome:
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
@@ -106,11 +112,14 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
             return Outcome(seq_dir, "skipped", str(out), f"{info.name}: results exist, skipped (--resume)")
         start = time.perf_counter()
         result = track_sequence(seq_dir, config, merger=merger, embedder=embedder, progress=progress)
+        if config.confirm.enabled and config.confirm.low_confidence == "file":
+            write_results(low_confidence_path(out), result.dropped)
         write_flags(out, result.tracks)
         write_results(out, result.tracks)
         fps = info.length / (time.perf_counter() - start)
+        dropped = f", {len(result.dropped)} unconfirmed dropped" if len(result.dropped) else ""
         return Outcome(seq_dir, "done", str(out), f"{info.name}: {result.tracks.n_tracks} tracks, "
-                                                  f"{len(result.tracks)} boxes, {fps:.1f} frames/s -> {out}")
+                                                  f"{len(result.tracks)} boxes{dropped}, {fps:.1f} frames/s -> {out}")
     except SotmotError as exc:
         return Outcome(seq_dir, "failed", None, f"{seq_dir}: {exc}")
     except Exception as exc:  # a bug must not lose the other sequences' results either

@@ -48,6 +48,13 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                    help="drop detections scoring below S (default: keep all)")
     p.add_argument("--nms", choices=["auto", "iou", "iom", "none"],
                    help="NMS overlap: auto = IoM for non-probability scores such as DPM's, else IoU")
+    p.add_argument("--confidence", choices=["auto", "raw", "quantile", "dpm", "acf", "frcnn"],
+                   help="how detector scores become confidences in [0, 1]: a stored map per detector family "
+                        "(dpm, acf, frcnn), the score's rank in the sequence (quantile), scores as they are (raw), "
+                        "or auto = the family guessed from the score range (default: auto)")
+    p.add_argument("--unconfirmed", choices=["drop", "file", "keep"],
+                   help="boxes more likely false than true after association: drop them (default), write them "
+                        "to DIR/<name>.low.txt, or keep them (confirmation off); see docs/calibration.md")
     p.add_argument("--sot", choices=["none", "template", "deep"],
                    help="single-object-tracking step that adds missed boxes (paper Algorithm 1): template = "
                         "OpenCV correlation, deep = re-ID re-ranking (default: the config's, see docs)")
@@ -69,6 +76,12 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("preprocess", score_threshold=args.score_threshold)
     if args.nms:
         config = config.replace("preprocess", nms=args.nms)
+    if args.confidence:
+        config = config.replace("preprocess", confidence=args.confidence)
+    if args.unconfirmed == "keep":
+        config = config.replace("confirm", enabled=False)
+    elif args.unconfirmed:
+        config = config.replace("confirm", enabled=True, low_confidence=args.unconfirmed)
     if args.sot:
         config = config.replace("sot", variant=args.sot)
     return config

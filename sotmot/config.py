@@ -7,7 +7,7 @@ so and points at ``docs/calibration.md``, which derives it from data.
 
 A configuration file (TOML or JSON) holds one table per stage
 (``preprocess``, ``appearance``, ``sot``, ``tracklets``, ``association``,
-``postprocess``)::
+``postprocess``, ``confirm``)::
 
     [preprocess]
     nms = "iou"
@@ -53,16 +53,27 @@ class PreprocessConfig:
         NMS-IoM 0.6 there), IoU otherwise.
     nms_threshold
         Overlap above which the lower-scoring box is suppressed (paper: 0.6).
+    confidence
+        How detector scores become confidences in [0, 1] (``sotmot.confidence``):
+        ``"dpm"``, ``"acf"``, ``"frcnn"`` (a monotone map per detector family,
+        fitted once on training sequences and stored with the package),
+        ``"quantile"`` (the score's rank within the sequence), ``"raw"`` (scores
+        clipped to [0, 1]) or ``"auto"`` (the family guessed from the score
+        range: all in [0, 1] frcnn, any above 10 acf, else dpm).
     """
 
     score_threshold: float | None = None
     nms: Literal["auto", "iou", "iom", "none"] = "auto"
     nms_threshold: float = 0.6
+    confidence: Literal["auto", "raw", "quantile", "dpm", "acf", "frcnn"] = "auto"
 
     def __post_init__(self) -> None:
         _check(self.nms in ("auto", "iou", "iom", "none"), "preprocess",
                f"nms must be one of auto, iou, iom, none; got {self.nms!r}")
         _check(0.0 < self.nms_threshold <= 1.0, "preprocess", "nms_threshold must be in (0, 1]")
+        methods = typing.get_args(typing.get_type_hints(PreprocessConfig)["confidence"])
+        _check(self.confidence in methods, "preprocess",
+               f"confidence must be one of {', '.join(methods)}; got {self.confidence!r}")
 
 
 @dataclass(frozen=True)
@@ -272,15 +283,64 @@ class PostprocessConfig:
     min_length
         Output trajectories with fewer boxes (after interpolation) are dropped;
         1 keeps everything (the paper drops only tracklets, see ``l_min``).
+    interpolate_max_seconds
+        Gaps longer than this (in seconds, from the frame rate) are left
+        unfilled; ``None`` fills every gap. 2.0 is the paper's ``l_max`` of 60
+        frames at the 30 fps of most MOT16 sequences: at 7 fps (PETS09-S2L1)
+        ``l_max`` allows 8.6 s gaps, and boxes interpolated over more than 2 s
+        were 30 % correct there (docs/calibration.md).
     """
 
     interpolate: bool = True
     smooth_window: int = 3
     min_length: int = 1
+    interpolate_max_seconds: float | None = 2.0
 
     def __post_init__(self) -> None:
         _check(self.smooth_window >= 0, "postprocess", "smooth_window must be >= 0")
         _check(self.min_length >= 1, "postprocess", "min_length must be >= 1")
+        _check(self.interpolate_max_seconds is None or self.interpolate_max_seconds > 0, "postprocess",
+               "interpolate_max_seconds must be > 0 (or absent to fill every gap)")
+
+
+@dataclass(frozen=True)
+class ConfirmConfig:
+    """Confirmation after association: drop the boxes that are more likely false than true.
+
+    Each output box (detector, SOT or interpolated) gets a probability of being
+    a true positive from what its trajectory is made of (``sotmot.confidence``);
+    boxes below ``threshold`` are not written to the results. Interpolation is
+    bounded the same way: an interpolated box in a long gap of a weak
+    trajectory scores low and is dropped.
+
+    Attributes
+    ----------
+    enabled
+        Run the confirmation stage (False writes every box, as before).
+    threshold
+        Boxes with a lower probability are dropped. ``None``: the value fitted
+        with the calibration (leave-one-sequence-out, ``docs/calibration.md``).
+        Dropping a box of probability p changes MOTA's numerator by 1 - 2p, so
+        0.5 is MOTA's break-even; HOTA and IDF1 favour lower values.
+    calibration
+        JSON from ``scripts/fit_confidence.py`` with the detector-family maps and
+        the box model; ``None``: the one packaged with sotmot
+        (``sotmot/data/confidence.json``). ``[preprocess] confidence`` reads its
+        family maps from here too.
+    low_confidence
+        ``"drop"``: dropped boxes are gone; ``"file"``: they are written to
+        ``<name>.low.txt`` beside the results (same ids, MOTChallenge format).
+    """
+
+    enabled: bool = True
+    threshold: float | None = None
+    calibration: str | None = None
+    low_confidence: Literal["drop", "file"] = "drop"
+
+    def __post_init__(self) -> None:
+        _check(self.threshold is None or 0.0 <= self.threshold <= 1.0, "confirm", "threshold must be in [0, 1]")
+        _check(self.low_confidence in ("drop", "file"), "confirm",
+               f"low_confidence must be 'drop' or 'file'; got {self.low_confidence!r}")
 
 
 @dataclass(frozen=True)
@@ -293,6 +353,7 @@ class TrackerConfig:
     tracklets: TrackletConfig = field(default_factory=TrackletConfig)
     association: AssociationConfig = field(default_factory=AssociationConfig)
     postprocess: PostprocessConfig = field(default_factory=PostprocessConfig)
+    confirm: ConfirmConfig = field(default_factory=ConfirmConfig)
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Plain nested dict, the same layout a config file uses."""
@@ -313,6 +374,7 @@ SECTIONS: dict[str, type] = {
     "tracklets": TrackletConfig,
     "association": AssociationConfig,
     "postprocess": PostprocessConfig,
+    "confirm": ConfirmConfig,
 }
 
 

@@ -39,7 +39,7 @@ def run_graph(result: TrackResult, config: TrackerConfig, frames: tuple[int, int
         a, b = frames
         tracklets = [t for t in tracklets if t.end >= a and t.start <= b]
     graph = build_graph(tracklets, config.association, include_rejected=True)
-    ids = output_ids(result.trajectories, config.postprocess)
+    ids = output_ids(result.trajectories, config.postprocess, result.info.frame_rate)
     track_of = {}
     for group, track in zip(result.association.groups, ids):
         for t in group:

@@ -2,7 +2,7 @@
 
     read -> preprocess (score threshold, NMS) -> embed -> tracklets
          -> long-term association (a solver from ``solvers.SOLVERS``)
-         -> post-processing -> results
+         -> post-processing -> confirmation (``sotmot.confidence``) -> results
 
 Boxes are ``x, y, w, h`` pixels, frames 1-based throughout.
 """
@@ -22,10 +22,18 @@ import numpy as np
 from solvers import Association, get_solver
 from sotmot.appearance import Embedder, make_embedder
 from sotmot.boxes import nms
+from sotmot.confidence import (
+    Calibration,
+    box_features,
+    confidence_knots,
+    detection_confidence,
+    load_calibration,
+    model_kind,
+)
 from sotmot.config import PreprocessConfig, TrackerConfig
 from sotmot.constraints import merge_group
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
-from sotmot.postprocess import to_tracks
+from sotmot.postprocess import BoxScorer, Expanded, to_tracks
 from sotmot.tracklets import build_tracklets
 from sotmot.types import Detections, Tracklet, Tracks
 
@@ -144,9 +152,13 @@ class TrackResult:
     trajectories
         One merged trajectory per group (before post-processing).
     tracks
-        The final output.
+        The final output (the confirmed boxes).
     timings
         Seconds spent per stage.
+    confidence
+        ``(N,)`` confidence in [0, 1] of each of ``detections`` (``[preprocess] confidence``).
+    dropped
+        The boxes the confirmation stage dropped (same ids as ``tracks``).
     """
 
     info: SeqInfo
@@ -157,6 +169,8 @@ class TrackResult:
     trajectories: list[Tracklet]
     tracks: Tracks
     timings: dict[str, float] = field(default_factory=dict)
+    confidence: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    dropped: Tracks = field(default_factory=Tracks.empty)
 
 
 def associate(tracklets: list[Tracklet], merger: str, config: TrackerConfig) -> tuple[Association, list[Tracklet]]:
@@ -180,6 +194,8 @@ class Prepared:
     timings: dict[str, float]
     sot_links: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
     sot_steps: int = 0
+    confidence: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    confidence_method: str = "raw"
 
 
 class _Clock:
@@ -225,7 +241,40 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     tracklets = build_tracklets(dets, features, info.frame_rate, config.tracklets,
                                 must_link=links if config.sot.must_link else None)
     clock.lap("tracklets")
-    return Prepared(info, dets, features, tracklets, timings, links, steps)
+    method, knots = confidence_knots(config.preprocess.confidence, raw.scores, _calibration(config))
+    confidence = detection_confidence(dets.scores, knots)
+    log.info("%s: detection confidence by %r", info.name, method)
+    return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method)
+
+
+def _calibration(config: TrackerConfig) -> Calibration | None:
+    """The confidence calibration the config names (None: the packaged one, loaded when needed)."""
+    return load_calibration(config.confirm.calibration) if config.confirm.calibration else None
+
+
+def box_scorer(prepared: Prepared, config: TrackerConfig) -> BoxScorer:
+    """The confirmation model as a :data:`~sotmot.postprocess.BoxScorer` for one prepared sequence."""
+    model = (_calibration(config) or load_calibration()).box_models[model_kind(prepared.confidence_method)]
+    dets, rate = prepared.detections, prepared.info.frame_rate
+
+    def score(trajectory: Tracklet, expanded: Expanded) -> np.ndarray:
+        return model.predict(box_features(trajectory, expanded, prepared.confidence, dets.from_sot,
+                                          prepared.features, rate))
+
+    return score
+
+
+def confirm(tracks: Tracks, config: TrackerConfig, method: str = "raw") -> tuple[Tracks, Tracks]:
+    """Split scored ``tracks`` into the confirmed boxes and the dropped ones.
+
+    The threshold is ``[confirm] threshold``, or the calibration's for the
+    model kind of the confidence ``method`` the sequence used.
+    """
+    threshold = config.confirm.threshold
+    if threshold is None:
+        threshold = (_calibration(config) or load_calibration()).thresholds[model_kind(method)]
+    keep = ~(tracks.confidence < threshold)  # NaN (not scored) is kept
+    return tracks.subset(np.flatnonzero(keep)), tracks.subset(np.flatnonzero(~keep))
 
 
 def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
@@ -235,12 +284,17 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
     clock = _Clock(timings)
     association, trajectories = associate(prepared.tracklets, merger, config)
     clock.lap("association")
-    tracks = to_tracks(trajectories, prepared.detections, config.postprocess)
+    scorer = box_scorer(prepared, config) if config.confirm.enabled else None
+    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, scorer, prepared.info.frame_rate)
     clock.lap("postprocess")
-    log.info("%s: %d tracklets -> %d trajectories -> %d tracks (%s)", prepared.info.name,
-             len(prepared.tracklets), len(trajectories), tracks.n_tracks, merger)
+    tracks, dropped = (confirm(tracks, config, prepared.confidence_method) if config.confirm.enabled
+                       else (tracks, Tracks.empty()))
+    clock.lap("confirm")
+    log.info("%s: %d tracklets -> %d trajectories -> %d tracks, %d boxes kept, %d dropped as unconfirmed (%s)",
+             prepared.info.name, len(prepared.tracklets), len(trajectories), tracks.n_tracks, len(tracks),
+             len(dropped), merger)
     return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
-                       association, trajectories, tracks, timings)
+                       association, trajectories, tracks, timings, prepared.confidence, dropped)
 
 
 def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(), merger: str = "greedy",

@@ -5,7 +5,8 @@ Boxes are ``x, y, w, h`` pixels, frames 1-based.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -13,9 +14,9 @@ from sotmot.config import PostprocessConfig
 from sotmot.types import Detections, Tracklet, Tracks
 
 
-def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray
+def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_gap: int | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Fill every gap by linear interpolation of the box coordinates.
+    """Fill every gap of at most ``max_gap`` frames (None: every gap) by linear interpolation of the boxes.
 
     Parameters
     ----------
@@ -26,13 +27,21 @@ def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray
     scores
         ``(L,)`` scores; a filled box gets the lower score of the two boxes
         around its gap.
+    max_gap
+        Longest gap filled, as the frame difference of the boxes around it.
 
     Returns
     -------
     frames, boxes, scores, filled
-        Over every frame from the first to the last; ``filled`` marks the new boxes.
+        Over every frame from the first to the last except those of longer
+        gaps; ``filled`` marks the new boxes.
     """
     full = np.arange(frames[0], frames[-1] + 1, dtype=np.int64)
+    if max_gap is not None:
+        gaps = np.diff(frames)
+        after = np.searchsorted(frames, full, side="right")  # index of the box after each frame
+        inside = np.clip(after, 1, len(gaps)) - 1
+        full = full[np.isin(full, frames) | (gaps[inside] <= max_gap)]
     out = np.stack([np.interp(full, frames, boxes[:, k]) for k in range(4)], axis=1)
     right = np.clip(np.searchsorted(frames, full, side="left"), 0, len(frames) - 1)
     left = np.clip(np.searchsorted(frames, full, side="right") - 1, 0, len(frames) - 1)
@@ -55,46 +64,95 @@ def smooth(frames: np.ndarray, boxes: np.ndarray, window: int) -> np.ndarray:
     return (csum[hi] - csum[lo]) / (hi - lo)[:, None]
 
 
-def output_ids(trajectories: Sequence[Tracklet], config: PostprocessConfig = PostprocessConfig()) -> list[int | None]:
+def output_ids(trajectories: Sequence[Tracklet], config: PostprocessConfig = PostprocessConfig(),
+               frame_rate: float | None = None) -> list[int | None]:
     """The track id each trajectory gets in the output (None if it is dropped as too short).
 
     Trajectories are numbered 1, 2, ... by first frame, then by first
     detection index; one shorter than ``config.min_length`` boxes after
-    interpolation gets no id.
+    interpolation (as :func:`expand` does it at ``frame_rate``) gets no id.
     """
     order = sorted(range(len(trajectories)), key=lambda k: (trajectories[k].start, int(trajectories[k].det_index[0])))
     ids: list[int | None] = [None] * len(trajectories)
     next_id = 1
     for k in order:
         t = trajectories[k]
-        length = t.end - t.start + 1 if config.interpolate else len(t)
+        length = len(expand(t, config, frame_rate).frames) if config.min_length > 1 else len(t)
         if length >= config.min_length:
             ids[k] = next_id
             next_id += 1
     return ids
 
 
+@dataclass(frozen=True)
+class Expanded:
+    """One trajectory as it will be written: every frame from first to last when interpolating.
+
+    Attributes
+    ----------
+    frames, boxes, scores
+        ``(L,)`` 1-based frames, ``(L, 4)`` ``x, y, w, h`` pixels (not yet
+        smoothed), ``(L,)`` scores.
+    filled
+        ``(L,)`` bool, True for interpolated boxes.
+    det_index
+        ``(L,)`` index into the sequence's detections, -1 for interpolated boxes.
+    """
+
+    frames: np.ndarray
+    boxes: np.ndarray
+    scores: np.ndarray
+    filled: np.ndarray
+    det_index: np.ndarray
+
+
+def max_interpolated_gap(config: PostprocessConfig, frame_rate: float | None) -> int | None:
+    """``[postprocess] interpolate_max_seconds`` in frames (None: no bound, or no frame rate given)."""
+    if config.interpolate_max_seconds is None or frame_rate is None:
+        return None
+    return max(1, int(round(config.interpolate_max_seconds * frame_rate)))
+
+
+def expand(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(),
+           frame_rate: float | None = None) -> Expanded:
+    """The boxes of ``trajectory`` as post-processing writes them, interpolated if enabled (not smoothed).
+
+    Gaps longer than ``interpolate_max_seconds`` at ``frame_rate`` stay gaps.
+    """
+    t = trajectory
+    if not (config.interpolate and len(t) > 1):
+        return Expanded(t.frames, t.boxes, t.scores, np.zeros(len(t), dtype=bool), t.det_index)
+    frames, boxes, scores, filled = interpolate(t.frames, t.boxes, t.scores, max_interpolated_gap(config, frame_rate))
+    det_index = np.full(len(frames), -1, dtype=np.int64)
+    det_index[~filled] = t.det_index
+    return Expanded(frames, boxes, scores, filled, det_index)
+
+
+#: Scores the boxes of one expanded trajectory: ``(trajectory, expanded) -> (L,)`` probabilities.
+BoxScorer = Callable[[Tracklet, Expanded], np.ndarray]
+
+
 def to_tracks(trajectories: Sequence[Tracklet], detections: Detections,
-              config: PostprocessConfig = PostprocessConfig()) -> Tracks:
+              config: PostprocessConfig = PostprocessConfig(), scorer: BoxScorer | None = None,
+              frame_rate: float | None = None) -> Tracks:
     """Post-process trajectories into the final :class:`Tracks`.
 
-    Each trajectory is interpolated (if enabled) and smoothed, and written
-    under the id :func:`output_ids` gives it (or dropped).
+    Each trajectory is interpolated (if enabled; gaps up to
+    ``interpolate_max_seconds`` when ``frame_rate`` is given) and smoothed, and
+    written under the id :func:`output_ids` gives it (or dropped). With a
+    ``scorer`` every box gets its probability of being a true positive in
+    ``Tracks.confidence`` (the confirmation stage then chooses which to keep).
     """
     parts = []
-    for t, track_id in zip(trajectories, output_ids(trajectories, config)):
+    for t, track_id in zip(trajectories, output_ids(trajectories, config, frame_rate)):
         if track_id is None:
             continue
-        frames, boxes, scores = t.frames, t.boxes, t.scores
-        sot = detections.from_sot[t.det_index]
-        filled = np.zeros(len(frames), dtype=bool)
-        if config.interpolate and len(frames) > 1:
-            frames, boxes, scores, filled = interpolate(frames, boxes, scores)
-            full_sot = np.zeros(len(frames), dtype=bool)
-            full_sot[~filled] = sot
-            sot = full_sot
-        boxes = smooth(frames, boxes, config.smooth_window)
-        parts.append((frames, np.full(len(frames), track_id), boxes, scores, filled, sot))
+        e = expand(t, config, frame_rate)
+        sot = np.zeros(len(e.frames), dtype=bool)
+        sot[~e.filled] = detections.from_sot[t.det_index]
+        confidence = np.full(len(e.frames), np.nan) if scorer is None else scorer(t, e)
+        boxes = smooth(e.frames, e.boxes, config.smooth_window)
+        parts.append((e.frames, np.full(len(e.frames), track_id), boxes, e.scores, e.filled, sot, confidence))
     if not parts:
         return Tracks.empty()
     parts.sort(key=lambda p: int(p[1][0]))

@@ -38,10 +38,15 @@ def flags_path(results: str | Path) -> Path:
 
 
 def write_flags(results: str | Path, tracks: Tracks) -> None:
-    """Write ``frame,id,interpolated,from_sot`` for every box of ``tracks`` (atomically)."""
+    """Write ``frame,id,interpolated,from_sot,confidence`` for every box of ``tracks`` (atomically).
+
+    ``confidence`` is the confirmation stage's probability that the box is a
+    true positive (empty where it was not computed).
+    """
     order = np.lexsort((tracks.ids, tracks.frames))
-    rows = ["frame,id,interpolated,from_sot\n"] + [
-        f"{tracks.frames[i]},{tracks.ids[i]},{int(tracks.interpolated[i])},{int(tracks.from_sot[i])}\n"
+    conf = ["" if np.isnan(c) else f"{c:.4f}" for c in tracks.confidence]
+    rows = ["frame,id,interpolated,from_sot,confidence\n"] + [
+        f"{tracks.frames[i]},{tracks.ids[i]},{int(tracks.interpolated[i])},{int(tracks.from_sot[i])},{conf[i]}\n"
         for i in order]
     write_text_atomic(flags_path(results), "".join(rows))
 
@@ -51,16 +56,20 @@ def read_flags(results: str | Path, tracks: Tracks) -> Tracks:
     path = flags_path(results)
     if not path.is_file():
         return tracks
-    flags: dict[tuple[int, int], tuple[bool, bool]] = {}
+    flags: dict[tuple[int, int], tuple[bool, bool, float]] = {}
     for number, line in enumerate(path.read_text().splitlines()[1:], 2):
+        cells = line.split(",")
         try:
-            f, i, interp, sot = (int(x) for x in line.split(","))
+            f, i, interp, sot = (int(x) for x in cells[:4])
+            conf = float(cells[4]) if len(cells) == 5 and cells[4] else float("nan")
+            if len(cells) not in (4, 5):
+                raise ValueError
         except ValueError:
-            raise InputError(path, "expected frame,id,interpolated,from_sot", line=number) from None
-        flags[f, i] = (bool(interp), bool(sot))
-    got = [flags.get((int(f), int(i)), (False, False)) for f, i in zip(tracks.frames, tracks.ids)]
+            raise InputError(path, "expected frame,id,interpolated,from_sot[,confidence]", line=number) from None
+        flags[f, i] = (bool(interp), bool(sot), conf)
+    got = [flags.get((int(f), int(i)), (False, False, float("nan"))) for f, i in zip(tracks.frames, tracks.ids)]
     return Tracks(tracks.frames, tracks.ids, tracks.boxes, tracks.scores,
-                  [g[0] for g in got], [g[1] for g in got])
+                  [g[0] for g in got], [g[1] for g in got], [g[2] for g in got])
 
 
 def _dashed_rectangle(img: np.ndarray, p1: tuple[int, int], p2: tuple[int, int], col, thickness: int) -> None:

@@ -173,6 +173,9 @@ class Tracks:
         ``(N,)`` bool, True for boxes filled in by post-processing.
     from_sot
         ``(N,)`` bool, True for boxes that came from the SOT step.
+    confidence
+        ``(N,)`` float64 probability that the box is a true positive, from the
+        confirmation stage (:mod:`sotmot.confidence`); NaN where not computed.
     """
 
     frames: np.ndarray
@@ -181,6 +184,7 @@ class Tracks:
     scores: np.ndarray
     interpolated: np.ndarray = field(default=None)  # type: ignore[assignment]
     from_sot: np.ndarray = field(default=None)  # type: ignore[assignment]
+    confidence: np.ndarray = field(default=None)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         n = len(np.asarray(self.frames).reshape(-1))
@@ -193,6 +197,8 @@ class Tracks:
                              else np.asarray(self.interpolated, dtype=bool).reshape(-1)),
             "from_sot": (np.zeros(n, bool) if self.from_sot is None
                          else np.asarray(self.from_sot, dtype=bool).reshape(-1)),
+            "confidence": (np.full(n, np.nan) if self.confidence is None
+                           else np.asarray(self.confidence, dtype=np.float64).reshape(-1)),
         }
         if any(len(v) != n for v in cols.values()):
             raise ValueError("Tracks columns differ in length")
@@ -211,7 +217,7 @@ class Tracks:
     def subset(self, index: np.ndarray) -> "Tracks":
         """The rows selected by an integer or boolean ``index``."""
         return Tracks(self.frames[index], self.ids[index], self.boxes[index], self.scores[index],
-                      self.interpolated[index], self.from_sot[index])
+                      self.interpolated[index], self.from_sot[index], self.confidence[index])
 
     @property
     def n_tracks(self) -> int:

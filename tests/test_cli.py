@@ -15,11 +15,12 @@ def test_track_and_eval_on_mot16_05_clip_matches_pinned_scores(tmp_path, model_0
     assert (out / "MOT16-05-clip30.txt").is_file()
     assert main(["eval", str(out), str(seq), "--json", str(tmp_path / "s.json")]) == 0
     scores = json.loads((tmp_path / "s.json").read_text())["sequences"]["MOT16-05-clip30"]
-    # pinned from a run with the default configuration (model 0288, greedy merge); the tolerance
+    # pinned from a run with the default configuration (model 0288, greedy merge, confirmation with the
+    # packaged calibration: 39.0 / 26.2 / 40.6; before confirmation 39.2 / 28.8 / 44.2); the tolerance
     # absorbs onnxruntime's small numeric differences between CPUs
-    assert scores["HOTA"] == pytest.approx(39.2, abs=1.5)
-    assert scores["MOTA"] == pytest.approx(28.8, abs=2.0)
-    assert scores["IDF1"] == pytest.approx(44.2, abs=2.0)
+    assert scores["HOTA"] == pytest.approx(39.0, abs=1.5)
+    assert scores["MOTA"] == pytest.approx(26.2, abs=2.0)
+    assert scores["IDF1"] == pytest.approx(40.6, abs=2.0)
     assert scores["IDSW"] <= 2
     printed = capsys.readouterr().out
     assert "MOT16-05-clip30" in printed and "HOTA" in printed

@@ -14,6 +14,10 @@ from sotmot.explain import explain, export_graph, run_graph
 from sotmot.graph_view import draw_png, tracklet_crops, write_html
 from sotmot.pipeline import track_sequence
 
+# these tests are about association: the confirmation stage (which would judge four boxes of
+# score 0.9 too weak to keep) is off
+ASSOCIATION_ONLY = TrackerConfig().replace("confirm", enabled=False)
+
 
 def teleport_run(tmp_path):
     # one 20x40 box walks 2 px/frame for frames 1-4, then the same-looking box is 240 px away in
@@ -22,7 +26,7 @@ def teleport_run(tmp_path):
     lines = [f"{f},-1,{10 + 2 * f},50,20,40,0.9" for f in range(1, 5)]
     lines += [f"{f},-1,{250 + 2 * f},50,20,40,0.9" for f in range(5, 9)]
     seq = write_sequence(tmp_path, lines, length=8, frame_rate=4, width=320, height=120)
-    config = TrackerConfig()
+    config = ASSOCIATION_ONLY
     return config, track_sequence(seq, config, embedder=GeometryEmbedder())
 
 
@@ -58,7 +62,7 @@ def test_graphml_and_json_round_trip(tmp_path):
 def test_merged_tracks_are_explained_as_taken(tmp_path):
     lines = [f"{f},-1,{10 + 2 * f},50,20,40,0.9" for f in range(1, 9)]
     seq = write_sequence(tmp_path, lines, length=8, frame_rate=4, width=320, height=120)
-    config = TrackerConfig()
+    config = ASSOCIATION_ONLY
     result = track_sequence(seq, config, embedder=GeometryEmbedder())
     graph = run_graph(result, config)
     text = explain(graph, 1, 1, config, "greedy")

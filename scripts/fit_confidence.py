@@ -1,0 +1,210 @@
+#!/usr/bin/env python3
+"""Fit the confidence calibration by leave-one-sequence-out, report held-out scores, write the defaults.
+
+For every labelled sequence with frames (default: the full-length ones in the
+shared data folder) the tracker runs up to the unconfirmed output; every box
+is labelled true or false by TrackEval's matching. Then, holding out one
+sequence at a time, the detector-family score maps (isotonic, plus the
+label-only sequences such as ``MOT16-labels/*``), the two box models (logistic;
+one for calibrated confidences, one for quantile ones) and their confirmation
+thresholds (the best mean MOTA over the training sequences among thresholds
+with which none of them loses more than 0.5 HOTA or IDF1) are fitted on the
+others and the held-out sequence is scored. A held-out sequence whose detector
+family appears nowhere else is mapped by its quantiles (``auto`` falls back,
+with the quantile model). Finally everything is fitted on all sequences: with
+``--write`` that is the packaged default.
+
+    .venv/bin/python scripts/fit_confidence.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
+        --json fit_confidence.json --write sotmot/data/confidence.json
+
+Appearance features are cached under ``--cache`` (default ``.cache/features``),
+keyed by sequence, model file and preprocessing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sotmot.calibrate import (
+    Labelled,
+    detection_labels,
+    fit,
+    held_out_tracks,
+    label_sequence,
+    score,
+    unconfirmed_tracks,
+)
+from sotmot.confidence import model_kind
+from sotmot.config import TrackerConfig, load_config
+from sotmot.evaluate import METRICS
+from sotmot.io import read_detections, read_seqinfo, write_text_atomic
+from sotmot.pipeline import embed_detections, preprocess, prepare_sequence
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data"))
+COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
+
+
+def labelled_sequences(data: Path, min_length: int) -> list[Path]:
+    """Folders with frames and ground truth and at least ``min_length`` frames."""
+    out = []
+    for p in sorted(data.iterdir()):
+        if (p / "seqinfo.ini").is_file() and (p / "img1").exists() and (p / "gt" / "gt.txt").is_file():
+            if read_seqinfo(p).length >= min_length:
+                out.append(p)
+    return out
+
+
+def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box: list) -> np.ndarray:
+    """Features of the preprocessed detections of ``seq``, from ``cache`` or computed and stored there."""
+    info = read_seqinfo(seq)
+    model = Path(config.appearance.model or "")
+    key = hashlib.sha256(json.dumps([info.name, model.name, model.stat().st_size if model.is_file() else 0,
+                                     config.preprocess.__dict__, config.appearance.flip],
+                                    sort_keys=True, default=str).encode()).hexdigest()[:16]
+    path = cache / f"{info.name}-{key}.npy"
+    if path.is_file():
+        return np.load(path)
+    if not embedder_box:
+        from sotmot.appearance import make_embedder
+
+        embedder_box.append(make_embedder(config.appearance))
+    dets = preprocess(read_detections(info.det_path, info.length), config.preprocess)
+    features = embed_detections(info, dets, embedder_box[0], progress=sys.stderr.isatty())
+    cache.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp.npy")
+    np.save(tmp, features)
+    tmp.replace(path)
+    return features
+
+
+def table(title: str, rows: list[tuple[str, dict[str, float]]]) -> str:
+    head = f"{title:<28}" + "".join(f"{c:>8}" for c in COLUMNS)
+    lines = [head, "-" * len(head)]
+    for name, values in rows:
+        lines.append(f"{name:<28}" + "".join(
+            f"{values[c]:8.1f}" if METRICS[c][2] else f"{values[c]:8.0f}" for c in COLUMNS))
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
+    parser.add_argument("--min-length", type=int, default=100,
+                        help="use labelled sequences with at least this many frames (default: %(default)s)")
+    parser.add_argument("--labels-only", type=Path, nargs="*",
+                        help="sequence folders without frames whose detections and ground truth add to the "
+                             "detector-family maps (default: DATA/MOT16-labels/*)")
+    parser.add_argument("--model", required=True, help="ONNX re-ID model")
+    parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
+    parser.add_argument("--merger", default="greedy", help="long-term association solver (default: %(default)s)")
+    parser.add_argument("--methods", default="auto,quantile",
+                        help="[preprocess] confidence methods to compare held out, comma-separated "
+                             "(default: %(default)s)")
+    parser.add_argument("--thresholds", default="0.2,0.25,0.3,0.35,0.4,0.45,0.5,0.55,0.6",
+                        help="candidate confirmation thresholds; 0 (keep all) is always tried (default: %(default)s)")
+    parser.add_argument("--l2", type=float, default=1000.0, help="L2 penalty of the box model (default: %(default)s)")
+    parser.add_argument("--cache", type=Path, default=ROOT / ".cache" / "features",
+                        help="feature cache folder (default: %(default)s)")
+    parser.add_argument("--json", type=Path, help="write every number here")
+    parser.add_argument("--write", type=Path, help="write the calibration fitted on all sequences here "
+                                                   "(sotmot/data/confidence.json is the packaged default)")
+    args = parser.parse_args(argv)
+
+    start = time.perf_counter()
+    config = load_config(args.config) if args.config else TrackerConfig()
+    # the confidence is recomputed per fold below; "quantile" needs no stored calibration
+    config = config.replace("appearance", model=args.model).replace("preprocess", confidence="quantile")
+    config = config.replace("confirm", enabled=False)
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    thresholds = [float(t) for t in args.thresholds.split(",")]
+    seq_dirs = labelled_sequences(args.data, args.min_length)
+    if len(seq_dirs) < 2:
+        print(f"need at least two labelled sequences under {args.data}; found {len(seq_dirs)}", file=sys.stderr)
+        return 1
+    label_dirs = args.labels_only
+    if label_dirs is None:
+        label_dirs = sorted(p for p in (args.data / "MOT16-labels").glob("*") if (p / "seqinfo.ini").is_file())
+
+    embedder_box: list = []
+    seqs: list[Labelled] = []
+    detection_samples = {}
+    extra: dict[str, list] = {}
+    with tempfile.TemporaryDirectory(prefix="sotmot-labels-") as tmp:
+        work = Path(tmp)
+        for seq_dir in seq_dirs:
+            features = cached_features(seq_dir, config, args.cache, embedder_box)
+            prepared = prepare_sequence(seq_dir, config, features=features)
+            raw = read_detections(prepared.info.det_path, prepared.info.length)
+            seqs.append(label_sequence(prepared, raw.scores, config, args.merger, work))
+            detection_samples[prepared.info.name] = detection_labels(seq_dir, config, work)
+            print(f"{prepared.info.name}: {len(prepared.detections)} detections, {len(seqs[-1].trajectories)} "
+                  f"trajectories, family {seqs[-1].family}", file=sys.stderr)
+        for seq_dir in label_dirs:
+            family, scores, labels = detection_labels(seq_dir, config, work)
+            extra.setdefault(family, []).append((scores, labels))
+            print(f"{seq_dir.name} (labels only): {len(scores)} detections, family {family}", file=sys.stderr)
+
+    old = config.replace("postprocess", interpolate_max_seconds=None)
+    before = score(seqs, lambda s: unconfirmed_tracks(s, old))
+    base = score(seqs, lambda s: unconfirmed_tracks(s, config))
+    report: dict = {"sequences": [s.name for s in seqs], "labels_only": [str(p) for p in label_dirs],
+                    "merger": args.merger, "thresholds": thresholds, "before": before.to_dict(),
+                    "interpolation_bound_only": base.to_dict(), "methods": {}, "folds": {}}
+    print(table("before (no confirmation, every gap interpolated)",
+                list(before.sequences.items()) + [("COMBINED", before.combined)]))
+    print()
+    print(table(f"interpolate <= {config.postprocess.interpolate_max_seconds} s only",
+                list(base.sequences.items()) + [("COMBINED", base.combined)]))
+    fits = {}
+    for k, held in enumerate(seqs):
+        train = [s for j, s in enumerate(seqs) if j != k]
+        fits[held.name] = fit(train, extra, detection_samples, thresholds, config, base, args.l2)
+        c = fits[held.name].calibration
+        report["folds"][held.name] = {"thresholds": c.thresholds,
+                                      "threshold_scores": c.provenance["threshold_scores"],
+                                      "box_models": {k: m.to_dict() for k, m in c.box_models.items()}}
+    for method in methods:
+        held_tracks, used = {}, {}
+        for seq in seqs:
+            used[seq.name], held_tracks[seq.name] = held_out_tracks(seq, method, fits[seq.name].calibration, config)
+        after = score(seqs, lambda s: held_tracks[s.name])
+        interp = {s.name: {"before": int(unconfirmed_tracks(s, old).interpolated.sum()),
+                           "after": int(held_tracks[s.name].interpolated.sum())} for s in seqs}
+        report["methods"][method] = {"held_out": after.to_dict(), "confidence_used": used,
+                                     "interpolated_boxes": interp}
+        rows = []
+        for n, v in after.sequences.items():
+            kind = model_kind(used[n])
+            rows.append((f"{n} [{used[n]}, t={fits[n].calibration.thresholds[kind]:.2f}]", v))
+        print()
+        print(table(f"held out, confidence={method}", rows + [("COMBINED", after.combined)]))
+    final = fit(seqs, extra, detection_samples, thresholds, config, base, args.l2)
+    final.calibration.provenance.update({
+        "script": "scripts/fit_confidence.py", "model": Path(args.model).name, "merger": args.merger,
+        "labels_only": [p.name for p in label_dirs], "l2": args.l2,
+        "interpolate_max_seconds": config.postprocess.interpolate_max_seconds,
+    })
+    report["final"] = final.calibration.to_dict()
+    print(f"\nfitted on all: thresholds {final.calibration.thresholds}, families "
+          f"{', '.join(sorted(final.calibration.families))}; {time.perf_counter() - start:.0f} s")
+    if args.write:
+        write_text_atomic(args.write, json.dumps(final.calibration.to_dict(), indent=1) + "\n")
+        print(f"calibration written to {args.write}")
+    if args.json:
+        write_text_atomic(args.json, json.dumps(report, indent=1, default=float) + "\n")
+        print(f"report written to {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,334 @@
+"""Telling true boxes from false ones: detection confidence and box confirmation after association.
+
+Two stages, both without ground truth at run time:
+
+1. **Detection confidence.** Detector scores are not comparable across
+   detectors (public DPM about -1..4, ACF about -0.3..127, Faster R-CNN
+   0..1). :func:`detection_confidence` maps them monotonically to [0, 1]:
+
+   * ``"quantile"``: the score's rank among the sequence's own detections
+     (an empirical CDF; needs no fitting, but says nothing of absolute quality);
+   * ``"dpm"``, ``"acf"``, ``"frcnn"``: the probability that a detection of that
+     detector family with this score matches a pedestrian (IoU >= 0.5), an
+     isotonic (monotone) fit on training sequences, stored as data in
+     ``sotmot/data/confidence.json`` (``scripts/fit_confidence.py`` makes it);
+   * ``"raw"``: the scores clipped to [0, 1] (for scores that are already
+     probabilities);
+   * ``"auto"``: the family from the score range (:func:`detector_family`).
+
+2. **Box confirmation.** After long-term association and interpolation each
+   output box gets a probability of being a true positive from a logistic
+   model (:class:`BoxModel`) of what its trajectory is made of: its detector
+   boxes' confidences (mean and top-k), the share of the trajectory that is
+   interpolated, its appearance consistency and its duration, plus the box's
+   own confidence (for an interpolated box the higher of its gap's two ends)
+   and whether it is interpolated. Durations are in seconds and counts are
+   shares, never numbers of frames: a model fitted at 30 fps must not read a
+   7 fps sequence's trajectories as short ones. (How long a gap may be
+   interpolated at all is ``[postprocess] interpolate_max_seconds``.) Boxes below
+   ``[confirm] threshold`` are dropped (or written to a separate file).
+   Dropping a box whose probability of being true is ``p`` changes MOTA's
+   numerator by ``(1 - p) - p``: it pays when ``p < 0.5``.
+
+Boxes are ``x, y, w, h`` pixels, frames 1-based.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sotmot.appearance import unit, unit_affinity_rows
+from sotmot.errors import ConfigError
+from sotmot.postprocess import Expanded
+from sotmot.types import Tracklet
+
+#: Detector families with a stored calibration, and the names ``[preprocess] confidence`` accepts.
+FAMILIES = ("dpm", "acf", "frcnn")
+METHODS = ("auto", "raw", "quantile") + FAMILIES
+
+#: Names of the features :func:`box_features` computes, in column order.
+FEATURES = ("box_conf", "interpolated", "track_conf_mean", "track_conf_top", "track_interp_share",
+            "track_appearance", "track_brevity")
+
+#: Trajectories shorter than this (seconds) count as short: ``track_brevity`` is the log of how many
+#: times shorter (0 for longer ones, so a trajectory cut by the end of a short clip is not penalised
+#: for the clip's length).
+SHORT_SECONDS = 1.0
+#: Confidences are clipped to [EPS, 1 - EPS] before taking their log-odds.
+EPS = 0.01
+#: ``track_conf_top`` is this quantile of a trajectory's detection confidences (a quantile, not the
+#: mean of the top k, whose expected value grows with the number of boxes).
+TOP_QUANTILE = 0.8
+
+
+def logit(p: np.ndarray) -> np.ndarray:
+    """Log-odds of probabilities clipped to ``[EPS, 1 - EPS]``."""
+    p = np.clip(np.asarray(p, dtype=np.float64), EPS, 1.0 - EPS)
+    return np.log(p / (1.0 - p))
+
+
+def detector_family(scores: np.ndarray) -> str:
+    """The detector family that a sequence's scores look like (``"auto"`` confidence).
+
+    All scores in [0, 1]: ``"frcnn"`` (a probability-like detector such as
+    Faster R-CNN or SDP); any score above 10: ``"acf"`` (the 2DMOT2015 ACF
+    detections reach about 127); otherwise ``"dpm"`` (MOT16's public DPM, about
+    -1 to 5). A guess from the range only: name the family in the config when
+    it is known.
+    """
+    scores = np.asarray(scores, dtype=np.float64)
+    if not len(scores) or (scores.min() >= 0.0 and scores.max() <= 1.0):
+        return "frcnn"
+    return "acf" if scores.max() > 10.0 else "dpm"
+
+
+def isotonic(x: np.ndarray, y: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Monotone (non-decreasing) least-squares fit of ``y`` on ``x`` by pool-adjacent-violators.
+
+    Returns knots ``(xs, ys)``: the mean ``x`` and fitted ``y`` of each pooled
+    block, both increasing, for :func:`numpy.interp` (which keeps the map
+    monotone and continuous between knots, flat beyond them).
+    """
+    order = np.argsort(np.asarray(x, dtype=np.float64), kind="stable")
+    x = np.asarray(x, dtype=np.float64)[order]
+    y = np.asarray(y, dtype=np.float64)[order]
+    w = np.ones(len(x)) if weights is None else np.asarray(weights, dtype=np.float64)[order]
+    blocks: list[list[float]] = []  # [sum w*y, sum w, sum w*x]
+    for xi, yi, wi in zip(x, y, w):
+        blocks.append([wi * yi, wi, wi * xi])
+        while len(blocks) > 1 and blocks[-2][0] / blocks[-2][1] >= blocks[-1][0] / blocks[-1][1]:
+            last = blocks.pop()
+            blocks[-1] = [a + b for a, b in zip(blocks[-1], last)]
+    xs = np.array([b[2] / b[1] for b in blocks])
+    ys = np.array([b[0] / b[1] for b in blocks])
+    return xs, ys
+
+
+@dataclass(frozen=True)
+class BoxModel:
+    """A logistic model of P(box is a true positive) over the :data:`FEATURES`.
+
+    Attributes
+    ----------
+    mean, scale
+        Standardisation of each feature (``(x - mean) / scale``).
+    coef
+        One weight per feature.
+    intercept
+        The bias.
+    """
+
+    mean: tuple[float, ...]
+    scale: tuple[float, ...]
+    coef: tuple[float, ...]
+    intercept: float
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        """Probabilities ``(N,)`` for a feature matrix ``(N, len(FEATURES))``."""
+        z = (np.asarray(x, dtype=np.float64) - np.asarray(self.mean)) / np.asarray(self.scale)
+        return 1.0 / (1.0 + np.exp(-(z @ np.asarray(self.coef) + self.intercept)))
+
+    @classmethod
+    def fit(cls, x: np.ndarray, y: np.ndarray, l2: float = 1000.0) -> "BoxModel":
+        """Maximum-likelihood logistic regression with an L2 penalty ``l2`` on the standardised weights."""
+        from scipy.optimize import minimize
+
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        mean = x.mean(axis=0)
+        scale = np.where(x.std(axis=0) > 1e-9, x.std(axis=0), 1.0)
+        z = np.hstack([(x - mean) / scale, np.ones((len(x), 1))])
+        n = len(y)
+
+        def loss(w: np.ndarray) -> tuple[float, np.ndarray]:
+            s = z @ w
+            nll = np.logaddexp(0.0, s) - y * s
+            p = 1.0 / (1.0 + np.exp(-s))
+            reg = 0.5 * l2 * float(w[:-1] @ w[:-1])
+            grad = z.T @ (p - y) / n
+            grad[:-1] += l2 * w[:-1] / n
+            return float(nll.mean()) + reg / n, grad
+
+        w = minimize(loss, np.zeros(z.shape[1]), jac=True, method="L-BFGS-B").x
+        return cls(tuple(mean.tolist()), tuple(scale.tolist()), tuple(w[:-1].tolist()), float(w[-1]))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form, with the feature names."""
+        return {"features": list(FEATURES), "mean": list(self.mean), "scale": list(self.scale),
+                "coef": list(self.coef), "intercept": self.intercept}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "model") -> "BoxModel":
+        """Read :meth:`to_dict`'s form, checking that its features are this version's."""
+        if list(data.get("features", [])) != list(FEATURES):
+            raise ConfigError(f"{source}: its features {data.get('features')} are not {list(FEATURES)}; "
+                              f"refit it with scripts/fit_confidence.py")
+        return cls(tuple(data["mean"]), tuple(data["scale"]), tuple(data["coef"]), float(data["intercept"]))
+
+
+def model_kind(method: str) -> str:
+    """Which box model serves detections whose confidence came from ``method`` (a resolved method).
+
+    Quantile confidences are ranks, not probabilities, so they get a model of
+    their own (``"quantile"``); family maps and raw probabilities share
+    ``"calibrated"``.
+    """
+    return "quantile" if method == "quantile" else "calibrated"
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Everything fitted once on training sequences: per-family score maps and the box models.
+
+    Attributes
+    ----------
+    families
+        Family name -> ``(scores, confidences)`` knots of a monotone map.
+    box_models
+        :func:`model_kind` -> the confirmation model for confidences of that kind.
+    thresholds
+        :func:`model_kind` -> the fitted confirmation threshold (``[confirm]
+        threshold`` defaults to it).
+    provenance
+        What it was fitted on, by which script and how (free text and numbers).
+    """
+
+    families: dict[str, tuple[tuple[float, ...], tuple[float, ...]]]
+    box_models: dict[str, BoxModel]
+    thresholds: dict[str, float]
+    provenance: dict[str, Any]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return {"families": {k: {"scores": list(v[0]), "confidence": list(v[1])} for k, v in self.families.items()},
+                "box_models": {k: m.to_dict() for k, m in self.box_models.items()},
+                "thresholds": dict(self.thresholds), "provenance": self.provenance}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "calibration") -> "Calibration":
+        """Read :meth:`to_dict`'s form."""
+        try:
+            families = {k: (tuple(map(float, v["scores"])), tuple(map(float, v["confidence"])))
+                        for k, v in data["families"].items()}
+            models = {k: BoxModel.from_dict(m, source) for k, m in data["box_models"].items()}
+            thresholds = {k: float(v) for k, v in data["thresholds"].items()}
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise ConfigError(f"{source}: not a sotmot confidence calibration ({exc!r})") from exc
+        missing = sorted({"calibrated", "quantile"} - set(models) | {"calibrated", "quantile"} - set(thresholds))
+        if missing:
+            raise ConfigError(f"{source}: no box model or threshold for {', '.join(missing)}")
+        return cls(families, models, thresholds, dict(data.get("provenance", {})))
+
+
+def load_calibration(path: str | Path | None = None) -> Calibration:
+    """The calibration in ``path`` (JSON from ``scripts/fit_confidence.py``), or the packaged one."""
+    if path is None:
+        return _packaged()
+    path = Path(path)
+    try:
+        return Calibration.from_dict(json.loads(path.read_text(encoding="utf-8")), str(path))
+    except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read the confidence calibration: {exc}") from exc
+
+
+@lru_cache(maxsize=1)
+def _packaged() -> Calibration:
+    text = resources.files("sotmot").joinpath("data", "confidence.json").read_text(encoding="utf-8")
+    return Calibration.from_dict(json.loads(text), "sotmot/data/confidence.json")
+
+
+def quantile_map(reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Knots of the empirical CDF of ``reference`` scores (mid-ranks in (0, 1); ties share a value)."""
+    ref = np.sort(np.asarray(reference, dtype=np.float64))
+    if not len(ref):
+        return np.array([0.0]), np.array([0.5])
+    values, first = np.unique(ref, return_index=True)
+    last = np.r_[first[1:], len(ref)]
+    return values, (first + last) / (2.0 * len(ref))
+
+
+def confidence_knots(method: str, reference: np.ndarray,
+                     calibration: Calibration | None = None) -> tuple[str, tuple[np.ndarray, np.ndarray] | None]:
+    """Resolve ``method`` for a sequence: the method actually used and its knots (None for ``"raw"``).
+
+    ``reference`` are the sequence's detector scores (the quantile map and
+    ``"auto"`` look at them).
+    """
+    if method not in METHODS:
+        raise ConfigError(f"[preprocess] confidence must be one of {', '.join(METHODS)}; got {method!r}")
+    if method == "auto":
+        method = detector_family(reference)
+    if method == "raw":
+        return method, None
+    if method == "quantile":
+        return method, quantile_map(reference)
+    calibration = calibration or load_calibration()
+    if method not in calibration.families:
+        raise ConfigError(f"no stored calibration for detector family {method!r} (have: "
+                          f"{', '.join(sorted(calibration.families))}); use confidence = 'quantile'")
+    xs, ys = calibration.families[method]
+    return method, (np.asarray(xs), np.asarray(ys))
+
+
+def detection_confidence(scores: np.ndarray, knots: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+    """Confidences in [0, 1] of ``scores`` through monotone ``knots`` (None: scores clipped to [0, 1])."""
+    scores = np.asarray(scores, dtype=np.float64)
+    if knots is None:
+        return np.clip(scores, 0.0, 1.0)
+    return np.clip(np.interp(scores, knots[0], knots[1]), 0.0, 1.0)
+
+
+def box_features(trajectory: Tracklet, expanded: Expanded, confidence: np.ndarray, from_sot: np.ndarray,
+                 features: np.ndarray, frame_rate: float) -> np.ndarray:
+    """The :data:`FEATURES` of each box of one expanded trajectory, ``(L, len(FEATURES))``.
+
+    Parameters
+    ----------
+    trajectory
+        The merged trajectory (before interpolation).
+    expanded
+        The same trajectory as written (see :class:`Expanded`).
+    confidence
+        ``(N,)`` confidence of every detection of the sequence.
+    from_sot
+        ``(N,)`` True for boxes the SOT step added (they do not count as detector boxes).
+    features
+        ``(N, D)`` appearance features of the detections.
+    frame_rate
+        Frames per second (durations are in seconds).
+    """
+    idx = trajectory.det_index
+    det = idx[~from_sot[idx]]
+    if not len(det):
+        det = idx
+    conf = confidence[det]
+    top = np.quantile(conf, TOP_QUANTILE)
+    mean_unit = unit(features[det].mean(axis=0))
+    consistency = float(unit_affinity_rows(unit(features[det]), np.repeat(mean_unit, len(det), axis=0)).mean())
+    span = trajectory.end - trajectory.start + 1
+    brevity = max(0.0, float(np.log(SHORT_SECONDS * frame_rate / span)))
+    track = [float(logit(conf).mean()), float(logit(top).mean()), 1.0 - len(trajectory) / span, consistency, brevity]
+
+    n = len(expanded.frames)
+    box_conf = np.zeros(n)
+    real = ~expanded.filled
+    box_conf[real] = confidence[expanded.det_index[real]]
+    pos = np.flatnonzero(real)
+    for a, b in zip(pos[:-1], pos[1:]):
+        if b - a > 1:
+            box_conf[a + 1:b] = max(box_conf[a], box_conf[b])
+    columns = [logit(box_conf), expanded.filled.astype(float)]
+    return np.hstack([np.stack(columns, axis=1), np.tile(track, (n, 1))])
+
+
+def feature_table(rows: Sequence[np.ndarray]) -> np.ndarray:
+    """Stack per-trajectory feature blocks into one ``(N, len(FEATURES))`` matrix."""
+    return np.vstack(rows) if rows else np.zeros((0, len(FEATURES)))
