@@ -1,18 +1,27 @@
 #!/usr/bin/env python3
-"""Accuracy and speed of sotmot on every sequence with frames in the shared data folder.
+"""Accuracy and speed of sotmot on every sequence with frames in the shared data folder, before and after confirmation.
 
-Tracks each sequence with the default configuration, scores it with TrackEval
-and prints HOTA, MOTA, IDF1, IDSW, FP, FN per sequence, for the MOT16 clips
-combined, and over everything, plus frames per second of the whole pipeline
-(reading, appearance, tracklets, association, post-processing; not scoring).
-Writes the table and the machine it ran on as JSON.
+Tracks each sequence twice on the same detections and features: **before**
+(the configuration without the confirmation stage and with every gap
+interpolated, as sotmot was until the confidence issue) and **after** (the
+configuration given, by default the defaults). Scores come from TrackEval:
+HOTA, DetA, AssA, MOTA, IDF1, IDSW, FP, FN per sequence, for the full-length
+sequences combined (more than 100 frames) and for the 30-frame clips combined,
+plus frames per second of the whole "after" pipeline (reading, appearance,
+tracklets, association, post-processing, confirmation; not scoring), and how
+many interpolated boxes each output has and how many of them are right.
+
+With ``--loo fit_confidence.json`` (the report of ``scripts/fit_confidence.py``)
+the leave-one-sequence-out rows are printed too: each full-length sequence
+scored with a calibration fitted on the others only.
 
     python scripts/bench_accuracy.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
-        --json bench_accuracy.json
+        --loo fit_confidence.json --json bench_accuracy.json
 
-The reference rows are the established trackers' scores quoted in issue #2
-(measured by the project on the same det.txt files with TrackEval); they are
-not re-measured by this script.
+The peer rows are the best MOTA among the peers on the same detections and
+embeddings, quoted from the confidence issue (#11; boxmot 25.0.0 trackers with
+and without GSI, DeepSORT from scripts/bench_peers.py); they are not
+re-measured by this script.
 """
 
 from __future__ import annotations
@@ -26,17 +35,21 @@ import tempfile
 import time
 from pathlib import Path
 
+from sotmot.calibrate import box_labels
 from sotmot.config import TrackerConfig, load_config
-from sotmot.evaluate import evaluate_files
-from sotmot.io import results_path, write_results
-from sotmot.pipeline import track_sequence
+from sotmot.evaluate import METRICS, EvalReport, evaluate_files
+from sotmot.io import results_path, write_results, write_text_atomic
+from sotmot.pipeline import finish_sequence, prepare_sequence
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data"))
-COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "FP", "FN")
-REFERENCE = {  # issue #2: best established tracker per group, default settings, same det.txt
-    "PETS09-S2L1": ("ByteTrack", {"HOTA": 36.3, "IDF1": 50.4, "MOTA": 61.9}),
-    "MOT16 clips": ("SORT", {"HOTA": 39.8, "IDF1": 45.1, "MOTA": 24.4}),
+COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
+FULL_LENGTH = 100  # frames; shorter sequences are the 30-frame clips
+BEST_PEER_MOTA = {  # issue #11, same detections and embeddings; not re-measured here
+    "PETS09-S2L1": ("BoostTrack++ with GSI", 74.3),
+    "MOT16-09": ("HybridSORT with GSI", 50.6),
+    "MOT17-09-FRCNN": ("BoT-SORT with GSI", 57.8),
+    "TUD-Stadtmitte": ("DeepSORT", 59.5),
 }
 
 
@@ -54,67 +67,104 @@ def machine() -> str:
 
 def sequences(data: Path) -> list[Path]:
     """Sequence folders with frames (the label-only MOT16-labels folders are skipped)."""
-    return sorted(p for p in data.iterdir() if (p / "seqinfo.ini").is_file() and (p / "img1").is_dir())
+    return sorted(p for p in data.iterdir() if (p / "seqinfo.ini").is_file() and (p / "img1").exists())
+
+
+def before_config(config: TrackerConfig) -> TrackerConfig:
+    """``config`` as sotmot ran before the confirmation stage: every box kept, every gap interpolated."""
+    return config.replace("confirm", enabled=False).replace("postprocess", interpolate_max_seconds=None)
+
+
+def cells(values: dict[str, float]) -> str:
+    return "".join(f"{values[c]:8.1f}" if METRICS[c][2] else f"{values[c]:8.0f}" for c in COLUMNS)
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
     parser.add_argument("--model", required=True, help="ONNX re-ID model")
-    parser.add_argument("--merger", default="greedy")
-    parser.add_argument("--config", type=Path, help="tracker configuration file")
+    parser.add_argument("--merger", default="greedy", help="long-term association solver (default: %(default)s)")
+    parser.add_argument("--config", type=Path, help="tracker configuration file for 'after' (default: the defaults)")
+    parser.add_argument("--loo", type=Path, help="report of scripts/fit_confidence.py: print its held-out rows")
     parser.add_argument("--json", type=Path, help="write results here")
     parser.add_argument("--results", type=Path, help="keep the results files here (default: a temp folder)")
     args = parser.parse_args(argv)
 
     config = load_config(args.config) if args.config else TrackerConfig()
     config = config.replace("appearance", model=args.model)
+    configs = {"before": before_config(config), "after": config}
     seqs = sequences(args.data)
     if not seqs:
         print(f"no sequences with frames under {args.data}", file=sys.stderr)
         return 1
+    pairs: dict[str, list[tuple[Path, Path, int, str]]] = {"before": [], "after": []}
+    runs: dict[str, dict] = {}
+    interpolation: dict[str, dict[str, dict[str, int]]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         out = args.results or Path(tmp)
-        runs = {}
-        pairs = []
         for seq in seqs:
             start = time.perf_counter()
-            result = track_sequence(seq, config, merger=args.merger, progress=sys.stderr.isatty())
-            seconds = time.perf_counter() - start
-            path = results_path(out, result.info.name)
-            write_results(path, result.tracks)
-            pairs.append((path, result.info.gt_path, result.info.length, result.info.name))
+            prepared = prepare_sequence(seq, config, progress=sys.stderr.isatty())
+            seconds = time.perf_counter() - start  # the "after" pipeline: preparation plus its finish
+            for label, cfg in configs.items():
+                lap = time.perf_counter()
+                result = finish_sequence(prepared, cfg, args.merger)
+                if label == "after":
+                    seconds += time.perf_counter() - lap
+                path = results_path(out / label, result.info.name)
+                write_results(path, result.tracks)
+                pairs[label].append((path, result.info.gt_path, result.info.length, result.info.name))
+                labels = box_labels(result.tracks, result.info, out / f"{label}-labels")
+                filled = result.tracks.interpolated
+                interpolation.setdefault(result.info.name, {})[label] = {
+                    "boxes": int(filled.sum()), "TP": int((labels[filled] == 1).sum()),
+                    "FP": int((labels[filled] == 0).sum())}
             runs[result.info.name] = {"frames": result.info.length, "seconds": seconds,
-                                      "fps": result.info.length / seconds,
-                                      "stage_seconds": result.timings}
+                                      "fps": result.info.length / seconds, "stage_seconds": result.timings,
+                                      "confidence": prepared.confidence_method}
             print(f"{result.info.name}: {result.info.length / seconds:.1f} frames/s", file=sys.stderr)
-        report = evaluate_files(pairs)
-        mot16 = [p for p in pairs if p[3].startswith("MOT16")]
-        report_mot16 = evaluate_files(mot16) if mot16 else None
-    rows = [(name, report.sequences[name], runs[name]["fps"]) for name in report.sequences]
-    total_frames = sum(r["frames"] for r in runs.values())
-    total_seconds = sum(r["seconds"] for r in runs.values())
-    if report_mot16 is not None:
-        frames16 = sum(runs[p[3]]["frames"] for p in mot16)
-        seconds16 = sum(runs[p[3]]["seconds"] for p in mot16)
-        rows.append(("MOT16 clips", report_mot16.combined, frames16 / seconds16))
-    rows.append(("ALL", report.combined, total_frames / total_seconds))
-    head = f"{'sequence':<18}" + "".join(f"{c:>8}" for c in COLUMNS) + f"{'fps':>8}"
+        reports: dict[str, dict[str, EvalReport]] = {}
+        for label in configs:
+            full = [p for p in pairs[label] if p[2] > FULL_LENGTH]
+            clips = [p for p in pairs[label] if p[2] <= FULL_LENGTH]
+            reports[label] = {"all": evaluate_files(pairs[label]),
+                              "full": evaluate_files(full) if full else EvalReport(),
+                              "clips": evaluate_files(clips) if clips else EvalReport()}
+    loo = json.loads(args.loo.read_text()) if args.loo else None
+    head = f"{'sequence':<34}" + "".join(f"{c:>8}" for c in COLUMNS) + f"{'fps':>8}"
     lines = [head, "-" * len(head)]
-    for name, values, fps in rows:
-        cells = "".join(f"{values[c]:8.1f}" if c in ("HOTA", "MOTA", "IDF1") else f"{values[c]:8.0f}"
-                        for c in COLUMNS)
-        lines.append(f"{name:<18}{cells}{fps:8.1f}")
-    for group, (tracker, ref) in REFERENCE.items():
-        lines.append(f"{'ref ' + tracker:<18}" + "".join(f"{ref[c]:8.1f}" if c in ref else f"{'':>8}"
-                                                          for c in COLUMNS) + f"   ({group}, issue #2)")
+    names = [n for n in reports["after"]["all"].sequences]
+    full_names = [n for n in names if runs[n]["frames"] > FULL_LENGTH]
+    for name in full_names + [n for n in names if n not in full_names]:
+        for label in configs:
+            fps = f"{runs[name]['fps']:8.1f}" if label == "after" else ""
+            lines.append(f"{name + ' ' + label:<34}" + cells(reports[label]["all"].sequences[name]) + fps)
+        if loo and name in loo["methods"]["auto"]["held_out"]["sequences"]:
+            used = loo["methods"]["auto"]["confidence_used"][name]
+            lines.append(f"{name + ' held out [' + used + ']':<34}"
+                         + cells(loo["methods"]["auto"]["held_out"]["sequences"][name]))
+        if name in BEST_PEER_MOTA:
+            peer, mota = BEST_PEER_MOTA[name]
+            lines.append(f"{'  best peer MOTA: ' + peer:<34}" + " " * 24 + f"{mota:8.1f}")
+    for group, title in (("full", "full-length combined"), ("clips", "clips combined")):
+        for label in configs:
+            if reports[label][group].combined:
+                lines.append(f"{title + ' ' + label:<34}" + cells(reports[label][group].combined))
+        if group == "full" and loo:
+            lines.append(f"{title + ' held out':<34}" + cells(loo["methods"]["auto"]["held_out"]["combined"]))
+    lines += ["", "interpolated boxes (TP / FP by TrackEval's matching)", f"{'sequence':<20}{'before':>20}{'after':>20}"]
+    for name in full_names:
+        b, a = interpolation[name]["before"], interpolation[name]["after"]
+        lines.append(f"{name:<20}{b['boxes']:>8} ({b['TP']:>4} / {b['FP']:>4}){a['boxes']:>8} ({a['TP']:>4} / {a['FP']:>4})")
     print("\n".join(lines))
     print(f"machine: {machine()}")
     if args.json:
-        args.json.write_text(json.dumps({
+        write_text_atomic(args.json, json.dumps({
             "machine": machine(), "merger": args.merger, "model": args.model, "config": config.to_dict(),
-            "sequences": report.sequences, "mot16_clips_combined": report_mot16.combined if report_mot16 else None,
-            "combined": report.combined, "speed": runs, "reference_issue_2": REFERENCE,
+            "before": {k: r.to_dict() for k, r in reports["before"].items()},
+            "after": {k: r.to_dict() for k, r in reports["after"].items()},
+            "held_out": loo["methods"]["auto"]["held_out"] if loo else None,
+            "speed": runs, "interpolated_boxes": interpolation, "best_peer_mota_issue_11": BEST_PEER_MOTA,
         }, indent=2) + "\n")
     return 0
 
