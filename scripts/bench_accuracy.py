@@ -13,7 +13,9 @@ many interpolated boxes each output has and how many of them are right.
 
 With ``--loo fit_confidence.json`` (the report of ``scripts/fit_confidence.py``)
 the leave-one-sequence-out rows are printed too: each full-length sequence
-scored with a calibration fitted on the others only.
+scored with a calibration fitted on the others only. The ``min_hits k`` rows
+apply the online trackers' confirmation instead (a trajectory is kept once it
+has k detector boxes), to show what seeing whole trajectories adds.
 
     python scripts/bench_accuracy.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --loo fit_confidence.json --json bench_accuracy.json
@@ -40,6 +42,7 @@ from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import METRICS, EvalReport, evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.postprocess import to_tracks
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data"))
@@ -85,6 +88,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", required=True, help="ONNX re-ID model")
     parser.add_argument("--merger", default="greedy", help="long-term association solver (default: %(default)s)")
     parser.add_argument("--config", type=Path, help="tracker configuration file for 'after' (default: the defaults)")
+    parser.add_argument("--min-hits", default="3,5,10",
+                        help="comparison rows: the online trackers' rule, a trajectory is kept once it has this "
+                             "many detector boxes (no other confirmation; gaps bounded as in 'after'); "
+                             "comma-separated, empty for none (default: %(default)s)")
     parser.add_argument("--loo", type=Path, help="report of scripts/fit_confidence.py: print its held-out rows")
     parser.add_argument("--json", type=Path, help="write results here")
     parser.add_argument("--results", type=Path, help="keep the results files here (default: a temp folder)")
@@ -93,11 +100,13 @@ def main(argv: list[str] | None = None) -> int:
     config = load_config(args.config) if args.config else TrackerConfig()
     config = config.replace("appearance", model=args.model)
     configs = {"before": before_config(config), "after": config}
+    hits = [int(h) for h in args.min_hits.split(",") if h.strip()]
     seqs = sequences(args.data)
     if not seqs:
         print(f"no sequences with frames under {args.data}", file=sys.stderr)
         return 1
     pairs: dict[str, list[tuple[Path, Path, int, str]]] = {"before": [], "after": []}
+    pairs.update({f"min_hits {k}": [] for k in hits})
     runs: dict[str, dict] = {}
     interpolation: dict[str, dict[str, dict[str, int]]] = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -119,6 +128,15 @@ def main(argv: list[str] | None = None) -> int:
                 interpolation.setdefault(result.info.name, {})[label] = {
                     "boxes": int(filled.sum()), "TP": int((labels[filled] == 1).sum()),
                     "FP": int((labels[filled] == 0).sum())}
+            if result.info.length > FULL_LENGTH:
+                online = config.replace("confirm", enabled=False)
+                for k in hits:
+                    kept = [t for t in result.trajectories
+                            if int((~prepared.detections.from_sot[t.det_index]).sum()) >= k]
+                    tracks = to_tracks(kept, prepared.detections, online.postprocess, None, result.info.frame_rate)
+                    path = results_path(out / f"min_hits_{k}", result.info.name)
+                    write_results(path, tracks)
+                    pairs[f"min_hits {k}"].append((path, result.info.gt_path, result.info.length, result.info.name))
             runs[result.info.name] = {"frames": result.info.length, "seconds": seconds,
                                       "fps": result.info.length / seconds, "stage_seconds": result.timings,
                                       "confidence": prepared.confidence_method}
@@ -130,6 +148,7 @@ def main(argv: list[str] | None = None) -> int:
             reports[label] = {"all": evaluate_files(pairs[label]),
                               "full": evaluate_files(full) if full else EvalReport(),
                               "clips": evaluate_files(clips) if clips else EvalReport()}
+        online_reports = {label: evaluate_files(p) for label, p in pairs.items() if label.startswith("min_hits") and p}
     loo = json.loads(args.loo.read_text()) if args.loo else None
     head = f"{'sequence':<34}" + "".join(f"{c:>8}" for c in COLUMNS) + f"{'fps':>8}"
     lines = [head, "-" * len(head)]
@@ -143,6 +162,9 @@ def main(argv: list[str] | None = None) -> int:
             used = loo["methods"]["auto"]["confidence_used"][name]
             lines.append(f"{name + ' held out [' + used + ']':<34}"
                          + cells(loo["methods"]["auto"]["held_out"]["sequences"][name]))
+        for label, rep in online_reports.items():
+            if name in rep.sequences:
+                lines.append(f"{name + ' ' + label:<34}" + cells(rep.sequences[name]))
         if name in BEST_PEER_MOTA:
             peer, mota = BEST_PEER_MOTA[name]
             lines.append(f"{'  best peer MOTA: ' + peer:<34}" + " " * 24 + f"{mota:8.1f}")
@@ -152,6 +174,9 @@ def main(argv: list[str] | None = None) -> int:
                 lines.append(f"{title + ' ' + label:<34}" + cells(reports[label][group].combined))
         if group == "full" and loo:
             lines.append(f"{title + ' held out':<34}" + cells(loo["methods"]["auto"]["held_out"]["combined"]))
+        if group == "full":
+            for label, rep in online_reports.items():
+                lines.append(f"{title + ' ' + label:<34}" + cells(rep.combined))
     lines += ["", "interpolated boxes (TP / FP by TrackEval's matching)", f"{'sequence':<20}{'before':>20}{'after':>20}"]
     for name in full_names:
         b, a = interpolation[name]["before"], interpolation[name]["after"]
@@ -164,6 +189,7 @@ def main(argv: list[str] | None = None) -> int:
             "before": {k: r.to_dict() for k, r in reports["before"].items()},
             "after": {k: r.to_dict() for k, r in reports["after"].items()},
             "held_out": loo["methods"]["auto"]["held_out"] if loo else None,
+            "min_hits": {label: rep.to_dict() for label, rep in online_reports.items()},
             "speed": runs, "interpolated_boxes": interpolation, "best_peer_mota_issue_11": BEST_PEER_MOTA,
         }, indent=2) + "\n")
     return 0
