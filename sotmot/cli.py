@@ -55,6 +55,9 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--unconfirmed", choices=["drop", "file", "keep"],
                    help="boxes more likely false than true after association: drop them (default), write them "
                         "to DIR/<name>.low.txt, or keep them (confirmation off); see docs/calibration.md")
+    p.add_argument("--extend-ends", type=float, metavar="SECONDS",
+                   help="SOT after association: follow each confirmed trajectory up to SECONDS past its last and "
+                        "before its first box, re-ID checked (default: 0, off; 0.5 is a good start)")
     p.add_argument("--sot", choices=["none", "template", "deep"],
                    help="single-object-tracking step that adds missed boxes (paper Algorithm 1): template = "
                         "OpenCV correlation, deep = re-ID re-ranking (default: the config's, see docs)")
@@ -84,6 +87,8 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("confirm", enabled=True, low_confidence=args.unconfirmed)
     if args.sot:
         config = config.replace("sot", variant=args.sot)
+    if args.extend_ends is not None:
+        config = config.replace("sot", extend_seconds=args.extend_ends)
     return config
 
 

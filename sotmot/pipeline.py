@@ -33,7 +33,7 @@ from sotmot.confidence import (
 from sotmot.config import PreprocessConfig, TrackerConfig
 from sotmot.constraints import merge_group
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
-from sotmot.postprocess import BoxScorer, Expanded, to_tracks
+from sotmot.postprocess import BoxScorer, Expanded, output_ids, to_tracks
 from sotmot.tracklets import build_tracklets
 from sotmot.types import Detections, Tracklet, Tracks
 
@@ -278,8 +278,10 @@ def confirm(tracks: Tracks, config: TrackerConfig, method: str = "raw") -> tuple
 
 
 def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
-                    merger: str = "greedy") -> TrackResult:
-    """Long-term association with the solver ``merger``, then post-processing."""
+                    merger: str = "greedy", embedder: Embedder | None = None, progress: bool = False) -> TrackResult:
+    """Long-term association with the solver ``merger``, then post-processing, confirmation and
+    (with ``[sot] extend_seconds``) the extension of trajectory ends; ``embedder`` serves the latter
+    (built from ``config.appearance`` when needed and omitted)."""
     timings = dict(prepared.timings)
     clock = _Clock(timings)
     association, trajectories = associate(prepared.tracklets, merger, config)
@@ -290,11 +292,30 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
     tracks, dropped = (confirm(tracks, config, prepared.confidence_method) if config.confirm.enabled
                        else (tracks, Tracks.empty()))
     clock.lap("confirm")
+    if config.sot.extend_seconds > 0 and len(tracks):
+        tracks = extend_trajectories(prepared, trajectories, tracks, config, embedder, progress)
+        clock.lap("extend")
     log.info("%s: %d tracklets -> %d trajectories -> %d tracks, %d boxes kept, %d dropped as unconfirmed (%s)",
              prepared.info.name, len(prepared.tracklets), len(trajectories), tracks.n_tracks, len(tracks),
              len(dropped), merger)
     return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
                        association, trajectories, tracks, timings, prepared.confidence, dropped)
+
+
+def extend_trajectories(prepared: Prepared, trajectories: list[Tracklet], tracks: Tracks, config: TrackerConfig,
+                        embedder: Embedder | None = None, progress: bool = False) -> Tracks:
+    """SOT after association: :func:`sotmot.extend.extend_ends` on the output ``tracks``."""
+    from sotmot.extend import extend_ends
+
+    info = prepared.info
+    ids = output_ids(trajectories, config.postprocess, info.frame_rate)
+    identity = {i: t.feature for t, i in zip(trajectories, ids) if i is not None}
+    before = len(tracks)
+    tracks = extend_ends(tracks, identity, FrameReader(info, cache_size=8), info.length, info.frame_rate,
+                         embedder or make_embedder(config.appearance), config.sot,
+                         progress=partial(progress_bar, desc=f"{info.name}: extend ends", enabled=progress))
+    log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
+    return tracks
 
 
 def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(), merger: str = "greedy",
@@ -319,4 +340,5 @@ def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
         used by benchmarks that try several settings on the same detections).
     """
     get_solver(merger)  # an unknown name fails before any work is done
-    return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features), config, merger)
+    return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features), config, merger,
+                           embedder, progress)
