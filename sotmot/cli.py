@@ -34,6 +34,22 @@ example:
 """
 
 
+def _positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _progress(args: argparse.Namespace) -> bool:
+    """Progress bars only for a person watching: not with -q, not when stderr is a file or a pipe."""
+    return not args.quiet and sys.stderr.isatty()
+
+
 def _add_tracker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", type=Path, metavar="FILE",
                    help="TOML or JSON file with [preprocess], [appearance], [tracklets], [association], "
@@ -111,7 +127,7 @@ def cmd_track(args: argparse.Namespace) -> int:
                    file=sys.stderr if failed else sys.stdout)
 
     outcomes = track_many(args.seq_dirs, args.out, config, merger=args.merger, workers=args.workers,
-                          resume=args.resume, progress=not args.quiet, report=report, cluster=args.cluster)
+                          resume=args.resume, progress=_progress(args), report=report, cluster=args.cluster)
     failed = [o for o in outcomes if o.status == "failed"]
     if failed:
         print(f"sotmot: {len(failed)} of {len(outcomes)} sequences failed; the others' results are in "
@@ -148,7 +164,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     for m in mergers:
         get_solver(m)  # unknown names fail here, listing the valid ones
     config = _build_config(args)
-    result = compare(args.seq_dirs, mergers, config, progress=not args.quiet)
+    result = compare(args.seq_dirs, mergers, config, progress=_progress(args))
     print(format_comparison(result))
     _write_json(args.json, result.to_dict(), "comparison")
     return 0
@@ -169,7 +185,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         totals = errors.totals()
         print(f"CLEAR matching (as TrackEval): FP {totals['FP']}, FN {totals['FN']}, IDSW {totals['IDSW']}")
     out = render(info, tracks, args.out, errors=errors,
-                 progress=lambda it: progress_bar(it, f"{info.name}: render", not args.quiet, info.length))
+                 progress=lambda it: progress_bar(it, f"{info.name}: render", _progress(args), info.length))
     print(f"{info.length} frames, {tracks.n_tracks} tracks -> {out}")
     return 0
 
@@ -183,7 +199,7 @@ def cmd_train(args: argparse.Namespace) -> int:
                          seed=args.seed)
     appearance = AppearanceConfig(model=args.init, backend="torch", device=args.device)
     summary = train(args.seq_dirs, appearance, args.out, config,
-                    progress=lambda it: progress_bar(it, "epochs", not args.quiet, config.epochs))
+                    progress=lambda it: progress_bar(it, "epochs", _progress(args), config.epochs))
     for h in summary["history"]:
         print(f"epoch {h['epoch']}: train loss {h['train_loss']:.4f}, validation AUC {h['val_auc']:.4f}")
     print(f"{summary['identities_train']} training / {summary['identities_val']} validation identities, "
@@ -197,7 +213,7 @@ def _track_for_inspection(args: argparse.Namespace):
     from sotmot.pipeline import track_sequence
 
     config = _build_config(args)
-    return config, track_sequence(args.seq_dir, config, merger=args.merger, progress=not args.quiet)
+    return config, track_sequence(args.seq_dir, config, merger=args.merger, progress=_progress(args))
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
@@ -261,7 +277,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(min-cost flow, OR-Tools), flow-nx (the same with networkx, slow; for cross-checks)")
     _add_tracker_options(p)
     p.add_argument("--eval", action="store_true", help="score the results with TrackEval afterwards")
-    p.add_argument("--workers", type=int, default=1, metavar="N",
+    p.add_argument("--workers", type=_positive_int, default=1, metavar="N",
                    help="track N sequences at once in separate processes (default: 1)")
     p.add_argument("--cluster", metavar="dask://HOST:PORT",
                    help="run the sequences on an existing Dask cluster (its scheduler's address); the "
@@ -269,7 +285,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(pip install -e '.[dask]')")
     p.add_argument("--resume", action="store_true",
                    help="skip sequences whose results file already exists (files are written atomically)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (they are drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_track)
 
     p = sub.add_parser("eval", help="score results with TrackEval", description="Score tracking results.",
@@ -286,7 +302,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mergers", default="greedy,flow", help="comma-separated solver names (default: %(default)s)")
     _add_tracker_options(p)
     p.add_argument("--json", type=Path, metavar="FILE", help="also write the table as JSON")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (they are drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser("train-appearance", help="fine-tune the re-ID model with triplet loss on ground truth",
@@ -321,7 +337,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, metavar="VIDEO.mp4|DIR",
                    help="a .mp4/.avi file, or a folder for one JPEG per frame")
     p.add_argument("--gt", action="store_true", help="draw SEQ_DIR/gt/gt.txt beside, with the errors marked")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar (drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_render)
 
     for name, func, text in (("graph", cmd_graph, "export the association graph (GraphML, JSON, PNG, HTML)"),
@@ -337,7 +353,7 @@ def build_parser() -> argparse.ArgumentParser:
         else:
             p.add_argument("--ids", required=True, metavar="ID,ID", help="two output track ids, e.g. 3,17")
         _add_tracker_options(p)
-        p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+        p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (they are drawn only when stderr is a terminal)")
         p.set_defaults(func=func)
     return parser
 

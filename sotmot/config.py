@@ -465,13 +465,15 @@ def load_config(path: str | Path) -> TrackerConfig:
         raise ConfigError(f"{path}: configuration file not found")
     try:
         if path.suffix == ".json":
-            data = json.loads(path.read_text(encoding="utf-8"))
+            data = json.loads(path.read_text(encoding="utf-8-sig"))
         elif path.suffix == ".toml":
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
+            data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
         else:
             raise ConfigError(f"{path}: configuration must be a .toml or .json file")
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"{path}: cannot be parsed: {exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start}); save it as UTF-8") from exc
     try:
         return config_from_dict(data)
     except ConfigError as exc:

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from sotmot.errors import EvaluationError, InputError
-from sotmot.io import gt_style, read_ground_truth, read_results, read_seqinfo, results_path
+from sotmot.io import gt_style, is_plain_name, read_ground_truth, read_results, read_seqinfo, results_path
 
 #: Reported metrics: name -> (TrackEval metric family, field, is a fraction to show as %).
 METRICS: dict[str, tuple[str, str, bool]] = {
@@ -141,6 +141,9 @@ def evaluate_files(pairs: Sequence[tuple[str | Path, str | Path, int, str]]) -> 
     names = [p[3] for p in pairs]
     if len(set(names)) != len(names):
         raise EvaluationError(f"sequence names must be unique, got {names}")
+    bad = [n for n in names if not is_plain_name(n)]
+    if bad:
+        raise EvaluationError(f"sequence names must be plain file names (no path separators), got {bad}")
     report = EvalReport()
     per_seq_raw: dict[str, dict[str, Any]] = {}
     groups: dict[str, list[tuple[Path, Path, int, str]]] = {}

@@ -6,6 +6,7 @@ from sotmot.io.mot import (
     SeqInfo,
     format_results,
     gt_style,
+    is_plain_name,
     read_detections,
     read_ground_truth,
     read_results,
@@ -16,6 +17,6 @@ from sotmot.io.mot import (
 )
 
 __all__ = [
-    "FrameReader", "GroundTruth", "SeqInfo", "format_results", "gt_style", "read_detections",
+    "FrameReader", "GroundTruth", "SeqInfo", "format_results", "gt_style", "is_plain_name", "read_detections",
     "read_ground_truth", "read_results", "read_seqinfo", "results_path", "write_results", "write_text_atomic",
 ]

@@ -95,6 +95,12 @@ class SeqInfo:
         return self.frames_dir / f"{frame:06d}{self.im_ext}"
 
 
+def is_plain_name(name: str) -> bool:
+    """Whether ``name`` is one path component that stays inside the folder it is joined to."""
+    return (bool(name) and name not in (".", "..") and not any(c in name for c in "/\\\0")
+            and not Path(name).is_absolute() and ":" not in name[:2])
+
+
 def read_seqinfo(seq_dir: str | Path) -> SeqInfo:
     """Read ``seq_dir/seqinfo.ini``.
 
@@ -110,10 +116,10 @@ def read_seqinfo(seq_dir: str | Path) -> SeqInfo:
     path = seq_dir / "seqinfo.ini"
     if not path.is_file():
         raise InputError(path, "missing; a MOTChallenge sequence folder needs seqinfo.ini")
-    parser = configparser.ConfigParser()
+    parser = configparser.ConfigParser(interpolation=None)  # a '%' in a value is just a character
     parser.optionxform = str  # keep key case: frameRate, seqLength
     try:
-        parser.read(path, encoding="utf-8")
+        parser.read(path, encoding="utf-8-sig")  # -sig: files saved by Excel or Notepad start with a BOM
     except (configparser.Error, UnicodeDecodeError) as exc:
         raise InputError(path, f"cannot be parsed as an ini file: {exc}") from exc
     if "Sequence" not in parser:
@@ -134,7 +140,11 @@ def read_seqinfo(seq_dir: str | Path) -> SeqInfo:
         if kind in (int, float) and not (math.isfinite(value) and value > 0):
             raise InputError(path, f"{key}={raw!r} must be a positive number", line=_ini_line(path, key))
         values[key] = value
-    return SeqInfo(path=seq_dir, name=str(values["name"]), frame_rate=float(values["frameRate"]),
+    name = str(values["name"])
+    if not is_plain_name(name):
+        raise InputError(path, f"name={name!r} must be a plain file name (no path separators, not '.' or "
+                         f"'..'): results are written as <out>/<name>.txt", line=_ini_line(path, "name"))
+    return SeqInfo(path=seq_dir, name=name, frame_rate=float(values["frameRate"]),
                    length=int(values["seqLength"]), width=int(values["imWidth"]),
                    height=int(values["imHeight"]), im_dir=str(values.get("imDir", "img1")),
                    im_ext=str(values.get("imExt", ".jpg")))
@@ -159,7 +169,7 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
         raise InputError(path, f"missing; expected the {what} file here")
     rows: list[list[float]] = []
     lines: list[int] = []
-    with open(path, encoding="utf-8", errors="replace") as fh:
+    with open(path, encoding="utf-8-sig", errors="replace") as fh:  # -sig: tolerate a leading BOM
         for number, text in enumerate(fh, 1):
             text = text.strip()
             if not text:
@@ -260,7 +270,7 @@ def gt_style(path: str | Path) -> GtStyle:
     path = Path(path)
     if not path.is_file():
         raise InputError(path, "missing; expected the ground-truth file here")
-    with open(path, encoding="utf-8", errors="replace") as fh:
+    with open(path, encoding="utf-8-sig", errors="replace") as fh:  # -sig: tolerate a leading BOM
         for text in fh:
             if text.strip():
                 return "MOT16" if len(text.strip().split(",")) == 9 else "MOT15"
@@ -298,7 +308,16 @@ def read_results(path: str | Path, seq_length: int | None = None) -> Tracks:
 
 
 def results_path(out_dir: str | Path, seq_name: str) -> Path:
-    """Where the results of sequence ``seq_name`` live in ``out_dir``: ``<out_dir>/<name>.txt``."""
+    """Where the results of sequence ``seq_name`` live in ``out_dir``: ``<out_dir>/<name>.txt``.
+
+    Raises
+    ------
+    InputError
+        ``seq_name`` is not a plain file name (it would put the file outside ``out_dir``).
+    """
+    if not is_plain_name(seq_name):
+        raise InputError(Path(out_dir), f"sequence name {seq_name!r} is not a plain file name; results would be "
+                         f"written outside this folder")
     return Path(out_dir) / f"{seq_name}.txt"
 
 
