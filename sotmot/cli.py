@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import math
 import sys
 from pathlib import Path
 
@@ -45,6 +46,17 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"must be a finite number above 0, got {text}")
+    return value
+
+
 def _progress(args: argparse.Namespace) -> bool:
     """Progress bars only for a person watching: not with -q, not when stderr is a file or a pipe."""
     return not args.quiet and sys.stderr.isatty()
@@ -63,7 +75,7 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--score-threshold", type=float, metavar="S",
                    help="drop detections scoring below S (default: keep all)")
     p.add_argument("--nms", choices=["auto", "iou", "iom", "none"],
-                   help="NMS overlap: auto = IoM for non-probability scores such as DPM's, else IoU")
+                   help="NMS overlap: auto = IoM for non-probability scores such as DPM's, else IoU (default: auto)")
     p.add_argument("--confidence", choices=["auto", "raw", "quantile", "dpm", "acf", "frcnn"],
                    help="how detector scores become confidences in [0, 1]: a stored map per detector family "
                         "(dpm, acf, frcnn), the score's rank in the sequence (quantile), scores as they are (raw), "
@@ -152,6 +164,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     report = evaluate(args.results_dir, args.seq_dirs)
     print(format_table(report))
+    print("TrackEval rules: " + ", ".join(f"{name} {rules}" for name, rules in report.benchmark.items())
+          + " (MOT16: distractor classes removed; MOT15: every ground-truth box counts)")
     _write_json(args.json, report.to_dict(), "scores")
     return 0
 
@@ -316,14 +330,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequences with gt/gt.txt and img1/")
     p.add_argument("--init", required=True, metavar="MODEL.onnx", help="the re-ID model to start from")
     p.add_argument("--out", type=Path, required=True, metavar="FILE.pt", help="checkpoint (best validation AUC)")
-    p.add_argument("--epochs", type=int, default=3)
-    p.add_argument("--margin", type=float, default=0.3, help="triplet margin (default: %(default)s)")
-    p.add_argument("--lr", type=float, default=1e-4)
+    p.add_argument("--epochs", type=_positive_int, default=3, help="passes over the crops (default: %(default)s)")
+    p.add_argument("--margin", type=_positive_float, default=0.3, help="triplet margin (default: %(default)s)")
+    p.add_argument("--lr", type=_positive_float, default=1e-4, help="Adam learning rate (default: %(default)s)")
     p.add_argument("--train-last", type=int, default=12, metavar="K",
                    help="train only the last K weight tensors (default: %(default)s; 0 = all)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--device", choices=["cpu", "cuda"], default="cpu")
-    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("--seed", type=int, default=0, help="seed of the identity split and sampling (default: %(default)s)")
+    p.add_argument("--device", choices=["cpu", "cuda"], default="cpu", help="where to train (default: %(default)s)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar (drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_train)
 
     p = sub.add_parser("render", help="draw results on the frames (video or JPEG folder)",
@@ -332,8 +346,10 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(from the .flags.csv that 'sotmot track' writes beside the results). "
                                    "With --gt, the ground truth is drawn beside them with the errors of "
                                    "the CLEAR matching: FP red, FN dashed red, ID switches flagged.")
-    p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR")
-    p.add_argument("results", type=Path, metavar="RESULTS.txt")
+    p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR", help="the sequence the results are of (frames from img1/)")
+    p.add_argument("results", type=Path, metavar="RESULTS.txt",
+                   help="MOTChallenge results, e.g. from sotmot track (its .flags.csv beside it marks SOT and "
+                        "interpolated boxes)")
     p.add_argument("--out", type=Path, required=True, metavar="VIDEO.mp4|DIR",
                    help="a .mp4/.avi file, or a folder for one JPEG per frame")
     p.add_argument("--gt", action="store_true", help="draw SEQ_DIR/gt/gt.txt beside, with the errors marked")
@@ -345,16 +361,21 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + ". The sequence is "
                            "tracked first, with the same options as 'sotmot track'; track ids are those "
                            "of the results file that run writes.")
-        p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR")
-        p.add_argument("--merger", default="greedy", choices=sorted(SOLVERS))
+        p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR", help="folder with seqinfo.ini, det/det.txt and img1/")
+        p.add_argument("--merger", default="greedy", choices=sorted(SOLVERS),
+                       help="long-term association solver whose links are shown (default: %(default)s)")
         if name == "graph":
-            p.add_argument("--out", type=Path, required=True, metavar="DIR")
+            p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                           help="folder for graph.graphml, graph.json, graph.png and graph.html")
             p.add_argument("--frames", metavar="A:B", help="only tracklets that touch frames A..B")
         else:
             p.add_argument("--ids", required=True, metavar="ID,ID", help="two output track ids, e.g. 3,17")
         _add_tracker_options(p)
         p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (they are drawn only when stderr is a terminal)")
         p.set_defaults(func=func)
+    for p in sub.choices.values():  # -v also after the command: sotmot track ... -v
+        p.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,
+                       help="more log output (-vv for debug)")
     return parser
 
 

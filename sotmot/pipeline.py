@@ -219,7 +219,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     timings: dict[str, float] = {}
     clock = _Clock(timings)
     info = read_seqinfo(seq_dir)
-    raw = read_detections(info.det_path, info.length)
+    raw = read_detections(info.det_path, info.length, (info.width, info.height))
     clock.lap("read")
     dets = preprocess(raw, config.preprocess)
     log.info("%s: %d detections, %d after preprocessing", info.name, len(raw), len(dets))

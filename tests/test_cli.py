@@ -23,7 +23,7 @@ def test_track_and_eval_on_mot16_05_clip_matches_pinned_scores(tmp_path, model_0
     assert scores["IDF1"] == pytest.approx(40.6, abs=2.0)
     assert scores["IDSW"] <= 2
     printed = capsys.readouterr().out
-    assert "MOT16-05-clip30" in printed and "HOTA" in printed
+    assert "MOT16-05-clip30" in printed and "HOTA" in printed and "TrackEval rules: MOT16-05-clip30 MOT16" in printed
 
 
 def test_help_teaches(capsys):

@@ -87,3 +87,57 @@ def test_progress_bars_only_on_a_terminal(monkeypatch):
     assert not _progress(argparse.Namespace(quiet=False))
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
     assert _progress(argparse.Namespace(quiet=False)) and not _progress(argparse.Namespace(quiet=True))
+
+
+def test_space_separated_ground_truth_gets_the_same_rules_as_comma_separated(tmp_path):
+    from sotmot.io import gt_style
+
+    comma = tmp_path / "a.txt"
+    comma.write_text("1,1,10,10,5,8,1,1,1\n")
+    spaces = tmp_path / "b.txt"
+    spaces.write_text("1 1 10 10 5 8 1 1 1\n")
+    assert gt_style(comma) == gt_style(spaces) == "MOT16"
+
+
+def test_absurd_box_is_an_error_with_its_line_and_outside_boxes_a_warning(tmp_path, caplog):
+    seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9", "1,-1,0,0,1e12,1e12,2.0", "2,-1,-50,10,20,8,0.9"],
+                         images=False)
+    info = read_seqinfo(seq)
+    with pytest.raises(InputError, match="far larger than the 64 x 48 image") as err:
+        read_detections(info.det_path, info.length, (info.width, info.height))
+    assert err.value.line == 2
+    (seq / "det" / "det.txt").write_text("1,-1,10,10,5,8,0.9\n2,-1,-50,10,20,8,0.9\n")
+    with caplog.at_level("WARNING"):
+        assert len(read_detections(info.det_path, info.length, (info.width, info.height))) == 2
+    assert "1 boxes lie mostly outside the 64 x 48 image (first on line 2)" in caplog.text
+
+
+def test_frame_of_the_wrong_size_and_frames_read_as_bytes(tmp_path):
+    from sotmot.io import FrameReader
+
+    seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], length=2)
+    info = read_seqinfo(seq)
+    assert FrameReader(info)(1).shape == (48, 64, 3)
+    import cv2
+    import numpy as np
+
+    cv2.imwrite(str(seq / "img1" / "000002.jpg"), np.zeros((10, 10, 3), np.uint8))
+    with pytest.raises(InputError, match="is 10 x 10 px but seqinfo.ini says imWidth=64"):
+        FrameReader(info)(2)
+
+
+def test_train_appearance_options_are_checked_before_any_work(capsys):
+    from sotmot.cli import main
+
+    for option, value, problem in (("--epochs", "0", "must be at least 1"), ("--lr", "-5", "above 0")):
+        with pytest.raises(SystemExit):
+            main(["train-appearance", "x", "--init", "m.onnx", "--out", "t.pt", option, value])
+        assert problem in capsys.readouterr().err
+
+
+def test_verbose_after_the_command(tmp_path):
+    from sotmot.cli import build_parser
+
+    args = build_parser().parse_args(["eval", str(tmp_path), str(tmp_path), "-vv"])
+    assert args.verbose == 2
+    assert build_parser().parse_args(["-v", "eval", str(tmp_path), str(tmp_path)]).verbose == 1

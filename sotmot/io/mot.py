@@ -8,6 +8,7 @@ frames are 1-based.
 from __future__ import annotations
 
 import configparser
+import logging
 import math
 import os
 import tempfile
@@ -23,7 +24,10 @@ from sotmot.errors import InputError
 from sotmot.types import Detections, Tracks
 
 GtStyle = Literal["MOT15", "MOT16"]
-_LINK_STUB_BYTES = 1024  # a checked-out symbolic link is a text file no longer than its target path
+_LINK_STUB_BYTES = 1024
+#: A detection box wider or taller than this many image widths or heights is an input error.
+MAX_BOX_SCALE = 4.0
+log = logging.getLogger(__name__)  # a checked-out symbolic link is a text file no longer than its target path
 
 _SEQINFO_KEYS = {
     "name": str, "imDir": str, "frameRate": float, "seqLength": int,
@@ -174,7 +178,7 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
             text = text.strip()
             if not text:
                 continue
-            fields = [f.strip() for f in text.replace(" ", "").split(",")] if "," in text else text.split()
+            fields = _fields(text)
             if not (min_cols <= len(fields) <= max_cols):
                 raise InputError(path, f"{len(fields)} columns, expected {min_cols} to {max_cols} "
                                  f"(frame, id, x, y, w, h, score, ...)", line=number)
@@ -203,6 +207,11 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
     return arr, lines
 
 
+def _fields(text: str) -> list[str]:
+    """The fields of one stripped line: comma-separated, or separated by white space when it has no comma."""
+    return [f.strip() for f in text.replace(" ", "").split(",")] if "," in text else text.split()
+
+
 def _is_float(text: str) -> bool:
     try:
         float(text)
@@ -211,10 +220,15 @@ def _is_float(text: str) -> bool:
     return True
 
 
-def read_detections(path: str | Path, seq_length: int | None = None) -> Detections:
+def read_detections(path: str | Path, seq_length: int | None = None,
+                    image_size: tuple[int, int] | None = None) -> Detections:
     """Read a MOTChallenge ``det.txt``: ``frame, id, x, y, w, h, score[, x, y, z]``.
 
     The boxes come back in the canonical order of :meth:`Detections.sorted`.
+    With ``image_size = (width, height)`` (``imWidth``, ``imHeight``) a box
+    more than :data:`MAX_BOX_SCALE` times the image's width or height is an
+    error (one absurd box would suppress a frame's real detections in NMS),
+    and boxes mostly outside the image are counted in a warning.
 
     Raises
     ------
@@ -222,7 +236,20 @@ def read_detections(path: str | Path, seq_length: int | None = None) -> Detectio
         With the file and 1-based line of the first bad row.
     """
     path = Path(path)
-    arr, _ = _parse_rows(path, 7, 10, seq_length, "detections")
+    arr, lines = _parse_rows(path, 7, 10, seq_length, "detections")
+    if image_size is not None and len(arr):
+        width, height = image_size
+        huge = np.flatnonzero((arr[:, 4] > MAX_BOX_SCALE * width) | (arr[:, 5] > MAX_BOX_SCALE * height))
+        if len(huge):
+            k = int(huge[0])
+            raise InputError(path, f"box {arr[k, 4]:g} x {arr[k, 5]:g} px is far larger than the "
+                             f"{width} x {height} image (imWidth, imHeight in seqinfo.ini)", line=lines[k])
+        ix = np.clip(arr[:, 2] + arr[:, 4], 0, width) - np.clip(arr[:, 2], 0, width)
+        iy = np.clip(arr[:, 3] + arr[:, 5], 0, height) - np.clip(arr[:, 3], 0, height)
+        outside = np.flatnonzero(ix * iy < 0.5 * arr[:, 4] * arr[:, 5])
+        if len(outside):
+            log.warning("%s: %d boxes lie mostly outside the %d x %d image (first on line %d)", path,
+                        len(outside), width, height, lines[int(outside[0])])
     return Detections(arr[:, 0].astype(np.int64), arr[:, 2:6], arr[:, 6]).sorted()
 
 
@@ -265,7 +292,9 @@ class GroundTruth:
 def gt_style(path: str | Path) -> GtStyle:
     """Whether a ``gt.txt`` is MOT16-style (9 columns) or 2DMOT2015-style.
 
-    Decided from the first non-empty line; :func:`read_ground_truth` checks the rest.
+    Decided from the columns of the first non-empty line, split as the
+    readers split it (commas, or white space); :func:`read_ground_truth`
+    checks the rest.
     """
     path = Path(path)
     if not path.is_file():
@@ -273,7 +302,7 @@ def gt_style(path: str | Path) -> GtStyle:
     with open(path, encoding="utf-8-sig", errors="replace") as fh:  # -sig: tolerate a leading BOM
         for text in fh:
             if text.strip():
-                return "MOT16" if len(text.strip().split(",")) == 9 else "MOT15"
+                return "MOT16" if len(_fields(text.strip())) == 9 else "MOT15"
     return "MOT15"
 
 
@@ -398,9 +427,17 @@ class FrameReader:
         path = self.info.frame_path(frame)
         if not path.is_file():
             raise InputError(path, f"frame {frame} is missing from {self.info.im_dir}/")
-        image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        # bytes read by Python, decoded by OpenCV: cv2.imread crashes on some paths (not valid UTF-8)
+        try:
+            data = np.fromfile(path, dtype=np.uint8)
+        except OSError as exc:
+            raise InputError(path, f"frame {frame} cannot be read: {exc.strerror}") from exc
+        image = cv2.imdecode(data, cv2.IMREAD_COLOR) if len(data) else None
         if image is None:
             raise InputError(path, f"frame {frame} cannot be decoded as an image")
+        if image.shape[:2] != (self.info.height, self.info.width):
+            raise InputError(path, f"frame {frame} is {image.shape[1]} x {image.shape[0]} px but seqinfo.ini says "
+                             f"imWidth={self.info.width}, imHeight={self.info.height}")
         image.setflags(write=False)
         self._cache[frame] = image
         if len(self._cache) > self.cache_size:
