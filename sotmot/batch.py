@@ -2,11 +2,12 @@
 
 Each sequence is one job that reads its own frames (nothing but paths and
 the configuration crosses process or machine boundaries), writes
-``<name>.low.txt`` (with ``[confirm] low_confidence = "file"``), ``<name>.flags.csv``
-then ``<name>.txt`` atomically, and reports success or
-its error. A failing sequence never loses the others' results; with
-``resume`` a sequence whose results file exists is skipped (results are
-written atomically and last, so an existing file is a complete one).
+``<name>.low.txt`` (with ``[confirm] low_confidence = "file"``), ``<name>.flags.csv``,
+``<name>.run.json`` (how it was made, :mod:`sotmot.provenance`) then ``<name>.txt``,
+each atomically, and reports success or its error. A failing sequence never
+loses the others' results; with ``resume`` a sequence is skipped when its
+results file exists (written last, so it is complete) and its run record
+matches the current run; otherwise the outcome says why it ran again.
 
 On a Dask cluster (``cluster="dask://HOST:PORT"``, the scheduler of an
 existing ``distributed`` cluster) the paths must name the same files on the
@@ -103,23 +104,32 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
     from sotmot.io import read_seqinfo, results_path, write_results
     from sotmot.pipeline import track_sequence
+    from sotmot.provenance import run_record, why_rerun, write_record
     from sotmot.render import write_flags
 
     try:
         info = read_seqinfo(seq_dir)
         out = results_path(out_dir, info.name)
-        if resume and out.is_file():
-            return Outcome(seq_dir, "skipped", str(out), f"{info.name}: results exist, skipped (--resume)")
+        record = run_record(info, config, merger)
+        rerun = ""
+        if resume:
+            why = why_rerun(out, record)
+            if why is None:
+                return Outcome(seq_dir, "skipped", str(out),
+                               f"{info.name}: results exist from the same run settings, skipped (--resume)")
+            rerun = f" (re-run: {why})" if out.is_file() else ""
         start = time.perf_counter()
         result = track_sequence(seq_dir, config, merger=merger, embedder=embedder, progress=progress)
         if config.confirm.enabled and config.confirm.low_confidence == "file":
             write_results(low_confidence_path(out), result.dropped)
         write_flags(out, result.tracks)
-        write_results(out, result.tracks)
+        write_record(out, record)
+        write_results(out, result.tracks)  # last: a results file exists only with its side files
         fps = info.length / (time.perf_counter() - start)
         dropped = f", {len(result.dropped)} unconfirmed dropped" if len(result.dropped) else ""
         return Outcome(seq_dir, "done", str(out), f"{info.name}: {result.tracks.n_tracks} tracks, "
-                                                  f"{len(result.tracks)} boxes{dropped}, {fps:.1f} frames/s -> {out}")
+                                                  f"{len(result.tracks)} boxes{dropped}, {fps:.1f} frames/s -> {out}"
+                                                  f"{rerun}")
     except SotmotError as exc:
         return Outcome(seq_dir, "failed", None, f"{seq_dir}: {exc}")
     except Exception as exc:  # a bug must not lose the other sequences' results either
@@ -144,8 +154,10 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         Both ``workers > 1`` and ``cluster``; a malformed cluster address,
         an unreachable scheduler, or ``distributed`` not installed.
     """
+    from sotmot.io import check_output_dir
+
     seq_dirs = [str(s) for s in seq_dirs]
-    out_dir = str(out_dir)
+    out_dir = str(check_output_dir(out_dir))  # a file, a read-only folder: said now, not after the work
     report = report or (lambda outcome: None)
     if cluster is not None:
         if workers > 1:
@@ -157,7 +169,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         embedder = None
         outcomes = []
         for seq in seq_dirs:
-            if embedder is None and not (resume and _has_results(seq, out_dir)):
+            if embedder is None and not (resume and _resumable(seq, out_dir, config, merger)):
                 embedder = make_embedder(config.appearance)  # a bad model path stops everything, once
             outcome = track_one(seq, out_dir, config, merger, resume, progress, embedder)
             report(outcome)
@@ -217,7 +229,7 @@ def dask_address(cluster: str) -> str:
 def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool) -> Outcome:
     """One sequence on a Dask worker, with that worker process's appearance model."""
     embedder = None
-    if not (resume and _has_results(seq_dir, out_dir)):
+    if not (resume and _resumable(seq_dir, out_dir, config, merger)):
         try:
             embedder = _worker_embedder(config.appearance)
         except SotmotError as exc:
@@ -251,10 +263,13 @@ def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: Trac
     return [by_seq[s] for s in seq_dirs]
 
 
-def _has_results(seq_dir: str, out_dir: str) -> bool:
+def _resumable(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str) -> bool:
+    """Whether ``--resume`` will skip this sequence (its results exist from the same run settings)."""
     from sotmot.io import read_seqinfo, results_path
+    from sotmot.provenance import run_record, why_rerun
 
     try:
-        return results_path(out_dir, read_seqinfo(seq_dir).name).is_file()
+        info = read_seqinfo(seq_dir)
+        return why_rerun(results_path(out_dir, info.name), run_record(info, config, merger)) is None
     except SotmotError:
         return False

@@ -22,7 +22,11 @@ examples:
 
 The re-ID model path may also come from the environment variable SOTMOT_REID_MODEL.
 Results are written as DIR/<name>.txt (MOTChallenge format: frame, id, x, y, w, h,
-score, -1, -1, -1; boxes in pixels, frames 1-based), each file atomically.
+score, -1, -1, -1; boxes in pixels, frames 1-based), each file atomically; <name> is
+the name in seqinfo.ini and must be a plain file name (no path separators). Beside it:
+<name>.flags.csv (interpolated / SOT boxes, each box's confidence) and <name>.run.json
+(sotmot version, full configuration, solver, model and input hashes, time); --resume
+skips a sequence only when that record matches the current run.
 """
 
 EPILOG_EVAL = """\
@@ -155,7 +159,12 @@ def _write_json(path: Path | None, data: dict, what: str) -> None:
     if path:
         from sotmot.io import write_text_atomic
 
-        write_text_atomic(path, json.dumps(data, indent=2) + "\n")
+        if path.is_dir():
+            raise SotmotError(f"{path}: --json must name a file, but this is a folder")
+        try:
+            write_text_atomic(path, json.dumps(data, indent=2) + "\n")
+        except OSError as exc:
+            raise SotmotError(f"{path}: cannot write the {what}: {exc.strerror}") from exc
         print(f"{what} written to {path}")
 
 
@@ -278,6 +287,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "Hungarian tracklets in 1-second batches, long-term association under IoU, velocity "
                     "and gap constraints, interpolation and smoothing. Input: MOTChallenge folders.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
+    from sotmot.provenance import sotmot_version
+
+    parser.add_argument("--version", action="version", version=f"sotmot {sotmot_version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("track", help="track sequences and write MOTChallenge results",

@@ -22,6 +22,7 @@ from scipy.optimize import linear_sum_assignment
 from sotmot.appearance import affinity
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackletConfig
+from sotmot.errors import ConfigError
 from sotmot.types import Detections, Tracklet
 
 _FORBIDDEN = 1e6
@@ -68,6 +69,11 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
     per_frame = detections.by_frame()
     frames = sorted(per_frame)
     blen = batch_length(frame_rate, config.batch_seconds)
+    if blen <= config.l_min:
+        raise ConfigError(f"[tracklets] batch_seconds = {config.batch_seconds:g} at {frame_rate:g} frames/s gives "
+                          f"batches of {blen} frame(s), so every tracklet has at most {blen} box(es) and l_min = "
+                          f"{config.l_min} drops them all; use batch_seconds >= {(config.l_min + 1) / frame_rate:.3g} "
+                          f"(or check frameRate in seqinfo.ini)")
     finished: list[list[int]] = []
     active: list[list[int]] = []
     current_batch = None

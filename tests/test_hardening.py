@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from conftest import GeometryEmbedder, write_sequence
 from sotmot.config import TrackerConfig, load_config
@@ -141,3 +143,110 @@ def test_verbose_after_the_command(tmp_path):
     args = build_parser().parse_args(["eval", str(tmp_path), str(tmp_path), "-vv"])
     assert args.verbose == 2
     assert build_parser().parse_args(["-v", "eval", str(tmp_path), str(tmp_path)]).verbose == 1
+
+
+def _walker_sequence(tmp_path):
+    lines = [f"{f},-1,{10 + 2 * f},20,20,40,0.95" for f in range(1, 9)]
+    return write_sequence(tmp_path, lines, length=10, frame_rate=4, width=120, height=80)
+
+
+def test_results_carry_a_run_record_and_resume_reruns_only_when_it_differs(tmp_path):
+    import json
+
+    from sotmot.batch import track_one
+
+    seq = _walker_sequence(tmp_path)
+    out = tmp_path / "out"
+    config = TrackerConfig()
+    first = track_one(str(seq), str(out), config, "greedy", True, embedder=GeometryEmbedder())
+    assert first.status == "done"
+    record = json.loads((out / "SYN.run.json").read_text())
+    assert record["solver"] == "greedy" and record["config"]["association"]["l_max"] == 60
+    assert len(record["inputs"]["det/det.txt"]) == 64 and record["sotmot"]
+    assert track_one(str(seq), str(out), config, "greedy", True, embedder=GeometryEmbedder()).status == "skipped"
+    changed = track_one(str(seq), str(out), config.replace("association", l_max=45), "greedy", True,
+                        embedder=GeometryEmbedder())
+    assert changed.status == "done" and "re-run: made with a different config.association.l_max" in changed.message
+    other_solver = track_one(str(seq), str(out), config.replace("association", l_max=45), "flow", True,
+                             embedder=GeometryEmbedder())
+    assert "different solver" in other_solver.message
+    (out / "SYN.run.json").unlink()
+    again = track_one(str(seq), str(out), config, "greedy", True, embedder=GeometryEmbedder())
+    assert again.status == "done" and "has no run record" in again.message
+    (seq / "det" / "det.txt").write_text((seq / "det" / "det.txt").read_text() + "9,-1,30,20,20,40,0.9\n")
+    edited = track_one(str(seq), str(out), config, "greedy", True, embedder=GeometryEmbedder())
+    assert "inputs.det/det.txt" in edited.message
+
+
+def test_out_that_is_a_file_fails_before_any_work(tmp_path):
+    from sotmot.batch import track_many
+
+    seq = _walker_sequence(tmp_path)
+    (tmp_path / "taken").write_text("x")
+    with pytest.raises(InputError, match="must be a folder"):
+        track_many([seq], tmp_path / "taken", TrackerConfig())
+
+
+def test_version(capsys):
+    from sotmot.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and capsys.readouterr().out.startswith("sotmot ")
+
+
+def test_one_frame_batches_are_an_error_not_zero_tracks(tmp_path):
+    from sotmot.pipeline import track_sequence
+
+    seq = _walker_sequence(tmp_path)
+    config = TrackerConfig().replace("tracklets", batch_seconds=1e-9)
+    with pytest.raises(ConfigError, match="batches of 1 frame"):
+        track_sequence(seq, config, embedder=GeometryEmbedder())
+
+
+def test_json_pointing_at_a_folder_is_one_line(tmp_path, capsys):
+    from sotmot.cli import main
+
+    seq = _walker_sequence(tmp_path)
+    (tmp_path / "res").mkdir()
+    (tmp_path / "res" / "SYN.txt").write_text("1,1,10,20,20,40,1,-1,-1,-1\n")
+    (seq / "gt").mkdir()
+    (seq / "gt" / "gt.txt").write_text("1,1,10,20,20,40,1,1,1\n")
+    assert main(["eval", str(tmp_path / "res"), str(seq), "--json", str(tmp_path)]) == 2
+    assert "--json must name a file, but this is a folder" in capsys.readouterr().err
+
+
+def test_threads_beyond_the_cpus_are_capped_with_a_warning(caplog, model_0288):
+    import os
+
+    from sotmot.appearance import make_embedder
+    from sotmot.config import AppearanceConfig
+
+    with caplog.at_level("WARNING"):
+        make_embedder(AppearanceConfig(model=str(model_0288), threads=1000))
+    assert f"using {os.cpu_count()}" in caplog.text
+
+
+ROW_BYTES = st.lists(st.sampled_from([b"1", b"-1", b"10", b"2.5", b"nan", b"x", b",", b" ", b"\n", b"\t", b"\xef\xbb\xbf",
+                                      b"\xff", b"1e400", b"0", b"-", b"."]), max_size=60).map(b"".join)
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.one_of(ROW_BYTES, st.binary(max_size=200)))
+def test_readers_never_raise_anything_but_input_error(tmp_path, data):
+    from sotmot.io import read_ground_truth
+
+    path = tmp_path / "f.txt"
+    path.write_bytes(data)
+    for reader in (read_detections, read_ground_truth):
+        try:
+            reader(path, 5)
+        except InputError as exc:
+            assert str(exc).startswith(str(path))
+    seq = tmp_path / "seq"
+    seq.mkdir(exist_ok=True)
+    (seq / "seqinfo.ini").write_bytes(b"[Sequence]\n" + data)
+    try:
+        read_seqinfo(seq)
+    except InputError as exc:
+        assert str(exc).startswith(str(seq / "seqinfo.ini"))

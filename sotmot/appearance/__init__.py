@@ -14,13 +14,18 @@ Backends are registered in :data:`BACKENDS` and imported only when used, so
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
+import logging
+import os
 from typing import Callable, Protocol
 
 import numpy as np
 
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ConfigError
+
+log = logging.getLogger(__name__)
 
 
 class Embedder(Protocol):
@@ -118,6 +123,10 @@ def make_embedder(config: AppearanceConfig) -> Embedder:
     target = BACKENDS.get(config.backend)
     if target is None:
         raise ConfigError(f"unknown appearance backend {config.backend!r}; valid: {', '.join(BACKENDS)}")
+    cpus = os.cpu_count() or 1
+    if config.threads > cpus:
+        log.warning("appearance threads = %d but this machine has %d CPUs; using %d", config.threads, cpus, cpus)
+        config = dataclasses.replace(config, threads=cpus)
     module, name = target.split(":")
     try:
         importlib.import_module(module)

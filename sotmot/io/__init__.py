@@ -2,6 +2,7 @@
 
 from sotmot.io.mot import (
     FrameReader,
+    check_output_dir,
     GroundTruth,
     SeqInfo,
     format_results,
@@ -17,6 +18,6 @@ from sotmot.io.mot import (
 )
 
 __all__ = [
-    "FrameReader", "GroundTruth", "SeqInfo", "format_results", "gt_style", "is_plain_name", "read_detections",
+    "FrameReader", "check_output_dir", "GroundTruth", "SeqInfo", "format_results", "gt_style", "is_plain_name", "read_detections",
     "read_ground_truth", "read_results", "read_seqinfo", "results_path", "write_results", "write_text_atomic",
 ]

@@ -382,6 +382,27 @@ def write_text_atomic(path: str | Path, text: str) -> None:
         raise
 
 
+def check_output_dir(path: str | Path) -> Path:
+    """Make sure results can be written into the folder ``path`` (created if missing), before any work.
+
+    Raises
+    ------
+    InputError
+        ``path`` is a file, cannot be created, or is not writable.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(path, "--out must be a folder, but this is a file")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".sotmot-write-test.", dir=path)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise InputError(path, f"cannot write results here: {exc.strerror}") from exc
+    return path
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)

@@ -1,0 +1,136 @@
+"""How a results file was made: the run record written beside it as ``<name>.run.json``.
+
+The record holds the sotmot version, the resolved configuration (solver
+included), the re-ID model file and its SHA-256, the confidence calibration's
+SHA-256, the SHA-256 of ``seqinfo.ini`` and ``det/det.txt``, a fingerprint of
+the frame folder (file names, sizes and modification times, not their bytes:
+hashing every frame would cost more than tracking small sequences) and the
+time. ``track --resume`` skips a sequence only when its record matches the
+current run in everything but the time.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from datetime import datetime, timezone
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+from sotmot.config import TrackerConfig
+from sotmot.io import SeqInfo
+
+#: Record fields that never make a resume re-run: when it ran, how fast (threads, batch size), and
+#: paths whose file contents are compared by hash instead.
+IGNORED = ("time", "config.appearance.threads", "config.appearance.batch_size", "config.appearance.model",
+           "config.confirm.calibration", "reid_model.path", "confidence_calibration.path")
+
+
+def sotmot_version() -> str:
+    """The installed sotmot version (``unknown`` when run from a tree that is not installed)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("sotmot")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+@lru_cache(maxsize=64)
+def _file_sha256(path: str, size: int, mtime_ns: int) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def file_sha256(path: str | Path) -> str | None:
+    """SHA-256 of a file's bytes (cached while its size and modification time stay), None if absent."""
+    path = Path(path)
+    if not path.is_file():
+        return None
+    st = path.stat()
+    return _file_sha256(str(path.resolve()), st.st_size, st.st_mtime_ns)
+
+
+def frames_fingerprint(info: SeqInfo) -> str | None:
+    """SHA-256 of the frame folder's listing: each file's name, size and modification time."""
+    folder = info.frames_dir
+    if not folder.is_dir():
+        return None
+    digest = hashlib.sha256()
+    for entry in sorted(folder.iterdir()):
+        if entry.is_file():
+            st = entry.stat()
+            digest.update(f"{entry.name}\t{st.st_size}\t{st.st_mtime_ns}\n".encode())
+    return digest.hexdigest()
+
+
+def run_record(info: SeqInfo, config: TrackerConfig, merger: str) -> dict[str, Any]:
+    """The record of tracking ``info`` with ``config`` and the solver ``merger``, as of now."""
+    from importlib import resources
+
+    model = config.appearance.model
+    calibration = config.confirm.calibration
+    packaged = resources.files("sotmot").joinpath("data", "confidence.json")
+    return {
+        "sotmot": sotmot_version(),
+        "sequence": info.name,
+        "solver": merger,
+        "config": config.to_dict(),
+        "reid_model": {"path": model, "sha256": file_sha256(model) if model else None},
+        "confidence_calibration": {"path": calibration or "packaged",
+                                   "sha256": file_sha256(calibration or str(packaged))},
+        "inputs": {"seqinfo.ini": file_sha256(info.path / "seqinfo.ini"),
+                   "det/det.txt": file_sha256(info.det_path),
+                   "frames (names, sizes, times)": frames_fingerprint(info)},
+        "time": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    }
+
+
+def record_path(results: str | Path) -> Path:
+    """``<name>.run.json`` beside ``<name>.txt``."""
+    results = Path(results)
+    return results.with_name(results.stem + ".run.json")
+
+
+def write_record(results: str | Path, record: dict[str, Any]) -> None:
+    """Write the run record beside ``results`` (atomically)."""
+    from sotmot.io import write_text_atomic
+
+    write_text_atomic(record_path(results), json.dumps(record, indent=2, sort_keys=True, default=str) + "\n")
+
+
+def differences(old: dict[str, Any], new: dict[str, Any], prefix: str = "") -> list[str]:
+    """Dotted names of the fields in which two records differ (those of :data:`IGNORED` left out)."""
+    out = []
+    for key in sorted(set(old) | set(new)):
+        if f"{prefix}{key}" in IGNORED:
+            continue
+        a, b = old.get(key), new.get(key)
+        if isinstance(a, dict) and isinstance(b, dict):
+            out += differences(a, b, f"{prefix}{key}.")
+        elif a != b:
+            out.append(f"{prefix}{key}")
+    return out
+
+
+def why_rerun(results: str | Path, record: dict[str, Any]) -> str | None:
+    """None when ``results`` exists with a record equal to ``record``; else why it must be made again."""
+    results = Path(results)
+    if not results.is_file():
+        return "no results yet"
+    path = record_path(results)
+    try:
+        old = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return f"{results.name} has no run record ({path.name}), so how it was made is unknown"
+    except (OSError, ValueError) as exc:
+        return f"its run record {path.name} cannot be read ({exc})"
+    changed = differences(old, json.loads(json.dumps(record, default=str)))
+    if not changed:
+        return None
+    shown = ", ".join(changed[:4]) + (f" and {len(changed) - 4} more" if len(changed) > 4 else "")
+    return f"made with a different {shown}"
