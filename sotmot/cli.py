@@ -363,7 +363,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="MOTChallenge results, e.g. from sotmot track (its .flags.csv beside it marks SOT and "
                         "interpolated boxes)")
     p.add_argument("--out", type=Path, required=True, metavar="VIDEO.mp4|DIR",
-                   help="a .mp4/.avi file, or a folder for one JPEG per frame")
+                   help="a .mp4 or .avi file, or a folder name without extension for one JPEG per frame; never "
+                        "inside the sequence folder; written under a hidden .partial name and renamed when complete")
     p.add_argument("--gt", action="store_true", help="draw SEQ_DIR/gt/gt.txt beside, with the errors marked")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar (drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_render)

@@ -11,6 +11,7 @@ pixels, frames 1-based.
 from __future__ import annotations
 
 import colorsys
+import shutil
 from collections import deque
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -144,53 +145,118 @@ def draw_errors(left: np.ndarray, plain: np.ndarray, frame: int, errors) -> np.n
     return np.hstack([left, right])
 
 
+#: Output kinds ``render`` writes: a video container by extension, or a folder of JPEGs (no extension).
+VIDEO_EXTENSIONS = {".mp4": "mp4v", ".avi": "MJPG"}
+
+
+def check_render_target(info: SeqInfo, out: Path) -> bool:
+    """Whether ``out`` is a video (else a folder); refuse targets that would destroy input or mislead.
+
+    Raises
+    ------
+    InputError
+        ``out`` lies inside the sequence folder or its frame folder (it would
+        overwrite the frames), has an extension OpenCV cannot write here, or
+        is a folder where a video is asked for (or a file where a folder is).
+    """
+    target = out.resolve()
+    for protected in (info.path.resolve(), info.frames_dir.resolve()):
+        if target == protected or target.is_relative_to(protected):
+            raise InputError(out, f"refusing to write into the sequence folder {protected}: the frames and "
+                             f"detections there would be overwritten; choose --out elsewhere")
+    suffix = out.suffix.lower()
+    if suffix and suffix not in VIDEO_EXTENSIONS:
+        raise InputError(out, f"cannot write {suffix!r}; supported: {', '.join(VIDEO_EXTENSIONS)} (video) or a "
+                         f"folder name without extension (JPEG frames)")
+    video = suffix in VIDEO_EXTENSIONS
+    if video and out.is_dir():
+        raise InputError(out, "a folder is in the way of the video file")
+    if not video and out.exists() and not out.is_dir():
+        raise InputError(out, "a file is in the way of the frames folder")
+    return video
+
+
 def render(info: SeqInfo, tracks: Tracks, out: str | Path,
            progress: Callable[[Iterable[int]], Iterable[int]] | None = None, errors=None) -> Path:
     """Render every frame of the sequence with ``tracks`` into a video file or a folder of JPEGs.
 
-    A path ending in ``.mp4`` or ``.avi`` is a video (OpenCV's writer; the
-    file appears only when complete); anything else is a folder. With
-    ``errors`` (:func:`sotmot.evaluate.frame_errors`), the ground truth is
-    drawn beside the results with the errors marked.
+    A path ending in ``.mp4`` or ``.avi`` is a video (OpenCV's writer); a path
+    without extension is a folder of ``NNNNNN.jpg``. Either appears only when
+    complete: frames go to a hidden ``.partial`` sibling that is renamed at
+    the end, and every write is checked (a full disk is an error, never a
+    short video). With ``errors`` (:func:`sotmot.evaluate.frame_errors`), the
+    ground truth is drawn beside the results with the errors marked.
+
+    Raises
+    ------
+    InputError
+        A target :func:`check_render_target` refuses, or a write that failed.
     """
     import cv2
 
     out = Path(out)
+    video = check_render_target(info, out)
     reader = FrameReader(info, cache_size=1)
     per_frame: dict[int, list[int]] = {}
     for r, f in enumerate(tracks.frames.tolist()):
         per_frame.setdefault(f, []).append(r)
     frames = range(1, info.length + 1)
     trails: dict[int, deque] = {}
-    video = out.suffix.lower() in (".mp4", ".avi")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
     if video:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
-        fourcc = cv2.VideoWriter_fourcc(*("mp4v" if out.suffix.lower() == ".mp4" else "MJPG"))
         size = (info.width * (2 if errors is not None else 1), info.height)
-        writer = cv2.VideoWriter(str(tmp), fourcc, float(info.frame_rate), size)
+        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*VIDEO_EXTENSIONS[out.suffix.lower()]),
+                                 float(info.frame_rate), size)
         if not writer.isOpened():
             raise InputError(out, "OpenCV cannot write a video here (try .avi, or a folder)")
     else:
-        out.mkdir(parents=True, exist_ok=True)
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir()
     try:
         for f in (progress(frames) if progress else frames):
             plain = reader(f)
-            if plain.shape[:2] != (info.height, info.width):
-                plain = cv2.resize(plain, (info.width, info.height))
             image = draw_frame(plain, tracks, np.asarray(per_frame.get(f, []), int), trails)
             if errors is not None:
                 image = draw_errors(image, plain, f, errors)
             if video:
                 writer.write(image)
-            else:
-                cv2.imwrite(str(out / f"{f:06d}.jpg"), image)
+            elif not cv2.imwrite(str(tmp / f"{f:06d}.jpg"), image):
+                raise InputError(tmp / f"{f:06d}.jpg", "could not be written (disk full or not writable?)")
+        if video:
+            writer.release()
+            written = _video_frames(tmp)
+            if written != info.length:
+                raise InputError(out, f"the video holds {written} of {info.length} frames (disk full?)")
     except BaseException:
         if video:
             writer.release()
             tmp.unlink(missing_ok=True)
+        else:
+            shutil.rmtree(tmp, ignore_errors=True)
         raise
-    if video:
-        writer.release()
+    if video or not out.exists():
         tmp.replace(out)
+    else:  # an earlier render: swap the folders, then remove the old one
+        old = out.with_name(f".{out.name}.old")
+        shutil.rmtree(old, ignore_errors=True)
+        out.replace(old)
+        tmp.replace(out)
+        shutil.rmtree(old, ignore_errors=True)
     return out
+
+
+def _video_frames(path: Path) -> int:
+    """How many frames OpenCV can read back from a video file (0 if it cannot open it)."""
+    import cv2
+
+    capture = cv2.VideoCapture(str(path))
+    try:
+        if not capture.isOpened():
+            return 0
+        count = 0
+        while capture.grab():
+            count += 1
+        return count
+    finally:
+        capture.release()

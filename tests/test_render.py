@@ -55,3 +55,49 @@ def test_render_with_ground_truth_marks_errors_side_by_side(tmp_path):
     cap = cv2.VideoCapture(str(tmp_path / "v.avi"))
     ok, first = cap.read()
     assert ok and first.shape == (64, 192, 3)  # results and ground truth side by side
+
+
+def test_render_refuses_to_write_into_the_sequence_and_odd_targets(tmp_path, capsys):
+    import pytest
+
+    from sotmot.errors import InputError
+
+    seq = write_sequence(tmp_path, ["1,-1,5,5,10,20,1"], length=2, width=96, height=64)
+    info = read_seqinfo(seq)
+    tracks = Tracks(frames=[1], ids=[7], boxes=[[20, 20, 30, 30]], scores=[1])
+    before = (seq / "img1" / "000001.jpg").read_bytes()
+    for target, problem in ((seq / "img1", "refusing to write into the sequence folder"),
+                            (seq / "render", "refusing to write into the sequence folder"),
+                            (tmp_path / "v.mkv", "cannot write '.mkv'"),
+                            (tmp_path / "v.gif", "cannot write '.gif'")):
+        with pytest.raises(InputError, match=problem):
+            render(info, tracks, target)
+    assert (seq / "img1" / "000001.jpg").read_bytes() == before
+    (tmp_path / "taken").write_text("x")
+    with pytest.raises(InputError, match="a file is in the way"):
+        render(info, tracks, tmp_path / "taken")
+    results = tmp_path / "r.txt"
+    write_results(results, tracks)
+    assert main(["render", str(seq), str(results), "--out", str(seq / "img1"), "-q"]) == 2
+    assert "refusing" in capsys.readouterr().err
+
+
+def test_failed_frame_write_is_an_error_and_leaves_nothing(tmp_path, monkeypatch):
+    import pytest
+
+    from sotmot.errors import InputError
+
+    seq = write_sequence(tmp_path, ["1,-1,5,5,10,20,1"], length=3, width=96, height=64)
+    tracks = Tracks(frames=[1], ids=[7], boxes=[[20, 20, 30, 30]], scores=[1])
+    render(read_seqinfo(seq), tracks, tmp_path / "frames")  # an earlier, complete render
+    calls = []
+
+    def full_disk(path, image):
+        calls.append(path)
+        return len(calls) < 2
+
+    monkeypatch.setattr(cv2, "imwrite", full_disk)
+    with pytest.raises(InputError, match="could not be written"):
+        render(read_seqinfo(seq), tracks, tmp_path / "frames")
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
+    assert len(list((tmp_path / "frames").iterdir())) == 3  # the earlier render is untouched
