@@ -157,6 +157,11 @@ class SotConfig:
         frames are in memory); 0 means ``2 L + 1``.
     must_link
         Use the links SOT made as must-link hints in tracklet generation.
+    seed_min_confidence
+        Only detections with at least this confidence (``[preprocess]
+        confidence``) start extensions; 0 (the paper) seeds from every
+        detection. Extensions of false, isolated detections are the SOT
+        step's main source of false boxes (issue #12).
     extend_seconds
         SOT after association (``sotmot.extend``): track each confirmed
         trajectory up to this many seconds past its last and before its first
@@ -183,6 +188,7 @@ class SotConfig:
     rerank: int = 4
     window: int = 0
     must_link: bool = False
+    seed_min_confidence: float = 0.0
     extend_seconds: float = 0.0
     extend_min_affinity: float = 0.6
     extend_stop_iou: float = 0.3
@@ -198,7 +204,7 @@ class SotConfig:
         _check(self.rerank >= 1, "sot", "rerank must be >= 1")
         _check(self.window >= 0, "sot", "window must be >= 0")
         _check(0.0 <= self.extend_seconds <= 60.0, "sot", "extend_seconds must be in [0, 60]")
-        for name in ("extend_min_affinity", "extend_stop_iou"):
+        for name in ("seed_min_confidence", "extend_min_affinity", "extend_stop_iou"):
             _check(0.0 <= getattr(self, name) <= 1.0, "sot", f"{name} must be in [0, 1]")
 
 

@@ -93,8 +93,12 @@ def preprocess(detections: Detections, config: PreprocessConfig) -> Detections:
 
 
 def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedder: Embedder,
-            config: TrackerConfig, progress: bool = False) -> tuple[Detections, np.ndarray, np.ndarray, int]:
+            config: TrackerConfig, progress: bool = False,
+            confidence: np.ndarray | None = None) -> tuple[Detections, np.ndarray, np.ndarray, int]:
     """The SOT step, then NMS on the enlarged set (paper Sec. 3.3 and 6.1).
+
+    ``confidence`` (``(N,)`` of ``detections``) chooses the seeds with
+    ``[sot] seed_min_confidence``.
 
     Returns the enlarged detections (added boxes flagged ``from_sot``), their
     features, the SOT links ``(K, 2)`` as indices into them (links whose ends
@@ -106,8 +110,9 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedde
     reader = FrameReader(info, cache_size=1)
     tracker = SotTracker(config.sot, reader, info.length, embed=embedder.embed if deep else None,
                          det_features=features if deep else None)
+    seeds = None if confidence is None else confidence >= config.sot.seed_min_confidence
     result = tracker.run(detections, progress=partial(progress_bar, desc=f"{info.name}: SOT ({config.sot.variant})",
-                                                      enabled=progress))
+                                                      enabled=progress), seeds=seeds)
     n = len(detections)
     enlarged = result.detections
     added = enlarged.subset(np.arange(n, len(enlarged)))
@@ -235,7 +240,9 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     if config.sot.variant != "none":
         if embedder is None:
             embedder = make_embedder(config.appearance)
-        dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress)
+        _, seed_knots = confidence_knots(config.preprocess.confidence, raw.scores, _calibration(config))
+        dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress,
+                                               detection_confidence(dets.scores, seed_knots))
         log.info("%s: SOT added %d boxes (after NMS)", info.name, int(dets.from_sot.sum()))
         clock.lap("sot")
     tracklets = build_tracklets(dets, features, info.frame_rate, config.tracklets,

@@ -235,8 +235,13 @@ class SotTracker:
         return boxes[best], float(aff[best]), feats[best]
 
     # -- Algorithm 1 ---------------------------------------------------------------------------
-    def run(self, detections: Detections, progress: Callable | None = None) -> SotResult:
-        """Run Algorithm 1 window by window over all ``detections``."""
+    def run(self, detections: Detections, progress: Callable | None = None,
+            seeds: np.ndarray | None = None) -> SotResult:
+        """Run Algorithm 1 window by window over all ``detections``.
+
+        ``seeds`` (``(N,)`` bool) limits which detections start extensions (the
+        paper: all); the others can still be met and still block candidates.
+        """
         cfg = self.config
         n = len(detections)
         self._boxes: list[np.ndarray] = [b for b in detections.boxes]
@@ -273,6 +278,8 @@ class SotTracker:
             for f in range(w0, w1 + 1):
                 for d in in_frame[f]:
                     ends[d] = {1, -1}
+                    if seeds is not None and not seeds[d]:
+                        continue
                     for direction in (1, -1):
                         heapq.heappush(heap, _End(-ranks[d], counter, d, d, ranks[d], 1, direction))
                         counter += 1

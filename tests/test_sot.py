@@ -109,3 +109,16 @@ def test_boxes_partly_outside_the_image_and_a_missing_frame(tmp_path, model_0288
     (seq / "img1" / "000003.jpg").unlink()
     with pytest.raises(InputError, match="frame 3 is missing"):
         prepare_sequence(seq, cfg)
+
+
+def test_only_confident_seeds_start_extensions():
+    frames, truth = scene()
+    d = dets(truth, [1, 9])  # one detection at each end of the walk, frames 2-8 undetected
+    cfg = SotConfig(variant="template", tau_a=0.75)
+    every = SotTracker(cfg, frames.__getitem__, 9).run(d)
+    assert every.detections.from_sot.sum() > 0  # the paper: every detection seeds
+    only_last = SotTracker(cfg, frames.__getitem__, 9).run(d, seeds=np.array([False, True]))
+    added = only_last.detections.subset(np.flatnonzero(only_last.detections.from_sot))
+    assert len(added) and added.frames.max() < 9  # frame 9's box grew backward
+    none = SotTracker(cfg, frames.__getitem__, 9).run(d, seeds=np.array([False, False]))
+    assert not none.detections.from_sot.any()
