@@ -191,8 +191,27 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=initargs) as pool:
         futures = {pool.submit(_pooled_job, seq, out_dir, config, merger, resume, progress): seq
                    for seq in seq_dirs}
-        by_seq = _gather(futures, as_completed(futures), "in a worker process", progress, report)
+        by_seq = _gather(futures, as_completed(futures), "in a worker process", progress,
+                         lambda o: None if _broken(o) else report(o))
+    # a worker that died (a crash in native code) breaks the whole pool and fails every sequence still
+    # in it: run those again one per fresh process, so the crash fails its own sequence only
+    for seq in seq_dirs:
+        if not _broken(by_seq[seq]):
+            continue
+        with ProcessPoolExecutor(max_workers=1, initializer=_init_worker, initargs=(config,)) as alone:
+            future = alone.submit(_pooled_job, seq, out_dir, config, merger, resume, False)
+            by_seq.update(_gather({future: seq}, as_completed([future]), "in a worker process", False,
+                                  lambda o: None))
+        if _broken(by_seq[seq]):
+            by_seq[seq] = Outcome(seq, "failed", None, f"{seq}: the worker process died while tracking it "
+                                                       f"(a crash in native code, e.g. OpenCV or onnxruntime)")
+        report(by_seq[seq])
     return [by_seq[s] for s in seq_dirs]
+
+
+def _broken(outcome: Outcome) -> bool:
+    """Whether a sequence failed only because its pool broke (a worker died), not by its own error."""
+    return outcome.status == "failed" and "BrokenProcessPool" in outcome.message
 
 
 def _gather(futures: dict, completed, where: str, progress: bool, report) -> dict[str, Outcome]:

@@ -78,3 +78,36 @@ def test_unreachable_scheduler_is_a_clear_error(tmp_path, model_0288, capsys):
     code = main(["track", str(a), "--out", str(tmp_path), "--cluster", f"dask://127.0.0.1:{port}",
                  "--reid-model", str(model_0288), "-q"])
     assert code == 2 and "cannot reach the Dask scheduler" in capsys.readouterr().err
+
+
+def test_a_worker_that_dies_fails_its_own_sequence_only(tmp_path, monkeypatch, model_0288):
+    """A crash in native code kills the worker process (here: os._exit); the other sequences still finish."""
+    import os
+    import sys
+
+    from pathlib import Path
+
+    if sys.platform != "linux":
+        pytest.skip("relies on fork: the patched job reaches the workers")
+    from conftest import GeometryEmbedder, write_sequence
+    from sotmot import batch
+    from sotmot.config import TrackerConfig
+
+    real = batch.track_one
+    seqs = []
+    for name in ("A", "CRASH", "B"):
+        lines = [f"{f},-1,{10 + 2 * f},20,20,40,0.95" for f in range(1, 9)]
+        seqs.append(write_sequence(tmp_path / name, lines, length=10, frame_rate=4, width=120, height=80, name=name))
+
+    def crashing(seq_dir, *args, **kwargs):
+        if seq_dir.endswith("CRASH"):
+            os._exit(11)
+        return real(seq_dir, *args, **kwargs)
+
+    monkeypatch.setattr(batch, "track_one", crashing)
+    monkeypatch.setattr(batch, "_worker_embedder", lambda appearance: GeometryEmbedder())
+    config = TrackerConfig().replace("confirm", enabled=False).replace("appearance", model=str(model_0288))
+    outcomes = batch.track_many(seqs, tmp_path / "out", config, workers=2)
+    by_name = {Path(o.seq_dir).name: o for o in outcomes}
+    assert by_name["A"].status == "done" and by_name["B"].status == "done"
+    assert by_name["CRASH"].status == "failed" and "worker process died" in by_name["CRASH"].message
