@@ -250,3 +250,26 @@ def test_readers_never_raise_anything_but_input_error(tmp_path, data):
         read_seqinfo(seq)
     except InputError as exc:
         assert str(exc).startswith(str(seq / "seqinfo.ini"))
+
+
+def test_duplicate_ids_in_ground_truth_name_the_line(tmp_path):
+    from sotmot.io import read_ground_truth
+
+    path = tmp_path / "gt.txt"
+    path.write_text("1,1,10,10,5,8,1,1,1\n1,2,30,10,5,8,1,1,1\n1,1,50,10,5,8,1,1,1\n")
+    with pytest.raises(InputError, match="id 1 has a second box in frame 1") as err:
+        read_ground_truth(path, 5)
+    assert err.value.line == 3
+
+
+def test_corrupt_weights_are_one_clear_error(tmp_path, model_0288):
+    pytest.importorskip("torch")
+    from sotmot.appearance import make_embedder
+    from sotmot.config import AppearanceConfig
+    from sotmot.errors import ModelError
+
+    bad = tmp_path / "tuned.pt"
+    bad.write_bytes(b"not a checkpoint" * 10)
+    with pytest.raises(ModelError, match="not a readable checkpoint") as err:
+        make_embedder(AppearanceConfig(model=str(model_0288), backend="torch", weights=str(bad)))
+    assert "weights_only" not in str(err.value)

@@ -221,6 +221,10 @@ class TorchReidEmbedder:
             raise ModelError(f"fine-tuned weights not found: {path}")
         try:
             payload = torch.load(path, map_location="cpu", weights_only=True)
+        except Exception as exc:  # UnpicklingError, EOFError, zip errors...; torch's text suggests an unsafe fix
+            raise ModelError(f"{path}: not a readable checkpoint from 'sotmot train-appearance' (corrupt, truncated, "
+                             f"or another format; {type(exc).__name__})") from None
+        try:
             state = payload["state_dict"] if isinstance(payload, dict) and "state_dict" in payload else payload
             self.module.load_state_dict(state)
         except (RuntimeError, KeyError, TypeError, ValueError) as exc:

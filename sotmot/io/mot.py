@@ -311,13 +311,15 @@ def read_ground_truth(path: str | Path, seq_length: int | None = None) -> Ground
     path = Path(path)
     style = gt_style(path)
     if style == "MOT16":
-        arr, _ = _parse_rows(path, 9, 9, seq_length, "ground-truth")
+        arr, lines = _parse_rows(path, 9, 9, seq_length, "ground-truth")
         classes = arr[:, 7].astype(np.int64)
         visibility = arr[:, 8]
     else:
-        arr, _ = _parse_rows(path, 7, 10, seq_length, "ground-truth")
+        arr, lines = _parse_rows(path, 7, 10, seq_length, "ground-truth")
         classes = np.ones(len(arr), np.int64)
         visibility = np.ones(len(arr))
+    # TrackEval asserts this with a traceback; say which line instead
+    _check_one_box_per_id(path, arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), lines)
     return GroundTruth(arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), arr[:, 2:6],
                        arr[:, 6] != 0, classes, visibility, style)
 
@@ -327,13 +329,18 @@ def read_results(path: str | Path, seq_length: int | None = None) -> Tracks:
     path = Path(path)
     arr, lines = _parse_rows(path, 7, 10, seq_length, "results")
     ids = arr[:, 1].astype(np.int64)
+    _check_one_box_per_id(path, arr[:, 0].astype(np.int64), ids, lines)
+    return Tracks(arr[:, 0].astype(np.int64), ids, arr[:, 2:6], arr[:, 6])
+
+
+def _check_one_box_per_id(path: Path, frames: np.ndarray, ids: np.ndarray, lines: list[int]) -> None:
+    """Raise an :class:`InputError` at the first row whose id already has a box in its frame."""
     seen: dict[tuple[int, int], int] = {}
-    for (frame, tid), line in zip(zip(arr[:, 0].astype(int), ids), lines):
+    for frame, tid, line in zip(frames.tolist(), ids.tolist(), lines):
         if (frame, tid) in seen:
             raise InputError(path, f"id {tid} has a second box in frame {frame} "
                              f"(first on line {seen[frame, tid]})", line=line)
         seen[frame, tid] = line
-    return Tracks(arr[:, 0].astype(np.int64), ids, arr[:, 2:6], arr[:, 6])
 
 
 def results_path(out_dir: str | Path, seq_name: str) -> Path:
