@@ -84,6 +84,10 @@ def iou_aligned(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return _overlap(a, b, "iou", aligned=True)
 
 
+#: Above this many boxes :func:`nms` computes overlaps row by row instead of as one matrix.
+NMS_MATRIX_MAX = 1000
+
+
 def nms(boxes: np.ndarray, scores: np.ndarray, threshold: float, overlap: Overlap = "iou") -> np.ndarray:
     """Greedy non-maximum suppression.
 
@@ -114,12 +118,16 @@ def nms(boxes: np.ndarray, scores: np.ndarray, threshold: float, overlap: Overla
     order = np.lexsort((np.arange(len(s)), -s))
     if len(order) == 0:
         return order.astype(np.intp)
-    ov = _overlap(b[order], b[order], overlap, aligned=False)
+    ranked = b[order]
+    # the whole overlap matrix for a usual frame; for a frame with thousands of boxes one row per kept
+    # box, so memory stays O(N) (12,000 boxes took 7 GB as a matrix)
+    ov = _overlap(ranked, ranked, overlap, aligned=False) if len(order) <= NMS_MATRIX_MAX else None
     suppressed = np.zeros(len(order), dtype=bool)
     keep = []
     for i in range(len(order)):
         if suppressed[i]:
             continue
         keep.append(order[i])
-        suppressed[i + 1:] |= ov[i, i + 1:] > threshold
+        row = ov[i, i + 1:] if ov is not None else _overlap(ranked[i:i + 1], ranked[i + 1:], overlap, False)[0]
+        suppressed[i + 1:] |= row > threshold
     return np.asarray(keep, dtype=np.intp)

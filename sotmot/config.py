@@ -287,7 +287,7 @@ class AssociationConfig:
 
     def __post_init__(self) -> None:
         _check(0.0 <= self.tau_iou < 1.0, "association", "tau_iou must be in [0, 1)")
-        _check(self.l_max >= 1, "association", "l_max must be >= 1")
+        _check(1 <= self.l_max <= 1_000_000, "association", "l_max must be between 1 and 1,000,000 frames")
         for name in ("velocity_adjacent", "velocity_short", "velocity_long"):
             _check(getattr(self, name) > 0, "association", f"{name} must be > 0")
         _check(self.short_gap >= 2, "association", "short_gap must be >= 2")

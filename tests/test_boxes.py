@@ -65,3 +65,21 @@ def test_bad_shapes_and_kinds_raise():
         nms(np.zeros((2, 4)), np.zeros(3), 0.5)
     with pytest.raises(ValueError):
         nms(np.ones((2, 4)), np.zeros(2), 0.5, "dice")
+
+
+def test_nms_row_by_row_equals_the_matrix_and_stays_small(monkeypatch):
+    import tracemalloc
+
+    from sotmot import boxes as boxes_module
+
+    rng = np.random.default_rng(1)
+    xy = rng.uniform(0, 400, size=(3000, 2))
+    b = np.hstack([xy, rng.uniform(10, 60, size=(3000, 2))])
+    s = rng.uniform(-1, 2, size=3000)
+    tracemalloc.start()
+    rows = nms(b, s, 0.5, "iom")
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 20e6  # a 3000 x 3000 float matrix alone is 72 MB
+    monkeypatch.setattr(boxes_module, "NMS_MATRIX_MAX", 10_000)
+    assert np.array_equal(rows, nms(b, s, 0.5, "iom"))

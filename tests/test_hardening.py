@@ -273,3 +273,8 @@ def test_corrupt_weights_are_one_clear_error(tmp_path, model_0288):
     with pytest.raises(ModelError, match="not a readable checkpoint") as err:
         make_embedder(AppearanceConfig(model=str(model_0288), backend="torch", weights=str(bad)))
     assert "weights_only" not in str(err.value)
+
+
+def test_absurd_l_max_is_a_config_error():
+    with pytest.raises(ConfigError, match="l_max must be between"):
+        TrackerConfig().replace("association", l_max=10**20)
