@@ -19,6 +19,7 @@ examples:
   sotmot track SEQ --out results --config my.toml   # every threshold, see docs/configuration.md
   sotmot track DATA/* --out results --workers 2 --resume   # 2 processes, skip finished sequences
   sotmot track /shared/DATA/* --out /shared/results --cluster dask://scheduler:8786
+  sotmot track street.mp4 --det street_det.txt --out results   # a video and its detections
 
 The re-ID model path may also come from the environment variable SOTMOT_REID_MODEL.
 Results are written as DIR/<name>.txt (MOTChallenge format: frame, id, x, y, w, h,
@@ -124,12 +125,51 @@ def _build_config(args: argparse.Namespace):
     return config
 
 
+def _video_sequences(args: argparse.Namespace, work: Path, det: Path | None) -> list[Path]:
+    """``args.seq_dirs`` with any video file turned into a sequence folder under ``work``."""
+    from sotmot.io.video import is_video, sequence_from_video
+    from sotmot.pipeline import progress_bar
+
+    paths = args.seq_dirs if hasattr(args, "seq_dirs") else [args.seq_dir]
+    videos = [p for p in paths if is_video(p)]
+    if len(videos) > 1 and det is not None:
+        raise SotmotError("--det belongs to one video; track several videos in separate runs")
+    out = []
+    for p in paths:
+        if is_video(p):
+            out.append(sequence_from_video(p, work, det, getattr(args, "fps", None),
+                                           progress=lambda it, p=p: progress_bar(it, f"{p.name}: decode",
+                                                                                 _progress(args))))
+        else:
+            out.append(p)
+    return out
+
+
 def cmd_track(args: argparse.Namespace) -> int:
+    import tempfile
+
+    from sotmot.io.video import is_video
+
+    videos = [p for p in args.seq_dirs if is_video(p)]
+    if videos and args.det is None:
+        raise SotmotError(f"{videos[0]}: a video needs its detections: --det det.txt (MOTChallenge layout, frames "
+                          f"counted from 1)")
+    if args.det is not None and not videos:
+        raise SotmotError("--det is for a video input; a sequence folder has det/det.txt")
+    if videos and args.cluster:
+        raise SotmotError("video input is decoded on this machine; use --workers, not --cluster")
+    if not videos:
+        return _track(args, args.seq_dirs)
+    with tempfile.TemporaryDirectory(prefix="sotmot-video-") as work:
+        return _track(args, _video_sequences(args, Path(work), args.det))
+
+
+def _track(args: argparse.Namespace, seq_dirs: list[Path]) -> int:
     from sotmot.batch import track_many
     from sotmot.io import read_seqinfo
 
     config = _build_config(args)
-    infos = [read_seqinfo(s) for s in args.seq_dirs]  # fail early on a bad folder, before any work
+    infos = [read_seqinfo(s) for s in seq_dirs]  # fail early on a bad folder, before any work
     names = [i.name for i in infos]
     if len(set(names)) != len(names):
         raise SotmotError(f"two sequences share a name: {names}")
@@ -142,7 +182,7 @@ def cmd_track(args: argparse.Namespace) -> int:
         tqdm.write(f"sotmot: error: {outcome.message}" if failed else outcome.message,
                    file=sys.stderr if failed else sys.stdout)
 
-    outcomes = track_many(args.seq_dirs, args.out, config, merger=args.merger, workers=args.workers,
+    outcomes = track_many(seq_dirs, args.out, config, merger=args.merger, workers=args.workers,
                           resume=args.resume, progress=_progress(args), report=report, cluster=args.cluster)
     failed = [o for o in outcomes if o.status == "failed"]
     if failed:
@@ -150,7 +190,7 @@ def cmd_track(args: argparse.Namespace) -> int:
               f"{args.out}", file=sys.stderr)
         return 2
     if args.eval:
-        return cmd_eval(argparse.Namespace(results_dir=args.out, seq_dirs=args.seq_dirs, json=None))
+        return cmd_eval(argparse.Namespace(results_dir=args.out, seq_dirs=seq_dirs, json=None))
     return 0
 
 
@@ -194,11 +234,24 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
+    import tempfile
+
+    from sotmot.io.video import is_video
+
+    if not is_video(args.seq_dir):
+        return _render(args, args.seq_dir)
+    if args.gt:
+        raise SotmotError("--gt needs a sequence folder with gt/gt.txt, not a video")
+    with tempfile.TemporaryDirectory(prefix="sotmot-video-") as work:
+        return _render(args, _video_sequences(args, Path(work), None)[0])
+
+
+def _render(args: argparse.Namespace, seq_dir: Path) -> int:
     from sotmot.io import read_results, read_seqinfo
     from sotmot.pipeline import progress_bar
     from sotmot.render import read_flags, render
 
-    info = read_seqinfo(args.seq_dir)
+    info = read_seqinfo(seq_dir)
     tracks = read_flags(args.results, read_results(args.results, info.length))
     errors = None
     if args.gt:
@@ -296,12 +349,17 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Track one or more MOTChallenge sequence folders.",
                        epilog=EPILOG_TRACK, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR",
-                   help="folder with seqinfo.ini, det/det.txt and img1/")
+                   help="folder with seqinfo.ini, det/det.txt and img1/, or a video file (.mp4, .avi, ...) with --det")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="where <name>.txt results go")
     p.add_argument("--merger", default="greedy", choices=sorted(SOLVERS),
                    help="long-term association solver: greedy (the paper's greedy merge, default), flow "
                         "(min-cost flow, OR-Tools), flow-nx (the same with networkx, slow; for cross-checks)")
     _add_tracker_options(p)
+    p.add_argument("--det", type=Path, metavar="DET.txt",
+                   help="with a video file as SEQ_DIR: its detections (MOTChallenge layout: frame, id, x, y, w, h, "
+                        "score; frames counted from 1 at the video's first frame)")
+    p.add_argument("--fps", type=_positive_float, metavar="N",
+                   help="with a video: its frame rate, when the container's is missing or wrong")
     p.add_argument("--eval", action="store_true", help="score the results with TrackEval afterwards")
     p.add_argument("--workers", type=_positive_int, default=1, metavar="N",
                    help="track N sequences at once in separate processes (default: 1)")
@@ -358,7 +416,8 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(from the .flags.csv that 'sotmot track' writes beside the results). "
                                    "With --gt, the ground truth is drawn beside them with the errors of "
                                    "the CLEAR matching: FP red, FN dashed red, ID switches flagged.")
-    p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR", help="the sequence the results are of (frames from img1/)")
+    p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR",
+                   help="the sequence the results are of (frames from img1/), or the video file they were tracked on")
     p.add_argument("results", type=Path, metavar="RESULTS.txt",
                    help="MOTChallenge results, e.g. from sotmot track (its .flags.csv beside it marks SOT and "
                         "interpolated boxes)")

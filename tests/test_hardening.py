@@ -278,3 +278,50 @@ def test_corrupt_weights_are_one_clear_error(tmp_path, model_0288):
 def test_absurd_l_max_is_a_config_error():
     with pytest.raises(ConfigError, match="l_max must be between"):
         TrackerConfig().replace("association", l_max=10**20)
+
+
+def _video(tmp_path, n=12, fps=5.0):
+    import cv2
+    import numpy as np
+
+    path = tmp_path / "street.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), fps, (120, 80))
+    for f in range(1, n + 1):
+        img = np.full((80, 120, 3), 120, np.uint8)
+        img[20:60, 10 + 3 * f:30 + 3 * f] = 30
+        writer.write(img)
+    writer.release()
+    return path
+
+
+def test_track_a_video_with_its_detections_then_render_it(tmp_path, model_0288, capsys):
+    from sotmot.cli import main
+    from sotmot.io import read_results
+
+    video = _video(tmp_path)
+    det = tmp_path / "street_det.txt"
+    det.write_text("".join(f"{f},-1,{10 + 3 * f},20,20,40,0.9\n" for f in range(1, 13)))
+    out = tmp_path / "res"
+    assert main(["track", str(video), "--det", str(det), "--out", str(out), "--reid-model", str(model_0288),
+                 "--unconfirmed", "keep", "-q"]) == 0
+    tracks = read_results(out / "street.txt")
+    assert tracks.n_tracks == 1 and len(tracks) == 12 and tracks.frames.min() == 1
+    assert main(["render", str(video), str(out / "street.txt"), "--out", str(tmp_path / "r.avi"), "-q"]) == 0
+    assert (tmp_path / "r.avi").is_file()
+    capsys.readouterr()
+    assert main(["track", str(video), "--out", str(out), "-q"]) == 2
+    assert "a video needs its detections: --det" in capsys.readouterr().err
+
+
+def test_video_detections_are_checked_against_the_user_file(tmp_path):
+    from sotmot.io.video import sequence_from_video
+
+    video = _video(tmp_path, n=4)
+    det = tmp_path / "d.txt"
+    det.write_text("1,-1,10,20,20,40,0.9\n9,-1,10,20,20,40,0.9\n")
+    with pytest.raises(InputError, match="frame 9 is outside 1..4") as err:
+        sequence_from_video(video, tmp_path / "work", det)
+    assert str(err.value).startswith(str(det)) and err.value.line == 2
+    seq = sequence_from_video(video, tmp_path / "work", None, fps=12.5)
+    info = read_seqinfo(seq)
+    assert (info.name, info.length, info.width, info.height, info.frame_rate) == ("street", 4, 120, 80, 12.5)
