@@ -104,8 +104,8 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
     from sotmot.io import read_seqinfo, results_path, write_results
     from sotmot.pipeline import track_sequence
-    from sotmot.provenance import run_record, why_rerun, write_record
-    from sotmot.render import write_flags
+    from sotmot.provenance import record_path, run_record, why_rerun, write_record
+    from sotmot.render import flags_path, write_flags
 
     try:
         info = read_seqinfo(seq_dir)
@@ -120,11 +120,18 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
             rerun = f" (re-run: {why})" if out.is_file() else ""
         start = time.perf_counter()
         result = track_sequence(seq_dir, config, merger=merger, embedder=embedder, progress=progress)
-        if config.confirm.enabled and config.confirm.low_confidence == "file":
-            write_results(low_confidence_path(out), result.dropped)
-        write_flags(out, result.tracks)
-        write_record(out, record)
-        write_results(out, result.tracks)  # last: a results file exists only with its side files
+        side = [flags_path(out), record_path(out)]
+        try:
+            if config.confirm.enabled and config.confirm.low_confidence == "file":
+                side.append(low_confidence_path(out))
+                write_results(side[-1], result.dropped)
+            write_flags(out, result.tracks)
+            write_record(out, record)
+            write_results(out, result.tracks)  # last: a results file exists only with its side files
+        except BaseException:
+            for path in side:  # no side file of a results file that was not written
+                path.unlink(missing_ok=True)
+            raise
         fps = info.length / (time.perf_counter() - start)
         dropped = f", {len(result.dropped)} unconfirmed dropped" if len(result.dropped) else ""
         return Outcome(seq_dir, "done", str(out), f"{info.name}: {result.tracks.n_tracks} tracks, "

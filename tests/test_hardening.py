@@ -325,3 +325,22 @@ def test_video_detections_are_checked_against_the_user_file(tmp_path):
     seq = sequence_from_video(video, tmp_path / "work", None, fps=12.5)
     info = read_seqinfo(seq)
     assert (info.name, info.length, info.width, info.height, info.frame_rate) == ("street", 4, 120, 80, 12.5)
+
+
+def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):
+    from sotmot import batch
+    from sotmot.io import mot
+
+    seq = _walker_sequence(tmp_path)
+    real = mot.write_text_atomic
+
+    def full_disk(path, text):
+        if str(path).endswith("SYN.txt"):
+            raise OSError(28, "No space left on device")
+        real(path, text)
+
+    monkeypatch.setattr(mot, "write_text_atomic", full_disk)
+    outcome = batch.track_one(str(seq), str(tmp_path / "out"), TrackerConfig(), "greedy", False,
+                              embedder=GeometryEmbedder())
+    assert outcome.status == "failed"
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == []
