@@ -42,6 +42,9 @@ ROWS = {
     "SOT(deep)+MOT": {"variant": "deep"},
     "MOT+ends": {"variant": "none", "extend_seconds": 0.5},
     "SOT(deep)+MOT+ends": {"variant": "deep", "extend_seconds": 0.5},
+    "SOT(template)+MOT seeds>=0.95": {"variant": "template", "seed_min_confidence": 0.95},
+    "SOT(deep)+MOT seeds>=0.9": {"variant": "deep", "seed_min_confidence": 0.9},
+    "SOT(deep)+MOT+ends seeds>=0.9": {"variant": "deep", "seed_min_confidence": 0.9, "extend_seconds": 0.5},
 }
 COLUMNS = ("HOTA", "MOTA", "MOTP", "IDF1", "FP", "FN", "IDSW")
 
@@ -109,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
             frames = sum(p[2] for p in pairs[row])
             combined[row]["fps"] = frames / sum(results[p[3]][row]["seconds"] for p in pairs[row])
             combined[row]["added"] = sum(results[p[3]][row]["added"] for p in pairs[row])
-    head = f"{'sequence':<17}{'row':<25}" + "".join(f"{c:>7}" for c in COLUMNS) + f"{'fps':>7}{'added':>7}{'prec':>7}"
+    head = f"{'sequence':<17}{'row':<32}" + "".join(f"{c:>7}" for c in COLUMNS) + f"{'fps':>7}{'added':>7}{'prec':>7}"
     lines = [head, "-" * len(head)]
     for name, by_row in list(results.items()) + [("ALL", combined)]:
         for row in rows:
@@ -117,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
             cells = "".join(f"{v[c]:7.1f}" if c in ("HOTA", "MOTA", "MOTP", "IDF1") else f"{v[c]:7.0f}"
                             for c in COLUMNS)
             prec = v.get("added_precision", float("nan"))
-            lines.append(f"{name:<17}{row:<25}{cells}{v['fps']:7.1f}{v['added']:7d}{prec:7.2f}")
+            lines.append(f"{name:<17}{row:<32}{cells}{v['fps']:7.1f}{v['added']:7d}{prec:7.2f}")
     print("\n".join(lines))
     print(f"machine: {machine()}")
     if args.json:
