@@ -125,10 +125,8 @@ def sequence_confidence(seq: Labelled, method: str, calibration: Calibration) ->
 
     ``"auto"`` falls back to ``"quantile"`` when the calibration has no map for
     the sequence's family (as when it is the only sequence of its family and
-    is held out).
+    is held out), as it does when tracking.
     """
-    if method == "auto" and seq.family not in calibration.families:
-        method = "quantile"
     used, knots = confidence_knots(method, seq.raw_scores, calibration)
     return used, detection_confidence(seq.prepared.detections.scores, knots)
 

@@ -260,17 +260,22 @@ def confidence_knots(method: str, reference: np.ndarray,
     """Resolve ``method`` for a sequence: the method actually used and its knots (None for ``"raw"``).
 
     ``reference`` are the sequence's detector scores (the quantile map and
-    ``"auto"`` look at them).
+    ``"auto"`` look at them). ``"auto"`` takes the family map of
+    :func:`detector_family`, or the quantile map when ``calibration`` has none
+    for that family.
     """
     if method not in METHODS:
         raise ConfigError(f"[preprocess] confidence must be one of {', '.join(METHODS)}; got {method!r}")
+    if method not in ("raw", "quantile"):
+        calibration = calibration or load_calibration()
     if method == "auto":
         method = detector_family(reference)
+        if method not in calibration.families:  # a family the calibration never saw: rank the scores
+            method = "quantile"
     if method == "raw":
         return method, None
     if method == "quantile":
         return method, quantile_map(reference)
-    calibration = calibration or load_calibration()
     if method not in calibration.families:
         raise ConfigError(f"no stored calibration for detector family {method!r} (have: "
                           f"{', '.join(sorted(calibration.families))}); use confidence = 'quantile'")

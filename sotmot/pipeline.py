@@ -237,20 +237,19 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
     clock.lap("appearance")
     links, steps = np.zeros((0, 2), np.int64), 0
+    method, knots = confidence_knots(config.preprocess.confidence, raw.scores, _calibration(config))
+    log.info("%s: detection confidence by %r", info.name, method)
     if config.sot.variant != "none":
         if embedder is None:
             embedder = make_embedder(config.appearance)
-        _, seed_knots = confidence_knots(config.preprocess.confidence, raw.scores, _calibration(config))
         dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress,
-                                               detection_confidence(dets.scores, seed_knots))
+                                               detection_confidence(dets.scores, knots))
         log.info("%s: SOT added %d boxes (after NMS)", info.name, int(dets.from_sot.sum()))
         clock.lap("sot")
     tracklets = build_tracklets(dets, features, info.frame_rate, config.tracklets,
                                 must_link=links if config.sot.must_link else None)
     clock.lap("tracklets")
-    method, knots = confidence_knots(config.preprocess.confidence, raw.scores, _calibration(config))
-    confidence = detection_confidence(dets.scores, knots)
-    log.info("%s: detection confidence by %r", info.name, method)
+    confidence = detection_confidence(dets.scores, knots)  # the SOT step's boxes too
     return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method)
 
 

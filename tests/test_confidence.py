@@ -165,3 +165,14 @@ def test_fit_script_runs_leave_one_out_on_two_tiny_sequences(tmp_path, model_028
     assert "held out, confidence=auto" in proc.stdout
     fitted = load_calibration(calib)
     assert set(fitted.box_models) == {"calibrated", "quantile"} and "frcnn" in fitted.families
+
+
+def test_auto_falls_back_to_quantiles_for_a_family_the_calibration_lacks():
+    full = load_calibration()
+    partial = type(full)({k: v for k, v in full.families.items() if k != "acf"}, full.box_models,
+                         full.thresholds, {})
+    acf_like = np.array([-0.2, 20.0, 60.0, 120.0])
+    assert confidence_knots("auto", acf_like, full)[0] == "acf"
+    assert confidence_knots("auto", acf_like, partial)[0] == "quantile"
+    with pytest.raises(ConfigError, match="no stored calibration for detector family 'acf'"):
+        confidence_knots("acf", acf_like, partial)
