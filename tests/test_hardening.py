@@ -111,7 +111,7 @@ def test_absurd_box_is_an_error_with_its_line_and_outside_boxes_a_warning(tmp_pa
     (seq / "det" / "det.txt").write_text("1,-1,10,10,5,8,0.9\n2,-1,-50,10,20,8,0.9\n")
     with caplog.at_level("WARNING"):
         assert len(read_detections(info.det_path, info.length, (info.width, info.height))) == 2
-    assert "1 boxes lie mostly outside the 64 x 48 image (first on line 2)" in caplog.text
+    assert "1 box(es) lie mostly outside the 64 x 48 image (first on line 2)" in caplog.text
 
 
 def test_frame_of_the_wrong_size_and_frames_read_as_bytes(tmp_path):

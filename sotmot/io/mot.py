@@ -24,10 +24,10 @@ from sotmot.errors import InputError
 from sotmot.types import Detections, Tracks
 
 GtStyle = Literal["MOT15", "MOT16"]
-_LINK_STUB_BYTES = 1024
+_LINK_STUB_BYTES = 1024  # a checked-out symbolic link is a text file no longer than its target path
 #: A detection box wider or taller than this many image widths or heights is an input error.
 MAX_BOX_SCALE = 4.0
-log = logging.getLogger(__name__)  # a checked-out symbolic link is a text file no longer than its target path
+log = logging.getLogger(__name__)
 
 _SEQINFO_KEYS = {
     "name": str, "imDir": str, "frameRate": float, "seqLength": int,
@@ -248,7 +248,7 @@ def read_detections(path: str | Path, seq_length: int | None = None,
         iy = np.clip(arr[:, 3] + arr[:, 5], 0, height) - np.clip(arr[:, 3], 0, height)
         outside = np.flatnonzero(ix * iy < 0.5 * arr[:, 4] * arr[:, 5])
         if len(outside):
-            log.warning("%s: %d boxes lie mostly outside the %d x %d image (first on line %d)", path,
+            log.warning("%s: %d box(es) lie mostly outside the %d x %d image (first on line %d)", path,
                         len(outside), width, height, lines[int(outside[0])])
     return Detections(arr[:, 0].astype(np.int64), arr[:, 2:6], arr[:, 6]).sorted()
 
