@@ -5,7 +5,9 @@ come from TrackEval's own preprocessing and the CLEAR matching rule
 (:func:`sotmot.evaluate.frame_errors`): a box is a true positive when it is
 matched to a considered pedestrian at IoU >= 0.5, a false positive when it is
 unmatched, and is left out when TrackEval removes it (a box on a distractor
-class of MOT16 ground truth).
+class of MOT16 ground truth). The labels come from one matching of the whole
+unconfirmed output; once a box is dropped its ground truth may match another
+track's box instead, which the labels do not see (a small approximation).
 
 Boxes are ``x, y, w, h`` pixels, frames 1-based.
 """
