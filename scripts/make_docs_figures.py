@@ -96,8 +96,8 @@ def main(argv: list[str] | None = None) -> int:
                  f"Algorithm 1 extends every box forward and backward; with the template variant it made "
                  f"{prepared_sot.sot_steps} extension attempts and kept {len(added)} new boxes (after NMS). "
                  f"Frame {f_sot}, new boxes dashed:", "", f"![SOT]({sot_fig})", "",
-                 "On our data this step lowers misses but adds more false positives than it removes misses "
-                 "on most sequences, so it is off by default; see `docs/benchmarks.md`.", ""]
+                 "On our data this step lowers misses but, even with the confirmation stage below, costs "
+                 "MOTA on most full-length sequences, so it is off by default; see `docs/benchmarks.md`.", ""]
 
     # 3. tracklets, graph, greedy vs flow
     prepared = prepare_sequence(seq, base, embedder)
@@ -147,7 +147,8 @@ def main(argv: list[str] | None = None) -> int:
     rows_show = np.flatnonzero(run.tracks.frames == f_show)
     result_fig = save(draw_frame(reader(f_show), run.tracks, rows_show), "result.jpg")
     text += ["## 6. Interpolation and smoothing", "",
-             f"Gaps inside a trajectory are filled linearly ({interp} boxes here, drawn thin with an `i`), then "
+             f"Gaps of up to {base.postprocess.interpolate_max_seconds:g} s inside a trajectory are filled "
+             f"linearly ({interp} boxes here, drawn thin with an `i`), then "
              f"each box is averaged with the trajectory's boxes within +-{base.postprocess.smooth_window} "
              f"frames. Frame {f_show} of the output (`sotmot render` draws whole videos):", "",
              f"![result]({result_fig})", ""]
@@ -162,6 +163,27 @@ def main(argv: list[str] | None = None) -> int:
                  f"{len(r.association.groups)} trajectories, {r.tracks.n_tracks} output tracks. The graph of "
                  f"frames 100-140 ({g.number_of_nodes()} tracklets, {g.number_of_edges()} candidates):", "",
                  "![graph](figures/graph_pets_100_140.png)", ""]
+        before = base.replace("confirm", enabled=False).replace("postprocess", interpolate_max_seconds=None)
+        old = finish_sequence(p, before, "greedy")
+        with tempfile.TemporaryDirectory() as tmp:
+            scores = {}
+            for label, run_ in (("every box kept, every gap filled", old), ("confirmed (default)", r)):
+                path = results_path(Path(tmp) / label.split()[0], p.info.name)
+                write_results(path, run_.tracks)
+                scores[label] = evaluate_files([(path, p.info.gt_path, p.info.length, p.info.name)]
+                                               ).sequences[p.info.name]
+        gap = round(base.postprocess.interpolate_max_seconds * p.info.frame_rate)
+        text += ["## 7. Confirmation: which boxes are real", "",
+                 f"After association every output box gets a probability of being a true positive from what its "
+                 f"trajectory is made of (`sotmot/confidence.py`, fitted as `docs/calibration.md` says). On "
+                 f"PETS09-S2L1 the detector's scores became confidences by the `{p.confidence_method}` map; gaps "
+                 f"longer than {base.postprocess.interpolate_max_seconds:g} s ({gap} frames at 7 fps) are no longer "
+                 f"filled ({int(old.tracks.interpolated.sum())} -> {int(r.tracks.interpolated.sum())} interpolated "
+                 f"boxes) and {len(r.dropped)} boxes below the threshold were dropped (`--unconfirmed file` keeps "
+                 f"them in `<name>.low.txt`; each box's probability is in `<name>.flags.csv`):", "",
+                 "| output | HOTA | MOTA | IDF1 | FP | FN |", "|---|---|---|---|---|---|",
+                 *[f"| {k} | {v['HOTA']:.1f} | {v['MOTA']:.1f} | {v['IDF1']:.1f} | {v['FP']:.0f} | {v['FN']:.0f} |"
+                   for k, v in scores.items()], ""]
     (DOCS / "walkthrough.md").write_text("\n".join(text))
     print(f"wrote {DOCS / 'walkthrough.md'} and {len(list(FIG.iterdir()))} figures")
     return 0
