@@ -38,7 +38,7 @@ import numpy as np
 from solvers.base import Association, Link
 from sotmot.appearance import pair_affinities, unit
 from sotmot.config import AssociationConfig
-from sotmot.constraints import candidate_pairs, check_pairs, merge
+from sotmot.constraints import candidate_pairs, check_pairs, merge, passes_affinity_gate
 from sotmot.types import Tracklet
 
 #: At most this many entries of one list are checked in one call (measured best on MOT16-04:
@@ -155,7 +155,7 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
         lead = first_member[pairs[:, 0]] > first_member[pairs[:, 1]]
         pairs = np.where(lead[:, None], pairs[:, ::-1], pairs)
         aff = pair_affinities(features, pairs)
-        keep = aff >= config.min_affinity
+        keep = passes_affinity_gate(aff, config)
         return pairs[keep], aff[keep], first_member[pairs[keep]]
 
     pairs, aff, ties = gated(candidate_pairs(nodes, config.l_max))

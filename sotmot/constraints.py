@@ -279,8 +279,17 @@ def rule_failures(overlap, min_iou, max_gap, speed, bound, affinity,
         "iou": (np.asarray(overlap) > 0) & ~(np.asarray(min_iou) > config.tau_iou),
         "gap": np.asarray(max_gap) > config.l_max,
         "velocity": np.asarray(speed) > np.asarray(bound),
-        "affinity": np.asarray(affinity) < config.min_affinity,
+        "affinity": ~passes_affinity_gate(affinity, config),
     }
+
+
+def passes_affinity_gate(affinity, config: AssociationConfig) -> np.ndarray:
+    """Where an appearance affinity is at least ``min_affinity``: the one statement of the gate.
+
+    NaN never passes (a comparison with NaN is false), so every caller treats an
+    undefined affinity the same way: as a pair that is never merged.
+    """
+    return np.asarray(affinity, dtype=np.float64) >= config.min_affinity
 
 
 @dataclass(frozen=True)

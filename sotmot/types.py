@@ -130,6 +130,8 @@ class Tracklet:
             raise ValueError(f"tracklet {self.id}: columns empty or of different lengths")
         if np.any(np.diff(frames) <= 0):
             raise ValueError(f"tracklet {self.id}: frames must be strictly increasing")
+        if not np.isfinite(feature).all():
+            raise ValueError(f"tracklet {self.id}: its appearance feature has NaN or infinite values")
         for name, value in (("frames", frames), ("boxes", boxes), ("scores", scores),
                             ("det_index", det_index), ("feature", feature)):
             object.__setattr__(self, name, value)

@@ -89,3 +89,33 @@ def test_boxes_partly_outside_the_image_are_embedded(model_0288, pets_crops):
 def test_normalize_leaves_zero_rows_alone():
     out = normalize(np.array([[0.0, 0.0], [3.0, 4.0]]))
     np.testing.assert_allclose(out, [[0, 0], [0.6, 0.8]])
+
+
+def test_flip_average_and_non_finite_outputs_are_refused():
+    from sotmot.appearance import flip_average
+    from sotmot.errors import ModelError
+
+    a = np.array([[3.0, 0.0]])
+    b = np.array([[0.0, 2.0]])
+    assert np.allclose(flip_average(a, b, "m"), [[np.sqrt(0.5), np.sqrt(0.5)]])
+    assert np.allclose(flip_average(a, None, "m"), [[1.0, 0.0]])
+    with pytest.raises(ModelError, match="m: the model gave NaN or infinite features"):
+        flip_average(np.array([[np.nan, 1.0]]), None, "m")
+    with pytest.raises(ModelError):
+        flip_average(a, np.array([[np.inf, 0.0]]), "m")
+
+
+def test_the_affinity_gate_is_one_rule_and_nan_never_passes():
+    from helpers import tk
+    from solvers import get_solver
+    from sotmot.config import AssociationConfig
+    from sotmot.constraints import passes_affinity_gate, rule_failures
+
+    cfg = AssociationConfig(min_affinity=0.5)
+    assert passes_affinity_gate([0.49, 0.5, np.nan], cfg).tolist() == [False, True, False]
+    assert rule_failures(0, np.nan, 0, 0.0, np.inf, np.array([np.nan]), cfg)["affinity"].tolist() == [True]
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        tk(1, [1, 2], [0, 0, 10, 20], feature=(np.nan, 1.0))
+    # a zero feature is finite: every solver treats it alike (its affinity with anything is below 0.5)
+    ts = (tk(1, [1, 2], [0, 0, 10, 20], feature=(0.0, 0.0)), tk(2, [3, 4], [0, 0, 10, 20], feature=(1.0, 0.0)))
+    assert {get_solver(n)(ts, cfg).groups for n in ("greedy", "flow", "flow-nx")} == {((1,), (2,))}

@@ -23,7 +23,7 @@ from typing import Callable, Protocol
 import numpy as np
 
 from sotmot.config import AppearanceConfig
-from sotmot.errors import ConfigError
+from sotmot.errors import ConfigError, ModelError
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +43,26 @@ def normalize(features: np.ndarray) -> np.ndarray:
     f = np.asarray(features, dtype=np.float32)
     norm = np.linalg.norm(f, axis=-1, keepdims=True)
     return f / np.maximum(norm, 1e-12)
+
+
+def flip_average(features: np.ndarray, mirrored: np.ndarray | None, source: object) -> np.ndarray:
+    """Unit features from a network's raw outputs: ``features`` ``(N, D)`` of the crops and, with the
+    flip of paper eq. 1, ``mirrored`` ``(N, D)`` of their mirror images (each normalised, averaged,
+    normalised again). Every backend ends here.
+
+    Raises
+    ------
+    ModelError
+        An output is NaN or infinite (named after ``source``, the model file): a feature that
+        cannot be compared must not enter tracking.
+    """
+    features = np.asarray(features, dtype=np.float32)
+    if not np.isfinite(features).all() or (mirrored is not None and not np.isfinite(mirrored).all()):
+        raise ModelError(f"{source}: the model gave NaN or infinite features; is it a re-ID model taking BGR "
+                         f"0-255 crops?")
+    if mirrored is None:
+        return normalize(features)
+    return normalize(normalize(features) + normalize(mirrored))
 
 
 def affinity(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -137,4 +157,5 @@ def make_embedder(config: AppearanceConfig) -> Embedder:
     return factory(config)
 
 
-__all__ = ["BACKENDS", "Embedder", "affinity", "affinity_rows", "make_embedder", "normalize", "roc_auc"]
+__all__ = ["BACKENDS", "Embedder", "affinity", "affinity_rows", "flip_average", "make_embedder", "normalize",
+           "roc_auc"]

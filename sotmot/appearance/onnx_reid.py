@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.appearance import normalize
+from sotmot.appearance import flip_average
 from sotmot.boxes import as_boxes
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
@@ -122,11 +122,9 @@ class OnnxReidEmbedder:
         """Flip-averaged unit features ``(N, D)`` of ``(N, 256, 128, 3)`` uint8 BGR crops."""
         if len(crops) == 0:
             return np.zeros((0, self.dim), dtype=np.float32)
-        if not self.flip:
-            return normalize(self._forward(crops))
-        both = self._forward(np.concatenate([crops, crops[:, :, ::-1]]))
+        raw = self._forward(np.concatenate([crops, crops[:, :, ::-1]]) if self.flip else crops)
         n = len(crops)
-        return normalize(normalize(both[:n]) + normalize(both[n:]))
+        return flip_average(raw[:n], raw[n:] if self.flip else None, self.path)
 
     def embed(self, frame: np.ndarray, boxes: np.ndarray) -> np.ndarray:
         """Features ``(N, D)`` float32, unit length, of ``(N, 4)`` ``x, y, w, h`` boxes in ``frame``."""

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.appearance import normalize
+from sotmot.appearance import flip_average
 from sotmot.appearance.onnx_reid import CROP_HEIGHT, CROP_WIDTH, resolve_model_path
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
@@ -249,10 +249,8 @@ class TorchReidEmbedder:
             for start in range(0, len(both), self.batch_size):
                 out.append(self.forward_crops(both[start:start + self.batch_size]).float().cpu().numpy())
         feats = np.concatenate(out)
-        if not self.flip:
-            return normalize(feats)
         n = len(crops)
-        return normalize(normalize(feats[:n]) + normalize(feats[n:]))
+        return flip_average(feats[:n], feats[n:] if self.flip else None, self.path)
 
     def embed(self, frame: np.ndarray, boxes: np.ndarray) -> np.ndarray:
         """Features ``(N, D)`` float32, unit length, of ``(N, 4)`` ``x, y, w, h`` boxes in ``frame``.
@@ -271,6 +269,4 @@ class TorchReidEmbedder:
                 mirrored = crops.flip(-1)
                 back = [self.module(mirrored[i:i + self.batch_size]) for i in range(0, len(crops), self.batch_size)]
         out = torch.cat(feats).float().cpu().numpy()
-        if not self.flip:
-            return normalize(out)
-        return normalize(normalize(out) + normalize(torch.cat(back).float().cpu().numpy()))
+        return flip_average(out, torch.cat(back).float().cpu().numpy() if self.flip else None, self.path)
