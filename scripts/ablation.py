@@ -25,15 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_accuracy import DEFAULT_DATA, machine, sequences  # noqa: E402
-
-from sotmot.appearance import make_embedder  # noqa: E402
-from sotmot.boxes import iou_matrix  # noqa: E402
-from sotmot.config import TrackerConfig, load_config  # noqa: E402
-from sotmot.evaluate import evaluate_files  # noqa: E402
-from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_path, write_results  # noqa: E402
-from sotmot.pipeline import embed_detections, finish_sequence, preprocess, prepare_sequence  # noqa: E402
+from sotmot.appearance import make_embedder
+from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
+from sotmot.boxes import iou_matrix
+from sotmot.config import TrackerConfig, load_config
+from sotmot.evaluate import evaluate_files
+from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_path, write_results
+from sotmot.pipeline import embed_detections, finish_sequence, preprocess, prepare_sequence
 
 ROWS = {
     "MOT": {"variant": "none"},

@@ -30,13 +30,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
 from sotmot.calibrate import box_labels
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import METRICS, EvalReport, evaluate_files
@@ -44,8 +43,6 @@ from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.postprocess import to_tracks
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data"))
 COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 FULL_LENGTH = 100  # frames; shorter sequences are the 30-frame clips
 BEST_PEER_MOTA = {  # issue #11, same detections and embeddings; not re-measured here
@@ -54,23 +51,6 @@ BEST_PEER_MOTA = {  # issue #11, same detections and embeddings; not re-measured
     "MOT17-09-FRCNN": ("BoT-SORT with GSI", 57.8),
     "TUD-Stadtmitte": ("DeepSORT", 59.5),
 }
-
-
-def machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{cpu}, {os.cpu_count()} logical CPUs, {platform.system()} {platform.release()}, Python {platform.python_version()}"
-
-
-def sequences(data: Path) -> list[Path]:
-    """Sequence folders with frames (the label-only MOT16-labels folders are skipped)."""
-    return sorted(p for p in data.iterdir() if (p / "seqinfo.ini").is_file() and (p / "img1").exists())
 
 
 def before_config(config: TrackerConfig) -> TrackerConfig:

@@ -24,8 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_accuracy import DEFAULT_DATA, machine  # noqa: E402
+from sotmot.benchmarks import DEFAULT_DATA, machine
 
 LIMIT_MB = 2048
 

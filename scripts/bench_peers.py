@@ -51,15 +51,13 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import make_embedder
+from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
 from sotmot.boxes import xywh_to_xyxy, xyxy_to_xywh
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import evaluate_files
 from sotmot.io import read_detections, read_seqinfo, results_path, write_results
 from sotmot.pipeline import embed_detections, finish_sequence, prepare_sequence, preprocess, scores_are_probabilities
 from sotmot.types import Detections, Tracks
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_accuracy import DEFAULT_DATA, machine, sequences  # noqa: E402
 
 COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 SOTMOT = {  # name -> (SOT variant, solver)

@@ -31,13 +31,11 @@ import numpy as np
 
 from solvers import get_solver
 from sotmot.appearance import normalize
+from sotmot.benchmarks import machine
 from sotmot.config import TrackerConfig
 from sotmot.io import read_detections, read_seqinfo
 from sotmot.pipeline import preprocess
 from sotmot.tracklets import build_tracklets
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_accuracy import machine  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_LABELS = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data")) / "MOT16-labels"

@@ -18,12 +18,10 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_accuracy import DEFAULT_DATA, machine, sequences  # noqa: E402
-
-from sotmot.appearance import make_embedder  # noqa: E402
-from sotmot.config import TrackerConfig  # noqa: E402
-from sotmot.pipeline import track_sequence  # noqa: E402
+from sotmot.appearance import make_embedder
+from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
+from sotmot.config import TrackerConfig
+from sotmot.pipeline import track_sequence
 
 STAGES = ("read", "preprocess", "appearance", "sot", "tracklets", "association", "postprocess")
 

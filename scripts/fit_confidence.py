@@ -26,7 +26,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import os
 import sys
 import tempfile
 import time
@@ -34,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sotmot.benchmarks import DEFAULT_DATA
 from sotmot.calibrate import (
     Labelled,
     detection_labels,
@@ -50,7 +50,6 @@ from sotmot.io import read_detections, read_seqinfo, write_text_atomic
 from sotmot.pipeline import embed_detections, preprocess, prepare_sequence
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data"))
 COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 
 

@@ -16,18 +16,16 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_accuracy import DEFAULT_DATA  # noqa: E402
-
-from sotmot.appearance import make_embedder  # noqa: E402
-from sotmot.config import TrackerConfig  # noqa: E402
-from sotmot.evaluate import evaluate_files  # noqa: E402
-from sotmot.explain import run_graph  # noqa: E402
-from sotmot.graph_view import draw_png  # noqa: E402
-from sotmot.io import FrameReader, read_detections, read_seqinfo, results_path, write_results  # noqa: E402
-from sotmot.pipeline import finish_sequence, prepare_sequence, preprocess, resolve_nms  # noqa: E402
-from sotmot.render import draw_frame  # noqa: E402
-from sotmot.types import Tracks  # noqa: E402
+from sotmot.appearance import make_embedder
+from sotmot.benchmarks import DEFAULT_DATA
+from sotmot.config import TrackerConfig
+from sotmot.evaluate import evaluate_files
+from sotmot.explain import run_graph
+from sotmot.graph_view import draw_png
+from sotmot.io import FrameReader, read_detections, read_seqinfo, results_path, write_results
+from sotmot.pipeline import finish_sequence, prepare_sequence, preprocess, resolve_nms
+from sotmot.render import draw_frame
+from sotmot.types import Tracks
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 FIG = DOCS / "figures"
