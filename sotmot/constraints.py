@@ -84,11 +84,6 @@ class PairCheck:
     velocity: float
     velocity_bound: float
 
-    @property
-    def first_failed(self) -> Constraint | None:
-        """The constraint reported as the reason for rejection, or None."""
-        return self.failed[0] if self.failed else None
-
 
 def velocity_bound(gap: np.ndarray | int, width: np.ndarray | float,
                    config: AssociationConfig) -> np.ndarray:
@@ -97,15 +92,6 @@ def velocity_bound(gap: np.ndarray | int, width: np.ndarray | float,
     factor = np.where(gap <= 1, config.velocity_adjacent,
                       np.where(gap <= config.short_gap, config.velocity_short, config.velocity_long))
     return factor * np.asarray(width, dtype=np.float64)
-
-
-def time_distance(a: Tracklet, b: Tracklet) -> int:
-    """Frame difference across the gap between two time spans, 0 when the spans overlap.
-
-    ``max(a.start, b.start) - min(a.end, b.end)`` clipped at 0; 1 for a
-    trajectory that ends in the frame just before the other starts.
-    """
-    return max(0, max(a.start, b.start) - min(a.end, b.end))
 
 
 def merge(a: Tracklet, b: Tracklet, new_id: int) -> Tracklet:

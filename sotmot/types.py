@@ -59,11 +59,6 @@ class Detections:
     def __len__(self) -> int:
         return len(self.frames)
 
-    @classmethod
-    def empty(cls) -> "Detections":
-        """A set with no boxes."""
-        return cls(np.zeros(0, np.int64), np.zeros((0, 4)), np.zeros(0))
-
     def subset(self, index: np.ndarray) -> "Detections":
         """The boxes selected by an integer or boolean ``index``, in that order."""
         return Detections(self.frames[index], self.boxes[index], self.scores[index], self.from_sot[index])
