@@ -73,7 +73,9 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                         "[postprocess] tables; unknown keys are errors")
     p.add_argument("--reid-model", metavar="PATH",
                    help="ONNX person re-ID model (overrides the config and SOTMOT_REID_MODEL)")
-    p.add_argument("--appearance", choices=["onnx", "torch"],
+    from sotmot.appearance import BACKENDS
+
+    p.add_argument("--appearance", choices=sorted(BACKENDS),
                    help="run the re-ID model with onnxruntime (default) or torch (needs the torch extra)")
     p.add_argument("--device", choices=["cpu", "cuda"], help="where the re-ID model runs (default: cpu)")
     p.add_argument("--weights", metavar="FILE.pt", help="fine-tuned weights from train-appearance (torch backend)")

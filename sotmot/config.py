@@ -83,7 +83,8 @@ class AppearanceConfig:
     Attributes
     ----------
     backend
-        ``"onnx"``: a person re-ID network run with onnxruntime; ``"torch"``:
+        A name in ``sotmot.appearance.BACKENDS``: ``"onnx"``, a person re-ID
+        network run with onnxruntime; ``"torch"``:
         the same network executed by torch, weights read from the ONNX file
         (needs the ``torch`` extra: ``torch==2.13.0`` and ``onnx``).
     model
@@ -104,7 +105,7 @@ class AppearanceConfig:
         weights replace the ONNX file's (the file still gives the network).
     """
 
-    backend: Literal["onnx", "torch"] = "onnx"
+    backend: str = "onnx"
     model: str | None = None
     flip: bool = True
     batch_size: int = 64
@@ -115,8 +116,10 @@ class AppearanceConfig:
     def __post_init__(self) -> None:
         _check(self.weights is None or self.backend == "torch", "appearance",
                "weights (a fine-tuned checkpoint) need backend = 'torch'")
-        _check(self.backend in ("onnx", "torch"), "appearance",
-               f"backend must be 'onnx' or 'torch'; got {self.backend!r}")
+        from sotmot.appearance import BACKENDS  # the registry of backends is the list of valid names
+
+        _check(self.backend in BACKENDS, "appearance",
+               f"backend must be one of {', '.join(sorted(BACKENDS))}; got {self.backend!r}")
         _check(self.device in ("cpu", "cuda"), "appearance", f"device must be 'cpu' or 'cuda'; got {self.device!r}")
         _check(self.batch_size >= 1, "appearance", "batch_size must be >= 1")
         _check(self.threads >= 0, "appearance", "threads must be >= 0")
