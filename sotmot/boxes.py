@@ -42,6 +42,22 @@ def centers(boxes: np.ndarray) -> np.ndarray:
     return b[:, :2] + 0.5 * b[:, 2:]
 
 
+def pixel_bounds(boxes: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Integer pixel bounds ``x1, y1, x2, y2`` (``(N,)`` each, ``x2``/``y2`` exclusive) of ``(N, 4)``
+    ``x, y, w, h`` boxes clipped to a ``width`` x ``height`` image: the one rule every crop uses.
+
+    The box is widened to whole pixels (floor of the corner, ceiling of the far
+    edge) and clipped to the image; a box entirely outside becomes the nearest
+    one-pixel strip of the border, so every crop has at least one pixel.
+    """
+    b = as_boxes(boxes) if len(boxes) else np.zeros((0, 4))
+    x1 = np.clip(np.floor(b[:, 0]), 0, width - 1).astype(np.int64)
+    y1 = np.clip(np.floor(b[:, 1]), 0, height - 1).astype(np.int64)
+    x2 = np.clip(np.ceil(b[:, 0] + b[:, 2]), x1 + 1, width).astype(np.int64)
+    y2 = np.clip(np.ceil(b[:, 1] + b[:, 3]), y1 + 1, height).astype(np.int64)
+    return x1, y1, x2, y2
+
+
 def _overlap(a: np.ndarray, b: np.ndarray, kind: Overlap, aligned: bool) -> np.ndarray:
     a = as_boxes(a)
     b = as_boxes(b)

@@ -23,6 +23,7 @@ from pathlib import Path
 import networkx as nx
 import numpy as np
 
+from sotmot.boxes import pixel_bounds
 from sotmot.constraints import CONSTRAINTS
 from sotmot.explain import plain
 from sotmot.io import write_text_atomic
@@ -239,10 +240,8 @@ def tracklet_crops(result, graph: nx.DiGraph, height: int = 96) -> dict:
         pair = []
         for k in (0, -1):
             img = reader(int(t.frames[k]))
-            x, y, w, h = t.boxes[k]
-            x1, y1 = max(0, int(x)), max(0, int(y))
-            x2, y2 = min(img.shape[1], int(x + w) + 1), min(img.shape[0], int(y + h) + 1)
-            crop = img[y1:max(y1 + 1, y2), x1:max(x1 + 1, x2)]
+            x1, y1, x2, y2 = (int(c[0]) for c in pixel_bounds(t.boxes[k][None], img.shape[1], img.shape[0]))
+            crop = img[y1:y2, x1:x2]
             crop = cv2.resize(crop, (max(1, int(height * crop.shape[1] / crop.shape[0])), height))
             pair.append(cv2.imencode(".jpg", crop, [cv2.IMWRITE_JPEG_QUALITY, 80])[1].tobytes())
         out[n] = tuple(pair)

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sotmot.appearance import affinity_rows
-from sotmot.boxes import iou_matrix
+from sotmot.boxes import iou_matrix, pixel_bounds
 from sotmot.config import SotConfig
 from sotmot.types import Detections
 
@@ -90,10 +90,7 @@ def crop_resized(frame: np.ndarray, box: np.ndarray, width: int, height: int) ->
     """The ``x, y, w, h`` box of ``frame`` resized to ``(height, width)``, clipped to the image, grey."""
     import cv2
 
-    img_h, img_w = frame.shape[:2]
-    x, y, w, h = box
-    x1, y1 = int(np.clip(np.floor(x), 0, img_w - 1)), int(np.clip(np.floor(y), 0, img_h - 1))
-    x2, y2 = int(np.clip(np.ceil(x + w), x1 + 1, img_w)), int(np.clip(np.ceil(y + h), y1 + 1, img_h))
+    x1, y1, x2, y2 = (int(c[0]) for c in pixel_bounds(np.asarray(box)[None], frame.shape[1], frame.shape[0]))
     patch = frame[y1:y2, x1:x2]
     if patch.ndim == 3:
         patch = cv2.cvtColor(patch, cv2.COLOR_BGR2GRAY)

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import flip_average
-from sotmot.boxes import as_boxes
+from sotmot.boxes import pixel_bounds
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
 
@@ -51,14 +51,9 @@ def crop_boxes(frame: np.ndarray, boxes: np.ndarray, height: int = CROP_HEIGHT,
     """
     import cv2
 
-    b = as_boxes(boxes) if len(boxes) else np.zeros((0, 4))
-    img_h, img_w = frame.shape[:2]
-    x1 = np.clip(np.floor(b[:, 0]), 0, img_w - 1).astype(int)
-    y1 = np.clip(np.floor(b[:, 1]), 0, img_h - 1).astype(int)
-    x2 = np.clip(np.ceil(b[:, 0] + b[:, 2]), x1 + 1, img_w).astype(int)
-    y2 = np.clip(np.ceil(b[:, 1] + b[:, 3]), y1 + 1, img_h).astype(int)
-    out = np.empty((len(b), height, width, 3), dtype=np.uint8)
-    for i in range(len(b)):
+    x1, y1, x2, y2 = pixel_bounds(boxes, frame.shape[1], frame.shape[0])
+    out = np.empty((len(x1), height, width, 3), dtype=np.uint8)
+    for i in range(len(x1)):
         out[i] = cv2.resize(frame[y1[i]:y2[i], x1[i]:x2[i]], (width, height), interpolation=cv2.INTER_LINEAR)
     return out
 

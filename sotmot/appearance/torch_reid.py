@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import flip_average
+from sotmot.boxes import pixel_bounds
 from sotmot.appearance.onnx_reid import CROP_HEIGHT, CROP_WIDTH, resolve_model_path
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
@@ -166,12 +167,9 @@ def crop_boxes_torch(frame, boxes: np.ndarray, height: int = CROP_HEIGHT, width:
     import torch
     import torch.nn.functional as F
 
-    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     img_h, img_w = frame.shape[1:]
-    x1 = np.clip(np.floor(b[:, 0]), 0, img_w - 1)
-    y1 = np.clip(np.floor(b[:, 1]), 0, img_h - 1)
-    x2 = np.clip(np.ceil(b[:, 0] + b[:, 2]), x1 + 1, img_w)
-    y2 = np.clip(np.ceil(b[:, 1] + b[:, 3]), y1 + 1, img_h)
+    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    x1, y1, x2, y2 = (c.astype(np.float64) for c in pixel_bounds(b, img_w, img_h))
     # source pixel coordinate of each output pixel centre, then to grid_sample's [-1, 1] (align_corners=False)
     xs = x1[:, None] + (np.arange(width) + 0.5)[None, :] * ((x2 - x1) / width)[:, None] - 0.5
     ys = y1[:, None] + (np.arange(height) + 0.5)[None, :] * ((y2 - y1) / height)[:, None] - 0.5
