@@ -119,3 +119,17 @@ def test_the_affinity_gate_is_one_rule_and_nan_never_passes():
     # a zero feature is finite: every solver treats it alike (its affinity with anything is below 0.5)
     ts = (tk(1, [1, 2], [0, 0, 10, 20], feature=(0.0, 0.0)), tk(2, [3, 4], [0, 0, 10, 20], feature=(1.0, 0.0)))
     assert {get_solver(n)(ts, cfg).groups for n in ("greedy", "flow", "flow-nx")} == {((1,), (2,))}
+
+
+def test_both_backends_refuse_a_model_of_the_wrong_shape_with_one_message(tmp_path):
+    onnx = pytest.importorskip("onnx")
+    from onnx import TensorProto, helper
+
+    x = helper.make_tensor_value_info("data", TensorProto.FLOAT, ["N", 3, 64, 64])
+    y = helper.make_tensor_value_info("out", TensorProto.FLOAT, ["N", 3, 64, 64])
+    graph = helper.make_graph([helper.make_node("Relu", ["data"], ["out"])], "g", [x], [y])
+    path = tmp_path / "wrong.onnx"
+    onnx.save(helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)]), str(path))
+    for backend in ("onnx", "torch"):
+        with pytest.raises(ModelError, match="expected one input of shape N x 3 x 256 x 128"):
+            make_embedder(AppearanceConfig(model=str(path), backend=backend))

@@ -41,6 +41,21 @@ def resolve_model_path(model: str | None) -> Path:
     return path
 
 
+def check_model_io(path: Path, inputs: list[tuple[str, list]], outputs: list[tuple[str, list]]) -> tuple[str, object]:
+    """The input name and embedding size of a re-ID model, or a :class:`ModelError` saying what is wrong.
+
+    ``inputs`` and ``outputs`` are ``(name, shape)`` as the model file declares
+    them (symbolic dimensions as strings). Every backend checks a model here:
+    one input ``N x 3 x 256 x 128`` (BGR crops) and one output ``N x D``.
+    """
+    if len(inputs) != 1 or len(inputs[0][1]) != 4 or list(inputs[0][1])[1:] != [3, CROP_HEIGHT, CROP_WIDTH]:
+        raise ModelError(f"{path}: not a person re-ID model of the expected kind: expected one input of shape "
+                         f"N x 3 x {CROP_HEIGHT} x {CROP_WIDTH} (BGR crops), got {inputs}")
+    if len(outputs) != 1 or len(outputs[0][1]) != 2:
+        raise ModelError(f"{path}: expected one output of shape N x D (an embedding), got {outputs}")
+    return inputs[0][0], outputs[0][1][1]
+
+
 def crop_boxes(frame: np.ndarray, boxes: np.ndarray, height: int = CROP_HEIGHT,
                width: int = CROP_WIDTH) -> np.ndarray:
     """Crops of ``(N, 4)`` ``x, y, w, h`` boxes resized to ``(N, height, width, 3)`` uint8.
@@ -90,18 +105,11 @@ class OnnxReidEmbedder:
             self.session = ort.InferenceSession(str(self.path), sess_options=options, providers=providers)
         except Exception as exc:  # onnxruntime raises its own untyped errors
             raise ModelError(f"{self.path}: cannot be loaded as an ONNX model: {exc}") from exc
-        inputs = self.session.get_inputs()
-        outputs = self.session.get_outputs()
-        shape = list(inputs[0].shape) if len(inputs) == 1 else []
-        if len(inputs) != 1 or len(shape) != 4 or shape[1:] != [3, CROP_HEIGHT, CROP_WIDTH]:
-            got = [(i.name, i.shape) for i in inputs]
-            raise ModelError(f"{self.path}: not a person re-ID model of the expected kind: expected one "
-                             f"input of shape N x 3 x {CROP_HEIGHT} x {CROP_WIDTH} (BGR crops), got {got}")
-        if len(outputs) != 1 or len(outputs[0].shape) != 2 or not isinstance(outputs[0].shape[1], int):
-            got = [(o.name, o.shape) for o in outputs]
-            raise ModelError(f"{self.path}: expected one output of shape N x D (an embedding), got {got}")
-        self.input_name = inputs[0].name
-        self.dim = int(outputs[0].shape[1])
+        self.input_name, dim = check_model_io(self.path, [(i.name, list(i.shape)) for i in self.session.get_inputs()],
+                                              [(o.name, list(o.shape)) for o in self.session.get_outputs()])
+        if not isinstance(dim, int):
+            raise ModelError(f"{self.path}: the embedding size D of the output N x D must be fixed, got {dim!r}")
+        self.dim = dim
         log.info("re-ID model %s: %d-d embedding", self.path, self.dim)
 
     def _forward(self, crops: np.ndarray) -> np.ndarray:

@@ -18,7 +18,7 @@ import numpy as np
 
 from sotmot.appearance import flip_average
 from sotmot.boxes import pixel_bounds
-from sotmot.appearance.onnx_reid import CROP_HEIGHT, CROP_WIDTH, resolve_model_path
+from sotmot.appearance.onnx_reid import CROP_HEIGHT, CROP_WIDTH, check_model_io, resolve_model_path
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
 
@@ -39,13 +39,11 @@ def _build_module(path: Path):
     except Exception as exc:  # onnx raises DecodeError and friends
         raise ModelError(f"{path}: cannot be read as an ONNX model: {exc}") from exc
     graph = model.graph
-    inputs = [i for i in graph.input]
-    dims = [d.dim_value or d.dim_param for d in inputs[0].type.tensor_type.shape.dim] if len(inputs) == 1 else []
-    if len(inputs) != 1 or dims[1:] != [3, CROP_HEIGHT, CROP_WIDTH]:
-        raise ModelError(f"{path}: not a person re-ID model of the expected kind: expected one input of shape "
-                         f"N x 3 x {CROP_HEIGHT} x {CROP_WIDTH}, got {[(i.name, dims) for i in inputs]}")
-    if len(graph.output) != 1:
-        raise ModelError(f"{path}: expected one output (the embedding), got {len(graph.output)}")
+    def shape(value) -> list:
+        return [d.dim_value or d.dim_param for d in value.type.tensor_type.shape.dim]
+
+    check_model_io(path, [(i.name, shape(i)) for i in graph.input], [(o.name, shape(o)) for o in graph.output])
+    inputs = list(graph.input)
     unknown = sorted({n.op_type for n in graph.node} - SUPPORTED)
     if unknown:
         raise ModelError(f"{path}: uses ONNX ops the torch backend does not implement: {', '.join(unknown)}")
