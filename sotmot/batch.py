@@ -80,17 +80,15 @@ def _worker_embedder(appearance: AppearanceConfig):
 def _pooled_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
                 progress: bool) -> Outcome:
     """One sequence in a pool worker; with progress, its bars drawn on a free line under the overall bar."""
-    from sotmot import pipeline
+    from sotmot.pipeline import bars
 
     embedder = _worker_embedder(config.appearance)
     if not (progress and _SLOTS is not None):
         return track_one(seq_dir, out_dir, config, merger, resume, embedder=embedder)
     slot = _SLOTS.get()
-    pipeline.BAR_POSITION = slot
     try:
-        return track_one(seq_dir, out_dir, config, merger, resume, progress=True, embedder=embedder)
+        return track_one(seq_dir, out_dir, config, merger, resume, progress=bars(slot), embedder=embedder)
     finally:
-        pipeline.BAR_POSITION = None
         _SLOTS.put(slot)
 
 
@@ -100,7 +98,7 @@ def low_confidence_path(results: Path) -> Path:
 
 
 def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
-              progress: bool = False, embedder=None) -> Outcome:
+              progress=False, embedder=None) -> Outcome:
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
     from sotmot.io import read_seqinfo, results_path, write_results
     from sotmot.pipeline import track_sequence

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from solvers import get_solver
-from sotmot.appearance import Embedder, make_embedder
+from sotmot.appearance import Embedder, embedder_for
 from sotmot.config import TrackerConfig
 from sotmot.errors import SotmotError
 from sotmot.evaluate import evaluate_files
@@ -59,8 +59,7 @@ def compare(seq_dirs: Sequence[str | Path], mergers: Sequence[str], config: Trac
     """Run every solver in ``mergers`` on the same tracklets of each sequence and score them."""
     for name in mergers:
         get_solver(name)
-    if embedder is None:
-        embedder = make_embedder(config.appearance)
+    embedder = embedder_for(config.appearance, embedder)
     result = Comparison()
     pairs: dict[str, list[tuple[Path, Path, int, str]]] = {m: [] for m in mergers}
     with tempfile.TemporaryDirectory(prefix="sotmot-compare-") as tmp:

@@ -11,16 +11,15 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
-from functools import partial
 from pathlib import Path
 from typing import TypeVar
 
 import numpy as np
 
 from solvers import Association, get_solver
-from sotmot.appearance import Embedder, make_embedder
+from sotmot.appearance import Embedder, embedder_for
 from sotmot.boxes import nms
 from sotmot.confidence import (
     Calibration,
@@ -40,20 +39,32 @@ from sotmot.types import Detections, Tracklet, Tracks
 log = logging.getLogger(__name__)
 T = TypeVar("T")
 
-#: Terminal line of this process's progress bars (set by worker processes of ``track --workers``,
-#: so that each worker draws on its own line under the overall bar); None: tqdm decides.
-BAR_POSITION: int | None = None
+#: How a stage shows progress: ``(items, description, total) -> items`` (an iterator over the same items).
+Progress = Callable[[Iterable, str, "int | None"], Iterable]
 
 
-def progress_bar(items: Iterable[T], desc: str, enabled: bool, total: int | None = None) -> Iterator[T]:
-    """Wrap ``items`` in a tqdm progress bar on stderr when ``enabled``."""
+def progress_bar(items: Iterable[T], desc: str, enabled: bool, total: int | None = None,
+                 position: int | None = None) -> Iterator[T]:
+    """Wrap ``items`` in a tqdm progress bar on stderr when ``enabled`` (on terminal line ``position``)."""
     if not enabled:
         yield from items
         return
     from tqdm import tqdm
 
-    yield from tqdm(items, desc=desc, total=total, leave=False, dynamic_ncols=True, unit="frame",
-                    position=BAR_POSITION)
+    yield from tqdm(items, desc=desc, total=total, leave=False, dynamic_ncols=True, unit="frame", position=position)
+
+
+def bars(position: int | None = None) -> Progress:
+    """A :data:`Progress` that draws tqdm bars (on terminal line ``position``: ``track --workers`` gives
+    each worker its own line under the overall bar)."""
+    return lambda items, desc, total=None: progress_bar(items, desc, True, total, position)
+
+
+def as_progress(progress: "bool | Progress") -> Progress:
+    """``progress`` as the stages use it: a :data:`Progress`; True draws bars, False shows nothing."""
+    if callable(progress):
+        return progress
+    return bars() if progress else (lambda items, desc, total=None: items)
 
 
 def scores_are_probabilities(scores: np.ndarray) -> bool:
@@ -93,7 +104,7 @@ def preprocess(detections: Detections, config: PreprocessConfig) -> Detections:
 
 
 def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedder: Embedder,
-            config: TrackerConfig, progress: bool = False,
+            config: TrackerConfig, progress: "bool | Progress" = False,
             confidence: np.ndarray | None = None) -> tuple[Detections, np.ndarray, np.ndarray, int]:
     """The SOT step, then NMS on the enlarged set (paper Sec. 3.3 and 6.1).
 
@@ -111,8 +122,9 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedde
     tracker = SotTracker(config.sot, reader, info.length, embed=embedder.embed if deep else None,
                          det_features=features if deep else None)
     seeds = None if confidence is None else confidence >= config.sot.seed_min_confidence
-    result = tracker.run(detections, progress=partial(progress_bar, desc=f"{info.name}: SOT ({config.sot.variant})",
-                                                      enabled=progress), seeds=seeds)
+    show = as_progress(progress)
+    result = tracker.run(detections, progress=lambda items: show(items, f"{info.name}: SOT ({config.sot.variant})"),
+                         seeds=seeds)
     n = len(detections)
     enlarged = result.detections
     added = enlarged.subset(np.arange(n, len(enlarged)))
@@ -127,12 +139,12 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedde
 
 
 def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
-                     progress: bool = False) -> np.ndarray:
+                     progress: "bool | Progress" = False) -> np.ndarray:
     """Appearance features ``(N, D)`` of every detection, one batched call per frame."""
     features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
     reader = FrameReader(info, cache_size=1)
     per_frame = detections.by_frame()
-    for frame in progress_bar(sorted(per_frame), f"{info.name}: appearance", progress, len(per_frame)):
+    for frame in as_progress(progress)(sorted(per_frame), f"{info.name}: appearance", len(per_frame)):
         idx = per_frame[frame]
         features[idx] = embedder.embed(reader(frame), detections.boxes[idx])
     return features
@@ -215,7 +227,7 @@ class _Clock:
 
 
 def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
-                     embedder: Embedder | None = None, progress: bool = False,
+                     embedder: Embedder | None = None, progress: "bool | Progress" = False,
                      features: np.ndarray | None = None) -> Prepared:
     """Read, preprocess, embed and build tracklets: the stages no solver choice can change.
 
@@ -230,8 +242,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     log.info("%s: %d detections, %d after preprocessing", info.name, len(raw), len(dets))
     clock.lap("preprocess")
     if features is None:
-        if embedder is None:
-            embedder = make_embedder(config.appearance)
+        embedder = embedder_for(config.appearance, embedder)
         features = embed_detections(info, dets, embedder, progress)
     elif len(features) != len(dets):
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
@@ -240,8 +251,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     method, knots = confidence_knots(config.preprocess.confidence, raw.scores, _calibration(config))
     log.info("%s: detection confidence by %r", info.name, method)
     if config.sot.variant != "none":
-        if embedder is None:
-            embedder = make_embedder(config.appearance)
+        embedder = embedder_for(config.appearance, embedder)
         dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress,
                                                detection_confidence(dets.scores, knots))
         log.info("%s: SOT added %d boxes (after NMS)", info.name, int(dets.from_sot.sum()))
@@ -284,7 +294,7 @@ def confirm(tracks: Tracks, config: TrackerConfig, method: str = "raw") -> tuple
 
 
 def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
-                    merger: str = "greedy", embedder: Embedder | None = None, progress: bool = False) -> TrackResult:
+                    merger: str = "greedy", embedder: Embedder | None = None, progress: "bool | Progress" = False) -> TrackResult:
     """Long-term association with the solver ``merger``, then post-processing, confirmation and
     (with ``[sot] extend_seconds``) the extension of trajectory ends; ``embedder`` serves the latter
     (built from ``config.appearance`` when needed and omitted)."""
@@ -309,7 +319,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
 
 
 def extend_trajectories(prepared: Prepared, trajectories: list[Tracklet], tracks: Tracks, config: TrackerConfig,
-                        embedder: Embedder | None = None, progress: bool = False) -> Tracks:
+                        embedder: Embedder | None = None, progress: "bool | Progress" = False) -> Tracks:
     """SOT after association: :func:`sotmot.extend.extend_ends` on the output ``tracks``."""
     from sotmot.extend import extend_ends
 
@@ -318,14 +328,14 @@ def extend_trajectories(prepared: Prepared, trajectories: list[Tracklet], tracks
     identity = {i: t.feature for t, i in zip(trajectories, ids) if i is not None}
     before = len(tracks)
     tracks = extend_ends(tracks, identity, FrameReader(info, cache_size=8), info.length, info.frame_rate,
-                         embedder or make_embedder(config.appearance), config.sot,
-                         progress=partial(progress_bar, desc=f"{info.name}: extend ends", enabled=progress))
+                         embedder_for(config.appearance, embedder), config.sot,
+                         progress=lambda items: as_progress(progress)(items, f"{info.name}: extend ends"))
     log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
     return tracks
 
 
 def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(), merger: str = "greedy",
-                   embedder: Embedder | None = None, progress: bool = False,
+                   embedder: Embedder | None = None, progress: "bool | Progress" = False,
                    features: np.ndarray | None = None) -> TrackResult:
     """Track one MOTChallenge sequence folder.
 
@@ -340,7 +350,8 @@ def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
     embedder
         Appearance model; built from ``config.appearance`` when omitted.
     progress
-        Show progress bars on stderr.
+        Show progress bars on stderr (True), nothing (False), or any
+        :data:`Progress`.
     features
         Precomputed features of the preprocessed detections (skips embedding;
         used by benchmarks that try several settings on the same detections).

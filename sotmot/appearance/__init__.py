@@ -138,6 +138,11 @@ BACKENDS: dict[str, str] = {
 }
 
 
+def embedder_for(config: AppearanceConfig, embedder: Embedder | None = None) -> Embedder:
+    """``embedder`` when the caller has one, else a new one built from ``config`` (:func:`make_embedder`)."""
+    return embedder if embedder is not None else make_embedder(config)
+
+
 def make_embedder(config: AppearanceConfig) -> Embedder:
     """Build the embedder that ``config.backend`` names."""
     target = BACKENDS.get(config.backend)
@@ -157,5 +162,5 @@ def make_embedder(config: AppearanceConfig) -> Embedder:
     return factory(config)
 
 
-__all__ = ["BACKENDS", "Embedder", "affinity", "affinity_rows", "flip_average", "make_embedder", "normalize",
-           "roc_auc"]
+__all__ = ["BACKENDS", "Embedder", "affinity", "affinity_rows", "embedder_for", "flip_average", "make_embedder",
+           "normalize", "roc_auc"]
