@@ -22,7 +22,15 @@ from sotmot.config import TrackerConfig
 from sotmot.evaluate import evaluate_files
 from sotmot.explain import run_graph
 from sotmot.graph_view import draw_png
-from sotmot.io import FrameReader, read_detections, read_seqinfo, results_path, write_results
+from sotmot.io import (
+    FrameReader,
+    read_detections,
+    read_seqinfo,
+    results_path,
+    write_bytes_atomic,
+    write_results,
+    write_text_atomic,
+)
 from sotmot.pipeline import finish_sequence, prepare_sequence, preprocess, resolve_nms
 from sotmot.render import draw_frame
 from sotmot.types import Tracks
@@ -34,8 +42,10 @@ FIG = DOCS / "figures"
 def save(img: np.ndarray, name: str, width: int = 900) -> str:
     if img.shape[1] > width:
         img = cv2.resize(img, (width, int(img.shape[0] * width / img.shape[1])), interpolation=cv2.INTER_AREA)
-    FIG.mkdir(parents=True, exist_ok=True)
-    cv2.imwrite(str(FIG / name), img, [cv2.IMWRITE_JPEG_QUALITY, 85])
+    ok, data = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, 85])
+    if not ok:
+        raise RuntimeError(f"JPEG encoding of {name} failed")
+    write_bytes_atomic(FIG / name, data.tobytes())
     return f"figures/{name}"
 
 
@@ -182,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
                  "| output | HOTA | MOTA | IDF1 | FP | FN |", "|---|---|---|---|---|---|",
                  *[f"| {k} | {v['HOTA']:.1f} | {v['MOTA']:.1f} | {v['IDF1']:.1f} | {v['FP']:.0f} | {v['FN']:.0f} |"
                    for k, v in scores.items()], ""]
-    (DOCS / "walkthrough.md").write_text("\n".join(text))
+    write_text_atomic(DOCS / "walkthrough.md", "\n".join(text))
     print(f"wrote {DOCS / 'walkthrough.md'} and {len(list(FIG.iterdir()))} figures")
     return 0
 

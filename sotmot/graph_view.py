@@ -26,7 +26,7 @@ import numpy as np
 from sotmot.boxes import pixel_bounds
 from sotmot.constraints import CONSTRAINTS
 from sotmot.explain import plain
-from sotmot.io import write_text_atomic
+from sotmot.io import write_bytes_atomic, write_text_atomic
 
 #: Colours as (B, G, R) for OpenCV and hex for SVG.
 REJECT_COLOURS = {"iou": (0, 140, 255), "gap": (180, 60, 160), "velocity": (40, 40, 220), "affinity": (200, 120, 30)}
@@ -135,9 +135,7 @@ def draw_png(graph: nx.DiGraph, path: str | Path, width: int = 1400) -> Path:
     ok, data = cv2.imencode(".png", img)
     if not ok:
         raise RuntimeError("PNG encoding failed")
-    tmp = path.with_name(f".{path.name}.partial")
-    tmp.write_bytes(data.tobytes())
-    tmp.replace(path)
+    write_bytes_atomic(path, data.tobytes())
     return path
 
 

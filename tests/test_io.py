@@ -131,3 +131,18 @@ def test_real_sequences_read():
     gt16 = read_ground_truth(mot.gt_path, mot.length)
     assert gt16.style == "MOT16"
     assert set(np.unique(gt16.pedestrians().classes)) == {1}
+
+
+def test_atomic_path_renames_on_success_and_leaves_nothing_on_error(tmp_path):
+    from sotmot.io import atomic_path
+
+    target = tmp_path / "model.pt"
+    target.write_text("old")
+    with pytest.raises(RuntimeError):
+        with atomic_path(target) as tmp:
+            tmp.write_text("half")
+            raise RuntimeError("disk full")
+    assert target.read_text() == "old" and sorted(p.name for p in tmp_path.iterdir()) == ["model.pt"]
+    with atomic_path(target) as tmp:
+        tmp.write_text("new")
+    assert target.read_text() == "new" and sorted(p.name for p in tmp_path.iterdir()) == ["model.pt"]

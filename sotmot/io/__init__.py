@@ -2,6 +2,7 @@
 
 from sotmot.io.mot import (
     FrameReader,
+    atomic_path,
     check_output_dir,
     GroundTruth,
     SeqInfo,
@@ -14,10 +15,11 @@ from sotmot.io.mot import (
     read_seqinfo,
     results_path,
     write_results,
+    write_bytes_atomic,
     write_text_atomic,
 )
 
 __all__ = [
-    "FrameReader", "check_output_dir", "GroundTruth", "SeqInfo", "format_results", "gt_style", "is_plain_name", "read_detections",
-    "read_ground_truth", "read_results", "read_seqinfo", "results_path", "write_results", "write_text_atomic",
+    "FrameReader", "atomic_path", "check_output_dir", "GroundTruth", "SeqInfo", "format_results", "gt_style", "is_plain_name", "read_detections",
+    "read_ground_truth", "read_results", "read_seqinfo", "results_path", "write_results", "write_bytes_atomic", "write_text_atomic",
 ]
