@@ -37,7 +37,7 @@ def get_solver(name: str) -> Solver:
     """
     target = SOLVERS.get(name)
     if target is None:
-        raise SolverError(f"unknown merger {name!r}; valid mergers: {', '.join(sorted(SOLVERS))}")
+        raise SolverError(f"unknown solver {name!r}; valid solvers: {', '.join(sorted(SOLVERS))}")
     module, func = target.split(":")
     solver: Callable = getattr(importlib.import_module(module), func)
     return solver

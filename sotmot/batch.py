@@ -142,7 +142,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
         return Outcome(seq_dir, "failed", None, f"{seq_dir}: unexpected {type(exc).__name__}: {detail}")
 
 
-def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerConfig, merger: str = "greedy",
+def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerConfig, merger: str | None = None,
                workers: int = 1, resume: bool = False, progress: bool = False, report=None,
                cluster: str | None = None) -> list[Outcome]:
     """Track every sequence; ``workers > 1`` runs them in that many processes, ``cluster`` on Dask.
@@ -161,6 +161,9 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     """
     from sotmot.io import check_output_dir
 
+    if merger is not None:  # the solver is configuration: the run record and every worker see one value
+        config = config.replace("association", solver=merger)
+    merger = config.association.solver
     seq_dirs = [str(s) for s in seq_dirs]
     out_dir = str(check_output_dir(out_dir))  # a file, a read-only folder: said now, not after the work
     report = report or (lambda outcome: None)

@@ -124,6 +124,8 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("sot", variant=args.sot)
     if args.extend_ends is not None:
         config = config.replace("sot", extend_seconds=args.extend_ends)
+    if getattr(args, "solver", None):
+        config = config.replace("association", solver=args.solver)
     return config
 
 
@@ -184,7 +186,7 @@ def _track(args: argparse.Namespace, seq_dirs: list[Path]) -> int:
         tqdm.write(f"sotmot: error: {outcome.message}" if failed else outcome.message,
                    file=sys.stderr if failed else sys.stdout)
 
-    outcomes = track_many(seq_dirs, args.out, config, merger=args.merger, workers=args.workers,
+    outcomes = track_many(seq_dirs, args.out, config, workers=args.workers,
                           resume=args.resume, progress=_progress(args), report=report, cluster=args.cluster)
     failed = [o for o in outcomes if o.status == "failed"]
     if failed:
@@ -291,7 +293,7 @@ def _track_for_inspection(args: argparse.Namespace):
     from sotmot.pipeline import track_sequence
 
     config = _build_config(args)
-    return config, track_sequence(args.seq_dir, config, merger=args.merger, progress=_progress(args))
+    return config, track_sequence(args.seq_dir, config, progress=_progress(args))
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
@@ -302,12 +304,12 @@ def cmd_graph(args: argparse.Namespace) -> int:
     config, result = _track_for_inspection(args)
     graph = run_graph(result, config, frames)
     paths = export_graph(graph, args.out)
-    title = f"{result.info.name}: association graph ({args.merger})"
+    title = f"{result.info.name}: association graph ({config.association.solver})"
     paths.append(draw_png(graph, args.out / "graph.png"))
     paths.append(write_html(graph, args.out / "graph.html", tracklet_crops(result, graph), title))
     taken = sum(1 for *_, d in graph.edges(data=True) if d["taken"])
     print(f"{graph.number_of_nodes()} tracklets, {graph.number_of_edges()} candidate links "
-          f"({taken} taken by {args.merger}) -> " + ", ".join(str(p) for p in paths))
+          f"({taken} taken by {config.association.solver}) -> " + ", ".join(str(p) for p in paths))
     return 0
 
 
@@ -316,7 +318,7 @@ def cmd_explain(args: argparse.Namespace) -> int:
 
     a, b = parse_ids(args.ids)
     config, result = _track_for_inspection(args)
-    print(explain(run_graph(result, config), a, b, config, args.merger))
+    print(explain(run_graph(result, config), a, b, config, config.association.solver))
     return 0
 
 
@@ -353,9 +355,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR",
                    help="folder with seqinfo.ini, det/det.txt and img1/, or a video file (.mp4, .avi, ...) with --det")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="where <name>.txt results go")
-    p.add_argument("--merger", default="greedy", choices=sorted(SOLVERS),
-                   help="long-term association solver: greedy (the paper's greedy merge, default), flow "
-                        "(min-cost flow, OR-Tools), flow-nx (the same with networkx, slow; for cross-checks)")
+    p.add_argument("--solver", "--merger", dest="solver", choices=sorted(SOLVERS),
+                   help="long-term association solver ([association] solver): greedy (the paper's greedy merge, "
+                        "default), flow (min-cost flow, OR-Tools), flow-nx (the same with networkx, slow; for "
+                        "cross-checks). --merger is the older name")
     _add_tracker_options(p)
     p.add_argument("--det", type=Path, metavar="DET.txt",
                    help="with a video file as SEQ_DIR: its detections (MOTChallenge layout: frame, id, x, y, w, h, "
@@ -385,7 +388,8 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Compare long-term association solvers on identical tracklets.",
                        epilog=EPILOG_COMPARE, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequence folders with gt/gt.txt")
-    p.add_argument("--mergers", default="greedy,flow", help="comma-separated solver names (default: %(default)s)")
+    p.add_argument("--solvers", "--mergers", dest="mergers", default="greedy,flow",
+                   help="comma-separated solver names (default: %(default)s; --mergers is the older name)")
     _add_tracker_options(p)
     p.add_argument("--json", type=Path, metavar="FILE", help="also write the table as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (they are drawn only when stderr is a terminal)")
@@ -436,8 +440,8 @@ def build_parser() -> argparse.ArgumentParser:
                            "tracked first, with the same options as 'sotmot track'; track ids are those "
                            "of the results file that run writes.")
         p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR", help="folder with seqinfo.ini, det/det.txt and img1/")
-        p.add_argument("--merger", default="greedy", choices=sorted(SOLVERS),
-                       help="long-term association solver whose links are shown (default: %(default)s)")
+        p.add_argument("--solver", "--merger", dest="solver", choices=sorted(SOLVERS),
+                       help="long-term association solver whose links are shown (default: the config's, greedy)")
         if name == "graph":
             p.add_argument("--out", type=Path, required=True, metavar="DIR",
                            help="folder for graph.graphml, graph.json, graph.png and graph.html")

@@ -272,6 +272,11 @@ class AssociationConfig:
         per frame (linear motion).
     short_gap
         Longest gap that counts as short (paper: 5).
+    solver
+        The long-term association solver, a name in ``solvers.SOLVERS``:
+        ``"greedy"`` (the paper's greedy merge), ``"flow"`` (min-cost flow,
+        OR-Tools) or ``"flow-nx"`` (the same with networkx). ``--solver`` (alias
+        ``--merger``) sets it.
     min_affinity
         Pairs of trajectories with a lower appearance affinity are never merged.
         The paper's tau_a = 0.75 is for its own model (with model 0288 only 6%
@@ -287,6 +292,7 @@ class AssociationConfig:
     velocity_long: float = 1.0 / 3.0
     short_gap: int = 5
     min_affinity: float = 0.45
+    solver: str = "greedy"
 
     def __post_init__(self) -> None:
         _check(0.0 <= self.tau_iou < 1.0, "association", "tau_iou must be in [0, 1)")
@@ -295,6 +301,10 @@ class AssociationConfig:
             _check(getattr(self, name) > 0, "association", f"{name} must be > 0")
         _check(self.short_gap >= 2, "association", "short_gap must be >= 2")
         _check(0.0 <= self.min_affinity <= 1.0, "association", "min_affinity must be in [0, 1]")
+        from solvers import SOLVERS  # the registry of solvers is the list of valid names
+
+        _check(self.solver in SOLVERS, "association",
+               f"solver must be one of {', '.join(sorted(SOLVERS))}; got {self.solver!r}")
 
 
 @dataclass(frozen=True)

@@ -190,9 +190,10 @@ class TrackResult:
     dropped: Tracks = field(default_factory=Tracks.empty)
 
 
-def associate(tracklets: list[Tracklet], merger: str, config: TrackerConfig) -> tuple[Association, list[Tracklet]]:
-    """Run the solver named ``merger`` and merge each of its groups into one trajectory."""
-    solver = get_solver(merger)
+def associate(tracklets: list[Tracklet], merger: str | None, config: TrackerConfig
+              ) -> tuple[Association, list[Tracklet]]:
+    """Run the solver named ``merger`` (None: ``[association] solver``) and merge each group into one trajectory."""
+    solver = get_solver(merger or config.association.solver)
     association = solver(tuple(tracklets), config.association)
     by_id = {t.id: t for t in tracklets}
     trajectories = [merge_group([by_id[i] for i in group], new_id=k)
@@ -294,8 +295,9 @@ def confirm(tracks: Tracks, config: TrackerConfig, method: str = "raw") -> tuple
 
 
 def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
-                    merger: str = "greedy", embedder: Embedder | None = None, progress: "bool | Progress" = False) -> TrackResult:
-    """Long-term association with the solver ``merger``, then post-processing, confirmation and
+                    merger: str | None = None, embedder: Embedder | None = None,
+                    progress: "bool | Progress" = False) -> TrackResult:
+    """Long-term association with the solver ``merger`` (None: the config's), then post-processing, confirmation and
     (with ``[sot] extend_seconds``) the extension of trajectory ends; ``embedder`` serves the latter
     (built from ``config.appearance`` when needed and omitted)."""
     timings = dict(prepared.timings)
@@ -313,7 +315,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
         clock.lap("extend")
     log.info("%s: %d tracklets -> %d trajectories -> %d tracks, %d boxes kept, %d dropped as unconfirmed (%s)",
              prepared.info.name, len(prepared.tracklets), len(trajectories), tracks.n_tracks, len(tracks),
-             len(dropped), merger)
+             len(dropped), merger or config.association.solver)
     return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
                        association, trajectories, tracks, timings, prepared.confidence, dropped)
 
@@ -334,7 +336,7 @@ def extend_trajectories(prepared: Prepared, trajectories: list[Tracklet], tracks
     return tracks
 
 
-def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(), merger: str = "greedy",
+def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(), merger: str | None = None,
                    embedder: Embedder | None = None, progress: "bool | Progress" = False,
                    features: np.ndarray | None = None) -> TrackResult:
     """Track one MOTChallenge sequence folder.
@@ -346,7 +348,8 @@ def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
     config
         Tracker configuration.
     merger
-        Name of the long-term association solver (a key of ``solvers.SOLVERS``).
+        Name of the long-term association solver (a key of ``solvers.SOLVERS``);
+        None: ``[association] solver`` of ``config``.
     embedder
         Appearance model; built from ``config.appearance`` when omitted.
     progress
@@ -356,6 +359,6 @@ def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
         Precomputed features of the preprocessed detections (skips embedding;
         used by benchmarks that try several settings on the same detections).
     """
-    get_solver(merger)  # an unknown name fails before any work is done
+    get_solver(merger or config.association.solver)  # an unknown name fails before any work is done
     return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features), config, merger,
                            embedder, progress)

@@ -71,4 +71,4 @@ def test_compare_runs_every_solver_on_the_same_tracklets(tmp_path, model_0288, c
     assert by["flow"]["flow_cost"] == pytest.approx(by["flow-nx"]["flow_cost"], abs=1e-6)
     assert "trajectories" in capsys.readouterr().out
     assert main(["compare", str(seq), "--mergers", "greedy,nope", "--reid-model", str(model_0288)]) == 2
-    assert "valid mergers" in capsys.readouterr().err
+    assert "valid solvers" in capsys.readouterr().err

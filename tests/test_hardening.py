@@ -344,3 +344,14 @@ def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):
                               embedder=GeometryEmbedder())
     assert outcome.status == "failed"
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == []
+
+
+def test_the_solver_is_configuration():
+    from sotmot.cli import _build_config, build_parser
+
+    with pytest.raises(ConfigError, match="solver must be one of flow, flow-nx, greedy"):
+        TrackerConfig().replace("association", solver="magic")
+    args = build_parser().parse_args(["track", "x", "--out", "y", "--merger", "flow"])
+    assert _build_config(args).association.solver == "flow"
+    args = build_parser().parse_args(["track", "x", "--out", "y"])
+    assert _build_config(args).association.solver == "greedy"
