@@ -20,7 +20,7 @@ from sotmot.appearance import make_embedder
 from sotmot.benchmarks import DEFAULT_DATA
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import evaluate_files
-from sotmot.explain import run_graph
+from sotmot.explain import inspection_graph
 from sotmot.graph_view import draw_png
 from sotmot.io import (
     FrameReader,
@@ -118,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     runs = {}
     for merger in ("greedy", "flow"):
         runs[merger] = finish_sequence(prepared, base, merger)
-    graph = run_graph(runs["greedy"], base)
+    graph = inspection_graph(runs["greedy"], base)
     graph_fig = draw_png(graph, FIG / "graph_mot16_05.png")
     rejected = {}
     for *_, d in graph.edges(data=True):
@@ -164,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     if pets.is_dir():
         p = prepare_sequence(pets, base, embedder)
         r = finish_sequence(p, base, "greedy")
-        g = run_graph(r, base, (100, 140))
+        g = inspection_graph(r, base, (100, 140))
         draw_png(g, FIG / "graph_pets_100_140.png")
         text += ["## The same on PETS09-S2L1, frames 100-140", "",
                  f"{len(p.detections)} detections, {len(p.tracklets)} tracklets (7 fps: 7-frame batches), "

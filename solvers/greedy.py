@@ -49,7 +49,7 @@ _STRIDE = 64
 _UNCHECKED, _ALLOWED, _REJECTED = 0, 1, -1
 
 
-class _Lists:
+class _CandidateLists:
     """Candidate lists sorted best first, and the heap of their heads (see the module docstring)."""
 
     def __init__(self, alive: np.ndarray) -> None:
@@ -147,7 +147,7 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
     ends[:n] = [t.end for t in nodes]
     features = np.zeros((capacity, len(nodes[0].feature)), dtype=np.float64)  # unit length, see appearance.unit
     features[:n] = unit(np.stack([t.feature for t in nodes]))
-    lists = _Lists(alive)
+    lists = _CandidateLists(alive)
 
     def gated(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pairs above the affinity gate, oriented by smallest input id; their affinities and tie keys."""

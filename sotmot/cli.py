@@ -297,12 +297,12 @@ def _track_for_inspection(args: argparse.Namespace):
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
-    from sotmot.explain import export_graph, parse_frames, run_graph
+    from sotmot.explain import export_graph, parse_frames, inspection_graph
     from sotmot.graph_view import draw_png, tracklet_crops, write_html
 
     frames = parse_frames(args.frames)
     config, result = _track_for_inspection(args)
-    graph = run_graph(result, config, frames)
+    graph = inspection_graph(result, config, frames)
     paths = export_graph(graph, args.out)
     title = f"{result.info.name}: association graph ({config.association.solver})"
     paths.append(draw_png(graph, args.out / "graph.png"))
@@ -314,11 +314,11 @@ def cmd_graph(args: argparse.Namespace) -> int:
 
 
 def cmd_explain(args: argparse.Namespace) -> int:
-    from sotmot.explain import explain, parse_ids, run_graph
+    from sotmot.explain import explain, parse_ids, inspection_graph
 
     a, b = parse_ids(args.ids)
     config, result = _track_for_inspection(args)
-    print(explain(run_graph(result, config), a, b, config, config.association.solver))
+    print(explain(inspection_graph(result, config), a, b, config, config.association.solver))
     return 0
 
 

@@ -279,7 +279,7 @@ def passes_affinity_gate(affinity, config: AssociationConfig) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Screen:
+class PairChecks:
     """A(t1, t2) evaluated for many pairs at once (see :func:`check_pairs`); arrays of shape ``(K,)``.
 
     Attributes
@@ -308,13 +308,13 @@ class Screen:
     bound: np.ndarray
 
     @staticmethod
-    def concat(parts: Sequence[Screen]) -> Screen:
+    def concat(parts: Sequence[PairChecks]) -> PairChecks:
         """One screen of the pairs of ``parts``, in order."""
-        fields = [f.name for f in dataclasses.fields(Screen) if f.name != "failures"]
-        return Screen(**{name: np.concatenate([getattr(p, name) for p in parts]) for name in fields},
+        fields = [f.name for f in dataclasses.fields(PairChecks) if f.name != "failures"]
+        return PairChecks(**{name: np.concatenate([getattr(p, name) for p in parts]) for name in fields},
                       failures={c: np.concatenate([p.failures[c] for p in parts]) for c in CONSTRAINTS})
 
-    def take(self, rows: np.ndarray) -> Screen:
+    def take(self, rows: np.ndarray) -> PairChecks:
         """The screen of the pairs ``rows`` only."""
         return dataclasses.replace(self, **{f.name: getattr(self, f.name)[rows] for f in dataclasses.fields(self)
                                             if f.name != "failures"},
@@ -332,7 +332,7 @@ class Screen:
 
 
 def check_pairs(tracklets: Sequence[Tracklet], pairs: np.ndarray, affinities: np.ndarray,
-                config: AssociationConfig, complete: bool = False) -> Screen:
+                config: AssociationConfig, complete: bool = False) -> PairChecks:
     """Evaluate A(t1, t2) for many pairs at once, vectorised: the implementation of the rules.
 
     Parameters
@@ -370,7 +370,7 @@ def check_pairs(tracklets: Sequence[Tracklet], pairs: np.ndarray, affinities: np
             cut = np.flatnonzero(np.diff(np.cumsum(work) // CHECK_FRAMES)) + 1
             parts = [check_pairs(tracklets, pairs[a:b], affinities[a:b], config, complete)
                      for a, b in zip(np.r_[0, cut], np.r_[cut, k])]
-            return Screen.concat(parts)
+            return PairChecks.concat(parts)
     # only the trajectories of pairs whose spans meet are needed frame by frame
     sub, met_local = np.unique(local[met], return_inverse=True)
     index = _FrameIndex(tracklets, nodes[sub])
@@ -389,11 +389,11 @@ def check_pairs(tracklets: Sequence[Tracklet], pairs: np.ndarray, affinities: np
         index, met_local[sel], config)
     failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config)
     allowed = ~np.any(np.stack([failures[c] for c in CONSTRAINTS]), axis=0) if k else np.zeros(0, bool)
-    return Screen(allowed=allowed, failures=failures, affinity=affinities, overlap=overlap, min_iou=min_iou,
+    return PairChecks(allowed=allowed, failures=failures, affinity=affinities, overlap=overlap, min_iou=min_iou,
                   max_gap=max_gap, worst_gap=worst_gap, speed=speed, bound=bound)
 
 
-def _scatter(part: Screen, rows: np.ndarray, affinities: np.ndarray, config: AssociationConfig) -> Screen:
+def _scatter(part: PairChecks, rows: np.ndarray, affinities: np.ndarray, config: AssociationConfig) -> PairChecks:
     """A screen over all pairs from the screen of ``rows``; the other pairs failed only the affinity gate."""
     k = len(affinities)
 
@@ -406,7 +406,7 @@ def _scatter(part: Screen, rows: np.ndarray, affinities: np.ndarray, config: Ass
     max_gap, worst_gap = fill(part.max_gap, 0), fill(part.worst_gap, 0)
     speed, bound = fill(part.speed, 0.0), fill(part.bound, np.inf)
     failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config)
-    return Screen(allowed=fill(part.allowed, False), failures=failures, affinity=affinities, overlap=overlap,
+    return PairChecks(allowed=fill(part.allowed, False), failures=failures, affinity=affinities, overlap=overlap,
                   min_iou=min_iou, max_gap=max_gap, worst_gap=worst_gap, speed=speed, bound=bound)
 
 

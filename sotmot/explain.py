@@ -25,7 +25,7 @@ from sotmot.pipeline import TrackResult
 from sotmot.postprocess import output_ids
 
 
-def run_graph(result: TrackResult, config: TrackerConfig, frames: tuple[int, int] | None = None) -> nx.DiGraph:
+def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[int, int] | None = None) -> nx.DiGraph:
     """The annotated association graph of ``result``, optionally of tracklets inside ``frames = (A, B)``.
 
     Node attributes: ``start``, ``end``, ``length``, ``mean_score``,
@@ -93,7 +93,7 @@ def _join_rounds(association, pairs: list[tuple[int, int]]) -> dict[tuple[int, i
     return rounds
 
 
-def plain(value, digits: int | None = None):
+def json_scalar(value, digits: int | None = None):
     """GraphML and JSON friendly scalars: numpy types to Python, NaN and inf to strings,
     floats rounded to ``digits`` decimals if given."""
     if isinstance(value, (bool, np.bool_)):
@@ -112,9 +112,9 @@ def export_graph(graph: nx.DiGraph, out_dir: str | Path) -> list[Path]:
     out_dir = Path(out_dir)
     clean = nx.DiGraph()
     for n, data in graph.nodes(data=True):
-        clean.add_node(n, **{key: plain(value) for key, value in data.items()})
+        clean.add_node(n, **{key: json_scalar(value) for key, value in data.items()})
     for u, v, data in graph.edges(data=True):
-        clean.add_edge(u, v, **{key: plain(value) for key, value in data.items()})
+        clean.add_edge(u, v, **{key: json_scalar(value) for key, value in data.items()})
     graphml = out_dir / "graph.graphml"
     write_text_atomic(graphml, "\n".join(nx.generate_graphml(clean)) + "\n")
     js = out_dir / "graph.json"

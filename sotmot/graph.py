@@ -37,7 +37,7 @@ import numpy as np
 
 from sotmot.appearance import affinity_rows, pair_affinities, unit
 from sotmot.config import AssociationConfig
-from sotmot.constraints import CONSTRAINTS, Screen, candidate_pairs, check_pairs
+from sotmot.constraints import CONSTRAINTS, PairChecks, candidate_pairs, check_pairs
 from sotmot.errors import SolverError
 from sotmot.types import Tracklet
 
@@ -77,7 +77,7 @@ class Candidates:
 
     u: np.ndarray
     v: np.ndarray
-    screen: Screen
+    screen: PairChecks
 
 
 def candidate_links(tracklets: Sequence[Tracklet], config: AssociationConfig,

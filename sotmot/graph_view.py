@@ -25,7 +25,7 @@ import numpy as np
 
 from sotmot.boxes import pixel_bounds
 from sotmot.constraints import CONSTRAINTS
-from sotmot.explain import plain
+from sotmot.explain import json_scalar
 from sotmot.io import write_bytes_atomic, write_text_atomic
 
 #: Colours as (B, G, R) for OpenCV and hex for SVG.
@@ -155,13 +155,13 @@ def write_html(graph: nx.DiGraph, path: str | Path, crops: dict | None = None, t
         colour = _hex(TAKEN if kind == "taken" else ALLOWED if kind == "allowed" else REJECT_COLOURS[kind])
         dash = "" if kind in ("taken", "allowed") else ' stroke-dasharray="5,4"'
         width_px = 3 if kind == "taken" else 1.5
-        info = {"link": f"{u} -> {v}", **{key: plain(val, 4) for key, val in data.items()}}
+        info = {"link": f"{u} -> {v}", **{key: json_scalar(val, 4) for key, val in data.items()}}
         parts.append(f'<line class="edge {kind}" id="edge-{k}" data-info="{html.escape(json.dumps(info))}" '
                      f'x1="{x1:.1f}" y1="{y1}" x2="{x2:.1f}" y2="{y2}" stroke="{colour}" '
                      f'stroke-width="{width_px}"{dash}/>')
     for n, (x1, x2, y) in pos.items():
         d = graph.nodes[n]
-        info = {"tracklet": n, **{key: plain(val, 4) for key, val in d.items()}}
+        info = {"tracklet": n, **{key: json_scalar(val, 4) for key, val in d.items()}}
         first, last = crops.get(n, (None, None))
         if first is not None:
             info["crop_first"] = "data:image/jpeg;base64," + base64.b64encode(first).decode()

@@ -68,17 +68,17 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
         raise ValueError(f"{len(detections)} detections but {len(features)} features")
     per_frame = detections.by_frame()
     frames = sorted(per_frame)
-    blen = batch_length(frame_rate, config.batch_seconds)
-    if blen <= config.l_min:
+    batch_frames = batch_length(frame_rate, config.batch_seconds)
+    if batch_frames <= config.l_min:
         raise ConfigError(f"[tracklets] batch_seconds = {config.batch_seconds:g} at {frame_rate:g} frames/s gives "
-                          f"batches of {blen} frame(s), so every tracklet has at most {blen} box(es) and l_min = "
+                          f"batches of {batch_frames} frame(s), so every tracklet has at most {batch_frames} box(es) and l_min = "
                           f"{config.l_min} drops them all; use batch_seconds >= {(config.l_min + 1) / frame_rate:.3g} "
                           f"(or check frameRate in seqinfo.ini)")
     finished: list[list[int]] = []
     active: list[list[int]] = []
     current_batch = None
     for frame in (progress(frames) if progress else frames):
-        batch = (frame - 1) // blen
+        batch = (frame - 1) // batch_frames
         if batch != current_batch or (active and detections.frames[active[0][-1]] != frame - 1):
             # New batch, or the previous frame had no detections: every open tracklet closes.
             finished.extend(active)

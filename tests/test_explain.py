@@ -10,7 +10,7 @@ import pytest
 
 from conftest import GeometryEmbedder, write_sequence
 from sotmot.config import TrackerConfig
-from sotmot.explain import explain, export_graph, run_graph
+from sotmot.explain import explain, export_graph, inspection_graph
 from sotmot.graph_view import draw_png, tracklet_crops, write_html
 from sotmot.pipeline import track_sequence
 
@@ -33,7 +33,7 @@ def teleport_run(tmp_path):
 def test_velocity_rejection_is_exported_and_explained(tmp_path):
     config, result = teleport_run(tmp_path)
     assert result.tracks.n_tracks == 2
-    graph = run_graph(result, config)
+    graph = inspection_graph(result, config)
     (edge,) = graph.edges(data=True)
     assert edge[2]["failed"] == "velocity" and not edge[2]["taken"]
     text = explain(graph, 1, 2, config, "greedy")
@@ -44,7 +44,7 @@ def test_velocity_rejection_is_exported_and_explained(tmp_path):
 
 def test_graphml_and_json_round_trip(tmp_path):
     config, result = teleport_run(tmp_path)
-    graph = run_graph(result, config)
+    graph = inspection_graph(result, config)
     export_graph(graph, tmp_path / "out")
     back = nx.read_graphml(tmp_path / "out" / "graph.graphml", node_type=int)
     assert sorted(back.nodes) == sorted(graph.nodes) and sorted(back.edges) == sorted(graph.edges)
@@ -64,7 +64,7 @@ def test_merged_tracks_are_explained_as_taken(tmp_path):
     seq = write_sequence(tmp_path, lines, length=8, frame_rate=4, width=320, height=120)
     config = ASSOCIATION_ONLY
     result = track_sequence(seq, config, embedder=GeometryEmbedder())
-    graph = run_graph(result, config)
+    graph = inspection_graph(result, config)
     text = explain(graph, 1, 1, config, "greedy")
     assert "TAKEN by greedy in round 1" in text and "were merged" in text
 
@@ -78,7 +78,7 @@ CHROME_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian's chromium is not installed (.ci/run installs it)")
 def test_html_page_works_in_a_real_headless_browser(tmp_path):
     config, result = teleport_run(tmp_path)
-    graph = run_graph(result, config)
+    graph = inspection_graph(result, config)
     page = write_html(graph, tmp_path / "graph.html", tracklet_crops(result, graph), "teleport")
     png = draw_png(graph, tmp_path / "graph.png")
     assert cv2.imread(str(png)) is not None
