@@ -1,6 +1,6 @@
 """Long-term association as min-cost flow, solved with OR-Tools' ``SimpleMinCostFlow``.
 
-The network (Zhang et al. 2008; see :mod:`sotmot.graph`) has a link arc only
+The network (Zhang et al. 2008; see :mod:`solvers.flow_common`) has a link arc only
 where the shared constraint function allows the pair, so this solver obeys the
 same IoU, velocity and gap rules as the greedy merge, on every link it makes.
 Unlike the greedy merge it optimises all links at once: the set of links that
@@ -19,10 +19,10 @@ from collections.abc import Sequence
 import numpy as np
 
 from solvers.base import Association
-from solvers.flow_common import association_from_links
+from solvers.flow_common import association_from_links, flow_arcs, link_cost
 from sotmot.config import AssociationConfig
 from sotmot.errors import SolverError
-from sotmot.graph import candidate_links, flow_arcs, link_cost
+from sotmot.graph import candidate_links
 from sotmot.types import Tracklet
 
 
@@ -35,7 +35,7 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
     cands = candidate_links(tracklets, config)
     ids = np.array([t.id for t in tracklets], dtype=np.int64)
     u, v, affinity = ids[cands.u], ids[cands.v], cands.screen.affinity
-    nodes, tails, heads, capacities, costs = flow_arcs(ids, u, v, link_cost(affinity), config)
+    nodes, tails, heads, capacities, costs, link_arcs = flow_arcs(ids, u, v, link_cost(affinity), config)
     smcf = min_cost_flow.SimpleMinCostFlow()
     arcs = smcf.add_arcs_with_capacity_and_unit_cost(tails, heads, capacities, costs)
     supplies = np.zeros(len(nodes), dtype=np.int64)
@@ -45,10 +45,6 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
     if status != smcf.OPTIMAL:
         raise SolverError(f"OR-Tools min-cost flow ended with status {status!r}, not OPTIMAL")
     flows = smcf.flows(arcs)
-    # link arcs come last, sorted by (u, v), as flow_arcs lays them out
-    n_links = len(u)
-    order = np.lexsort((v, u))
-    used = np.flatnonzero(flows[len(flows) - n_links:] > 0) if n_links else np.zeros(0, np.int64)
-    chosen = order[used]
+    chosen = np.flatnonzero(flows[link_arcs] > 0)
     links = list(zip(u[chosen].tolist(), v[chosen].tolist()))
     return association_from_links(tracklets, links, dict(zip(links, affinity[chosen].tolist())))

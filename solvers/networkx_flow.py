@@ -12,17 +12,17 @@ from collections.abc import Sequence
 import networkx as nx
 
 from solvers.base import Association
-from solvers.flow_common import association_from_links
+from solvers.flow_common import SINK, SOURCE, association_from_links, flow_network
 from sotmot.config import AssociationConfig
 from sotmot.errors import SolverError
-from sotmot.graph import SINK, SOURCE, build_graph, flow_network
+from sotmot.graph import build_graph
 from sotmot.types import Tracklet
 
 
 def network(tracklets: Sequence[Tracklet], config: AssociationConfig) -> tuple[nx.DiGraph, nx.DiGraph]:
     """The association graph and its flow network as a networkx ``DiGraph``."""
     graph = build_graph(tracklets, config)
-    nodes, tails, heads, capacities, costs = flow_network(graph, config)
+    nodes, tails, heads, capacities, costs, _ = flow_network(graph, config)
     net = nx.DiGraph()
     for key in nodes:
         net.add_node(key, demand=0)

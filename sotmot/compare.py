@@ -24,7 +24,7 @@ from sotmot.appearance import Embedder, embedder_for
 from sotmot.config import TrackerConfig
 from sotmot.errors import SotmotError
 from sotmot.evaluate import evaluate_files
-from sotmot.graph import flow_objective
+from solvers.flow_common import flow_objective
 from sotmot.io import results_path, write_results
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracklet

@@ -85,6 +85,11 @@ class PairCheck:
     velocity_bound: float
 
 
+def link_order_key(t: Tracklet) -> tuple[int, int, int]:
+    """The orientation of links: the tracklet that starts first (ties: ends first, then smaller id) leads."""
+    return (t.start, t.end, t.id)
+
+
 def velocity_bound(gap: np.ndarray | int, width: np.ndarray | float,
                    config: AssociationConfig) -> np.ndarray:
     """Velocity bound in pixels per frame for a gap of ``gap`` frames between boxes of mean ``width``."""

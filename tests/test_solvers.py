@@ -171,7 +171,7 @@ def crossing_case():
 
 @pytest.mark.parametrize("name", ["flow", "flow-nx"])
 def test_flow_beats_greedy_where_greedy_is_suboptimal(name):
-    from sotmot.graph import flow_objective
+    from solvers.flow_common import flow_objective
 
     ts = crossing_case()
     cfg = AssociationConfig(min_affinity=0.8)
@@ -186,7 +186,7 @@ def test_flow_beats_greedy_where_greedy_is_suboptimal(name):
 @settings(max_examples=40, deadline=None)
 @given(specs=SPECS)
 def test_ortools_and_networkx_reach_the_same_total_cost(specs):
-    from sotmot.graph import flow_objective
+    from solvers.flow_common import flow_objective
 
     ts = random_tracklets(specs)
     a = get_solver("flow")(ts, CFG)
@@ -204,3 +204,14 @@ def test_flow_links_are_all_allowed_edges():
         assert graph.edges[link.a, link.b]["allowed"]
     rejected = [(u, v) for u, v, d in graph.edges(data=True) if not d["allowed"]]
     assert (2, 4) in rejected and graph.edges[2, 4]["failed"] == "affinity"
+
+
+def test_flow_arcs_say_where_each_link_is():
+    from solvers.flow_common import flow_arcs
+
+    ids = [7, 3, 5]
+    u, v = np.array([5, 3, 3]), np.array([7, 7, 5])  # deliberately not in (u, v) order
+    nodes, tails, heads, _, costs, link_arcs = flow_arcs(ids, u, v, np.array([0.1, 0.2, 0.3]), CFG)
+    for k in range(3):
+        assert nodes[tails[link_arcs[k]]] == ("out", int(u[k])) and nodes[heads[link_arcs[k]]] == ("in", int(v[k]))
+        assert costs[link_arcs[k]] == round([0.1, 0.2, 0.3][k] * 10_000)
