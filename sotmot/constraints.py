@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -43,8 +43,8 @@ Constraint = Literal["iou", "velocity", "gap", "affinity"]
 #: checks are split into pieces of about this size, so memory stays bounded on long sequences.
 CHECK_FRAMES = 400_000
 
-#: The order in which a failed constraint is reported when several fail.
-CONSTRAINTS: tuple[Constraint, ...] = ("iou", "gap", "velocity", "affinity")
+#: A pair's measurements by name (the names of the association graph's edge attributes): scalars or arrays.
+Measurements = Mapping[str, Any]
 
 
 @dataclass(frozen=True)
@@ -259,19 +259,10 @@ def gap_velocity(f1: np.ndarray, b1: np.ndarray, f2: np.ndarray, b2: np.ndarray,
 
 def rule_failures(overlap, min_iou, max_gap, speed, bound, affinity,
                   config: AssociationConfig) -> dict[Constraint, np.ndarray]:
-    """The one statement of each rule's test, elementwise over scalars or arrays.
-
-    Returns, per constraint, True where it fails: IoU when the pair shares
-    frames and the lowest segment mean IoU is not above ``tau_iou``; gap when
-    the largest gap exceeds ``l_max``; velocity when the worst checked gap's
-    speed exceeds its bound; affinity when below ``min_affinity``.
-    """
-    return {
-        "iou": (np.asarray(overlap) > 0) & ~(np.asarray(min_iou) > config.tau_iou),
-        "gap": np.asarray(max_gap) > config.l_max,
-        "velocity": np.asarray(speed) > np.asarray(bound),
-        "affinity": ~passes_affinity_gate(affinity, config),
-    }
+    """Each rule of :data:`RULES` applied elementwise: per constraint, True where it fails."""
+    measured = {"overlap_frames": overlap, "min_segment_iou": min_iou, "max_gap": max_gap, "velocity": speed,
+                "velocity_bound": bound, "affinity": affinity}
+    return {rule.name: np.asarray(rule.fails(measured, config)) for rule in RULES}
 
 
 def passes_affinity_gate(affinity, config: AssociationConfig) -> np.ndarray:
@@ -281,6 +272,68 @@ def passes_affinity_gate(affinity, config: AssociationConfig) -> np.ndarray:
     undefined affinity the same way: as a pair that is never merged.
     """
     return np.asarray(affinity, dtype=np.float64) >= config.min_affinity
+
+
+@dataclass(frozen=True)
+class Rule:
+    """One rule of A(t1, t2): what it measures, when it fails, how it is explained and drawn.
+
+    The checker (:func:`rule_failures`), the explanations (``sotmot explain``)
+    and the drawings (``sotmot graph``) iterate over :data:`RULES`, so a new
+    rule is one entry there.
+
+    Attributes
+    ----------
+    name
+        The constraint's name (edge attribute ``ok_<name>``, reported in ``failed``).
+    measures
+        The measurement names (edge attributes) it reads.
+    fails
+        ``(measurements, config) -> bool array``: True where the rule fails.
+    describe
+        ``(edge data, config) -> str``: the measurement in plain words, for one pair.
+    colour
+        BGR colour of a link rejected by this rule in drawings.
+    """
+
+    name: Constraint
+    measures: tuple[str, ...]
+    fails: Callable[[Measurements, AssociationConfig], np.ndarray]
+    describe: Callable[[Measurements, AssociationConfig], str]
+    colour: tuple[int, int, int]
+
+
+def _describe_iou(d: Measurements, a: AssociationConfig) -> str:
+    if not d["overlap_frames"]:
+        return "IoU: no shared frames (rule does not apply)"
+    return (f"IoU: {d['overlap_frames']} shared frames, lowest segment mean IoU {d['min_segment_iou']:.3f} "
+            f"(must be > {a.tau_iou})")
+
+
+def _describe_velocity(d: Measurements, a: AssociationConfig) -> str:
+    if not math.isfinite(d["velocity_bound"]):
+        return "velocity: the merge creates or changes no gap"
+    return (f"velocity: {d['velocity']:.2f} px/frame over the worst checked gap of {d['velocity_gap']} frames "
+            f"(bound {d['velocity_bound']:.2f})")
+
+
+#: The rules, in the order a failed one is reported when several fail.
+RULES: tuple[Rule, ...] = (
+    Rule("iou", ("overlap_frames", "min_segment_iou"),
+         lambda m, a: (np.asarray(m["overlap_frames"]) > 0) & ~(np.asarray(m["min_segment_iou"]) > a.tau_iou),
+         _describe_iou, (0, 140, 255)),
+    Rule("gap", ("max_gap",), lambda m, a: np.asarray(m["max_gap"]) > a.l_max,
+         lambda d, a: f"gap: largest gap of the merged trajectory {d['max_gap']} frames (max {a.l_max})",
+         (180, 60, 160)),
+    Rule("velocity", ("velocity", "velocity_bound"),
+         lambda m, a: np.asarray(m["velocity"]) > np.asarray(m["velocity_bound"]),
+         _describe_velocity, (40, 40, 220)),
+    Rule("affinity", ("affinity",), lambda m, a: ~passes_affinity_gate(m["affinity"], a),
+         lambda d, a: f"affinity: {d['affinity']:.3f} (min {a.min_affinity})", (200, 120, 30)),
+)
+
+#: The constraints' names, in :data:`RULES` order.
+CONSTRAINTS: tuple[Constraint, ...] = tuple(rule.name for rule in RULES)
 
 
 @dataclass(frozen=True)

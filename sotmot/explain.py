@@ -18,6 +18,7 @@ import networkx as nx
 import numpy as np
 
 from sotmot.config import TrackerConfig
+from sotmot.constraints import RULES
 from sotmot.errors import SotmotError
 from sotmot.graph import build_graph
 from sotmot.io import write_text_atomic
@@ -123,25 +124,9 @@ def export_graph(graph: nx.DiGraph, out_dir: str | Path) -> list[Path]:
 
 
 def _verdict(data: dict, config: TrackerConfig) -> list[str]:
-    a = config.association
-    lines = []
-    if data["overlap_frames"]:
-        lines.append(f"IoU: {data['overlap_frames']} shared frames, lowest segment mean IoU "
-                     f"{data['min_segment_iou']:.3f} (must be > {a.tau_iou}) -> "
-                     f"{'ok' if data['ok_iou'] else 'FAILS'}")
-    else:
-        lines.append("IoU: no shared frames (rule does not apply) -> ok")
-    lines.append(f"gap: largest gap of the merged trajectory {data['max_gap']} frames (max {a.l_max}) -> "
-                 f"{'ok' if data['ok_gap'] else 'FAILS'}")
-    if math.isfinite(data["velocity_bound"]):
-        lines.append(f"velocity: {data['velocity']:.2f} px/frame over the worst checked gap of "
-                     f"{data['velocity_gap']} frames (bound {data['velocity_bound']:.2f}) -> "
-                     f"{'ok' if data['ok_velocity'] else 'FAILS'}")
-    else:
-        lines.append("velocity: the merge creates or changes no gap -> ok")
-    lines.append(f"affinity: {data['affinity']:.3f} (min {a.min_affinity}) -> "
-                 f"{'ok' if data['ok_affinity'] else 'FAILS'}")
-    return lines
+    """One line per rule of :data:`~sotmot.constraints.RULES`: its measurement in words, then ok or FAILS."""
+    return [f"{rule.describe(data, config.association)} -> {'ok' if data[f'ok_{rule.name}'] else 'FAILS'}"
+            for rule in RULES]
 
 
 def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig, merger: str) -> str:

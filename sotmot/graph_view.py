@@ -24,12 +24,12 @@ import networkx as nx
 import numpy as np
 
 from sotmot.boxes import pixel_bounds
-from sotmot.constraints import CONSTRAINTS
+from sotmot.constraints import CONSTRAINTS, RULES
 from sotmot.explain import json_scalar
 from sotmot.io import write_bytes_atomic, write_text_atomic
 
 #: Colours as (B, G, R) for OpenCV and hex for SVG.
-REJECT_COLOURS = {"iou": (0, 140, 255), "gap": (180, 60, 160), "velocity": (40, 40, 220), "affinity": (200, 120, 30)}
+REJECT_COLOURS = {rule.name: rule.colour for rule in RULES}  # BGR, one per rule of the constraint table
 TAKEN = (40, 160, 40)
 ALLOWED = (170, 170, 170)
 LANE = 16

@@ -202,3 +202,19 @@ def test_pair_affinities_in_chunks_equal_affinity_rows():
     pairs = rng.integers(0, 50, (300, 2))
     np.testing.assert_allclose(pair_affinities(unit(feats), pairs, chunk=7),
                                affinity_rows(feats[pairs[:, 0]], feats[pairs[:, 1]]), atol=1e-12)
+
+
+def test_a_rule_is_one_entry_checked_explained_and_drawn(monkeypatch):
+    """Adding a rule to the table is enough for the checker, the explanation and the drawing to use it."""
+    from sotmot import constraints, explain
+    from sotmot.config import TrackerConfig
+
+    tall = constraints.Rule("gap", ("max_gap",), lambda m, a: np.asarray(m["max_gap"]) > 3,
+                            lambda d, a: f"short gaps only: {d['max_gap']}", (1, 2, 3))
+    table = constraints.RULES[:1] + (tall,)
+    monkeypatch.setattr(constraints, "RULES", table)  # what editing the table in constraints.py does
+    monkeypatch.setattr(explain, "RULES", table)
+    failures = constraints.rule_failures(0, np.nan, np.array([2, 5]), 0.0, np.inf, np.array([0.9, 0.9]), CFG)
+    assert set(failures) == {"iou", "gap"} and failures["gap"].tolist() == [False, True]
+    lines = explain._verdict({"overlap_frames": 0, "max_gap": 5, "ok_iou": True, "ok_gap": False}, TrackerConfig())
+    assert lines == ["IoU: no shared frames (rule does not apply) -> ok", "short gaps only: 5 -> FAILS"]
