@@ -157,10 +157,12 @@ def main(argv: list[str] | None = None) -> int:
         if group == "full":
             for label, rep in online_reports.items():
                 lines.append(f"{title + ' ' + label:<34}" + cells(rep.combined))
-    lines += ["", "interpolated boxes (TP / FP by TrackEval's matching)", f"{'sequence':<20}{'before':>20}{'after':>20}"]
+    lines += ["", "interpolated boxes (TP / FP by TrackEval's matching)",
+              f"{'sequence':<20}{'before':>20}{'after':>20}"]
     for name in full_names:
         b, a = interpolation[name]["before"], interpolation[name]["after"]
-        lines.append(f"{name:<20}{b['boxes']:>8} ({b['TP']:>4} / {b['FP']:>4}){a['boxes']:>8} ({a['TP']:>4} / {a['FP']:>4})")
+        lines.append(f"{name:<20}{b['boxes']:>8} ({b['TP']:>4} / {b['FP']:>4})"
+                     f"{a['boxes']:>8} ({a['TP']:>4} / {a['FP']:>4})")
     print("\n".join(lines))
     print(f"machine: {machine()}")
     if args.json:

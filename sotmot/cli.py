@@ -374,7 +374,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(pip install -e '.[dask]')")
     p.add_argument("--resume", action="store_true",
                    help="skip sequences whose results file already exists (files are written atomically)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (they are drawn only when stderr is a terminal)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_track)
 
     p = sub.add_parser("eval", help="score results with TrackEval", description="Score tracking results.",
@@ -392,7 +392,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="comma-separated solver names (default: %(default)s; --mergers is the older name)")
     _add_tracker_options(p)
     p.add_argument("--json", type=Path, metavar="FILE", help="also write the table as JSON")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (they are drawn only when stderr is a terminal)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser("train-appearance", help="fine-tune the re-ID model with triplet loss on ground truth",
@@ -449,7 +449,8 @@ def build_parser() -> argparse.ArgumentParser:
         else:
             p.add_argument("--ids", required=True, metavar="ID,ID", help="two output track ids, e.g. 3,17")
         _add_tracker_options(p)
-        p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (they are drawn only when stderr is a terminal)")
+        p.add_argument("-q", "--quiet", action="store_true",
+                       help="no progress bars (drawn only when stderr is a terminal)")
         p.set_defaults(func=func)
     for p in sub.choices.values():  # -v also after the command: sotmot track ... -v
         p.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,

@@ -71,8 +71,9 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
     batch_frames = batch_length(frame_rate, config.batch_seconds)
     if batch_frames <= config.l_min:
         raise ConfigError(f"[tracklets] batch_seconds = {config.batch_seconds:g} at {frame_rate:g} frames/s gives "
-                          f"batches of {batch_frames} frame(s), so every tracklet has at most {batch_frames} box(es) and l_min = "
-                          f"{config.l_min} drops them all; use batch_seconds >= {(config.l_min + 1) / frame_rate:.3g} "
+                          f"batches of {batch_frames} frame(s), so every tracklet has at most {batch_frames} box(es) "
+                          f"and l_min = {config.l_min} drops them all; use batch_seconds >= "
+                          f"{(config.l_min + 1) / frame_rate:.3g} "
                           f"(or check frameRate in seqinfo.ini)")
     finished: list[list[int]] = []
     active: list[list[int]] = []

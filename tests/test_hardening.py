@@ -227,8 +227,8 @@ def test_threads_beyond_the_cpus_are_capped_with_a_warning(caplog, model_0288):
     assert f"using {os.cpu_count()}" in caplog.text
 
 
-ROW_BYTES = st.lists(st.sampled_from([b"1", b"-1", b"10", b"2.5", b"nan", b"x", b",", b" ", b"\n", b"\t", b"\xef\xbb\xbf",
-                                      b"\xff", b"1e400", b"0", b"-", b"."]), max_size=60).map(b"".join)
+ROW_BYTES = st.lists(st.sampled_from([b"1", b"-1", b"10", b"2.5", b"nan", b"x", b",", b" ", b"\n", b"\t",
+                                      b"\xef\xbb\xbf", b"\xff", b"1e400", b"0", b"-", b"."]), max_size=60).map(b"".join)
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

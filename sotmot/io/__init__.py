@@ -20,6 +20,7 @@ from sotmot.io.mot import (
 )
 
 __all__ = [
-    "FrameReader", "atomic_path", "check_output_dir", "GroundTruth", "SeqInfo", "format_results", "gt_style", "is_plain_name", "read_detections",
-    "read_ground_truth", "read_results", "read_seqinfo", "results_path", "write_results", "write_bytes_atomic", "write_text_atomic",
+    "FrameReader", "GroundTruth", "SeqInfo", "atomic_path", "check_output_dir", "format_results", "gt_style",
+    "is_plain_name", "read_detections", "read_ground_truth", "read_results", "read_seqinfo", "results_path",
+    "write_bytes_atomic", "write_results", "write_text_atomic",
 ]
