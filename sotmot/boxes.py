@@ -1,4 +1,4 @@
-"""Box geometry: the one place where IoU, IoM, NMS and conversions live.
+"""Box geometry: the one place where IoU, IoM, NMS, the pixel bounds of crops and conversions live.
 
 All boxes are ``x, y, w, h`` in pixels (top-left corner, width, height), the
 MOTChallenge convention, as float arrays of shape ``(N, 4)``. Every other
