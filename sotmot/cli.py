@@ -297,7 +297,7 @@ def _track_for_inspection(args: argparse.Namespace):
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
-    from sotmot.explain import export_graph, parse_frames, inspection_graph
+    from sotmot.explain import export_graph, inspection_graph, parse_frames
     from sotmot.graph_view import draw_png, tracklet_crops, write_html
 
     frames = parse_frames(args.frames)
@@ -314,7 +314,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
 
 
 def cmd_explain(args: argparse.Namespace) -> int:
-    from sotmot.explain import explain, parse_ids, inspection_graph
+    from sotmot.explain import explain, inspection_graph, parse_ids
 
     a, b = parse_ids(args.ids)
     config, result = _track_for_inspection(args)
