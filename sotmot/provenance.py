@@ -3,9 +3,8 @@
 The record holds the sotmot version, the resolved configuration (solver
 included), the re-ID model file and its SHA-256, the confidence calibration's
 SHA-256, the SHA-256 of ``seqinfo.ini`` and ``det/det.txt``, a fingerprint of
-the frame folder (file names, sizes and modification times, not their bytes:
-hashing every frame would cost more than tracking small sequences) and the
-time. ``track --resume`` skips a sequence only when its record matches the
+the frame folder (file names and sizes, not their bytes: hashing every frame
+would cost more than tracking small sequences) and the time. ``track --resume`` skips a sequence only when its record matches the
 current run in everything but the time.
 """
 
@@ -56,15 +55,18 @@ def file_sha256(path: str | Path) -> str | None:
 
 
 def frames_fingerprint(info: SeqInfo) -> str | None:
-    """SHA-256 of the frame folder's listing: each file's name, size and modification time."""
+    """SHA-256 of the frame folder's listing: each file's name and size.
+
+    Not modification times: a copied dataset, or a video decoded again into a
+    new temporary folder (``track VIDEO --det``), has the same frames.
+    """
     folder = info.frames_dir
     if not folder.is_dir():
         return None
     digest = hashlib.sha256()
     for entry in sorted(folder.iterdir()):
         if entry.is_file():
-            st = entry.stat()
-            digest.update(f"{entry.name}\t{st.st_size}\t{st.st_mtime_ns}\n".encode())
+            digest.update(f"{entry.name}\t{entry.stat().st_size}\n".encode())
     return digest.hexdigest()
 
 
@@ -85,7 +87,7 @@ def run_record(info: SeqInfo, config: TrackerConfig, merger: str) -> dict[str, A
                                    "sha256": file_sha256(calibration or str(packaged))},
         "inputs": {"seqinfo.ini": file_sha256(info.path / "seqinfo.ini"),
                    "det/det.txt": file_sha256(info.det_path),
-                   "frames (names, sizes, times)": frames_fingerprint(info)},
+                   "frames (names, sizes)": frames_fingerprint(info)},
         "time": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
 

@@ -355,3 +355,27 @@ def test_the_solver_is_configuration():
     assert _build_config(args).association.solver == "flow"
     args = build_parser().parse_args(["track", "x", "--out", "y"])
     assert _build_config(args).association.solver == "greedy"
+
+
+def test_resume_skips_a_copied_sequence_and_a_video_decoded_again(tmp_path, model_0288):
+    import shutil
+    import time
+
+    from sotmot.batch import track_one
+    from sotmot.cli import main
+
+    seq = _walker_sequence(tmp_path)
+    out = tmp_path / "out"
+    assert track_one(str(seq), str(out), TrackerConfig(), "greedy", True, embedder=GeometryEmbedder()).status == "done"
+    time.sleep(0.01)
+    copy = shutil.copytree(seq, tmp_path / "copy" / "SYN")  # new modification times, same files
+    assert track_one(str(copy), str(out), TrackerConfig(), "greedy", True,
+                     embedder=GeometryEmbedder()).status == "skipped"
+    video = _video(tmp_path)
+    det = tmp_path / "street_det.txt"
+    det.write_text("".join(f"{f},-1,{10 + 3 * f},20,20,40,0.9\n" for f in range(1, 13)))
+    args = ["track", str(video), "--det", str(det), "--out", str(tmp_path / "v"), "--reid-model", str(model_0288),
+            "-q", "--resume"]
+    assert main(args) == 0
+    record = (tmp_path / "v" / "street.run.json").stat().st_mtime_ns
+    assert main(args) == 0 and (tmp_path / "v" / "street.run.json").stat().st_mtime_ns == record  # skipped
