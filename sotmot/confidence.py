@@ -229,12 +229,24 @@ class Calibration:
 
 
 def load_calibration(path: str | Path | None = None) -> Calibration:
-    """The calibration in ``path`` (JSON from ``scripts/fit_confidence.py``), or the packaged one."""
+    """The calibration in ``path`` (JSON from ``scripts/fit_confidence.py``), or the packaged one.
+
+    Read once per file version (the pipeline asks for it at several stages).
+    """
     if path is None:
         return _packaged()
     path = Path(path)
     try:
-        return Calibration.from_dict(json.loads(path.read_text(encoding="utf-8")), str(path))
+        st = path.stat()
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read the confidence calibration: {exc.strerror}") from exc
+    return _read_calibration(str(path.resolve()), st.st_size, st.st_mtime_ns)
+
+
+@lru_cache(maxsize=8)
+def _read_calibration(path: str, size: int, mtime_ns: int) -> Calibration:
+    try:
+        return Calibration.from_dict(json.loads(Path(path).read_text(encoding="utf-8")), path)
     except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{path}: cannot read the confidence calibration: {exc}") from exc
 
