@@ -36,7 +36,7 @@ from sotmot.confidence import (
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import EvalReport, evaluate_files, frame_errors
 from sotmot.io import SeqInfo, read_detections, read_seqinfo, results_path, write_results
-from sotmot.pipeline import Prepared, associate, confirm, preprocess
+from sotmot.pipeline import Prepared, associate, box_scorer, confirm, preprocess
 from sotmot.postprocess import expand, output_ids, to_tracks
 from sotmot.types import Tracklet, Tracks
 
@@ -154,10 +154,7 @@ def confirmed_tracks(seq: Labelled, confidence: np.ndarray, model: BoxModel, thr
                      config: TrackerConfig) -> Tracks:
     """The output of ``seq`` after confirmation with ``model`` at ``threshold``."""
     p = seq.prepared
-
-    def scorer(t: Tracklet, e) -> np.ndarray:
-        return model.predict(box_features(t, e, confidence, p.detections.from_sot, p.features, p.info.frame_rate))
-
+    scorer = box_scorer(p, model, confidence)
     tracks = to_tracks(seq.trajectories, p.detections, config.postprocess, scorer, p.info.frame_rate)
     return confirm(tracks, config.replace("confirm", threshold=threshold))[0]
 

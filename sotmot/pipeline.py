@@ -22,7 +22,7 @@ from solvers import Association, get_solver
 from sotmot.appearance import Embedder, embedder_for
 from sotmot.boxes import nms
 from sotmot.confidence import (
-    Calibration,
+    BoxModel,
     box_features,
     confidence_knots,
     detection_confidence,
@@ -249,7 +249,8 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
     clock.lap("appearance")
     links, steps = np.zeros((0, 2), np.int64), 0
-    method, knots = confidence_knots(config.preprocess.confidence, raw.scores, _calibration(config))
+    method, knots = confidence_knots(config.preprocess.confidence, raw.scores,
+                                     load_calibration(config.confirm.calibration))
     log.info("%s: detection confidence by %r", info.name, method)
     if config.sot.variant != "none":
         embedder = embedder_for(config.appearance, embedder)
@@ -264,19 +265,17 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method)
 
 
-def _calibration(config: TrackerConfig) -> Calibration | None:
-    """The confidence calibration the config names (None: the packaged one, loaded when needed)."""
-    return load_calibration(config.confirm.calibration) if config.confirm.calibration else None
+def box_scorer(prepared: Prepared, model: BoxModel, confidence: np.ndarray | None = None) -> BoxScorer:
+    """``model`` as a :data:`~sotmot.postprocess.BoxScorer` for one prepared sequence.
 
-
-def box_scorer(prepared: Prepared, config: TrackerConfig) -> BoxScorer:
-    """The confirmation model as a :data:`~sotmot.postprocess.BoxScorer` for one prepared sequence."""
-    model = (_calibration(config) or load_calibration()).box_models[model_kind(prepared.confidence_method)]
+    ``confidence`` overrides ``prepared.confidence`` (the calibration fit tries
+    other detection confidences on the same sequence).
+    """
+    confidence = prepared.confidence if confidence is None else confidence
     dets, rate = prepared.detections, prepared.info.frame_rate
 
     def score(trajectory: Tracklet, expanded: Expanded) -> np.ndarray:
-        return model.predict(box_features(trajectory, expanded, prepared.confidence, dets.from_sot,
-                                          prepared.features, rate))
+        return model.predict(box_features(trajectory, expanded, confidence, dets.from_sot, prepared.features, rate))
 
     return score
 
@@ -289,7 +288,7 @@ def confirm(tracks: Tracks, config: TrackerConfig, method: str = "raw") -> tuple
     """
     threshold = config.confirm.threshold
     if threshold is None:
-        threshold = (_calibration(config) or load_calibration()).thresholds[model_kind(method)]
+        threshold = load_calibration(config.confirm.calibration).thresholds[model_kind(method)]
     keep = ~(tracks.confidence < threshold)  # NaN (not scored) is kept
     return tracks.subset(np.flatnonzero(keep)), tracks.subset(np.flatnonzero(~keep))
 
@@ -304,7 +303,10 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
     clock = _Clock(timings)
     association, trajectories = associate(prepared.tracklets, merger, config)
     clock.lap("association")
-    scorer = box_scorer(prepared, config) if config.confirm.enabled else None
+    scorer = None
+    if config.confirm.enabled:
+        model = load_calibration(config.confirm.calibration).box_models[model_kind(prepared.confidence_method)]
+        scorer = box_scorer(prepared, model)
     tracks = to_tracks(trajectories, prepared.detections, config.postprocess, scorer, prepared.info.frame_rate)
     clock.lap("postprocess")
     tracks, dropped = (confirm(tracks, config, prepared.confidence_method) if config.confirm.enabled
