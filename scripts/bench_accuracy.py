@@ -35,7 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
+from sotmot.benchmarks import DEFAULT_DATA, before_confirmation, machine, sequences
 from sotmot.calibrate import box_labels
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import METRICS, EvalReport, evaluate_files
@@ -51,11 +51,6 @@ BEST_PEER_MOTA = {  # issue #11, same detections and embeddings; not re-measured
     "MOT17-09-FRCNN": ("BoT-SORT with GSI", 57.8),
     "TUD-Stadtmitte": ("DeepSORT", 59.5),
 }
-
-
-def before_config(config: TrackerConfig) -> TrackerConfig:
-    """``config`` as sotmot ran before the confirmation stage: every box kept, every gap interpolated."""
-    return config.replace("confirm", enabled=False).replace("postprocess", interpolate_max_seconds=None)
 
 
 def cells(values: dict[str, float]) -> str:
@@ -79,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
 
     config = load_config(args.config) if args.config else TrackerConfig()
     config = config.replace("appearance", model=args.model)
-    configs = {"before": before_config(config), "after": config}
+    configs = {"before": before_confirmation(config), "after": config}
     hits = [int(h) for h in args.min_hits.split(",") if h.strip()]
     seqs = sequences(args.data)
     if not seqs:

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.benchmarks import DEFAULT_DATA
+from sotmot.benchmarks import DEFAULT_DATA, before_confirmation
 from sotmot.calibrate import (
     Labelled,
     detection_labels,
@@ -153,7 +153,7 @@ def main(argv: list[str] | None = None) -> int:
             extra.setdefault(family, []).append((scores, labels))
             print(f"{seq_dir.name} (labels only): {len(scores)} detections, family {family}", file=sys.stderr)
 
-    old = config.replace("postprocess", interpolate_max_seconds=None)
+    old = before_confirmation(config)
     before = score(seqs, lambda s: unconfirmed_tracks(s, old))
     base = score(seqs, lambda s: unconfirmed_tracks(s, config))
     report: dict = {"sequences": [s.name for s in seqs], "labels_only": [str(p) for p in label_dirs],

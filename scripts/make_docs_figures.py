@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import DEFAULT_DATA
+from sotmot.benchmarks import DEFAULT_DATA, before_confirmation
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import evaluate_files
 from sotmot.explain import inspection_graph
@@ -171,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
                  f"{len(r.association.groups)} trajectories, {r.tracks.n_tracks} output tracks. The graph of "
                  f"frames 100-140 ({g.number_of_nodes()} tracklets, {g.number_of_edges()} candidates):", "",
                  "![graph](figures/graph_pets_100_140.png)", ""]
-        before = base.replace("confirm", enabled=False).replace("postprocess", interpolate_max_seconds=None)
+        before = before_confirmation(base)
         old = finish_sequence(p, before, "greedy")
         with tempfile.TemporaryDirectory() as tmp:
             scores = {}

@@ -11,6 +11,8 @@ import os
 import platform
 from pathlib import Path
 
+from sotmot.config import TrackerConfig
+
 DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
 
 
@@ -31,3 +33,8 @@ def machine() -> str:
 def sequences(data: Path) -> list[Path]:
     """Sequence folders with frames under ``data`` (the label-only MOT16-labels folders are skipped)."""
     return sorted(p for p in data.iterdir() if (p / "seqinfo.ini").is_file() and (p / "img1").exists())
+
+
+def before_confirmation(config: TrackerConfig) -> TrackerConfig:
+    """``config`` as sotmot ran before the confirmation stage (issue #11): every box kept, every gap filled."""
+    return config.replace("confirm", enabled=False).replace("postprocess", interpolate_max_seconds=None)
