@@ -12,8 +12,11 @@ For 10%, 25%, 50% and 100% of each sequence's frames (the first frames), it
 builds tracklets with the default configuration, then times each solver and
 measures its peak Python memory (tracemalloc, in a separate run so that the
 timing is not slowed), and fits the growth exponent ``time ~ tracklets^k``.
+With ``--tile N`` it instead repeats each whole sequence 1, 2, 5 and N times
+one after the other in time, to see how a solver grows on long sequences.
 
     python scripts/bench_solvers.py --json bench_solvers.json
+    python scripts/bench_solvers.py --sequences MOT16-04 --tile 10 --mergers greedy,flow,lifted --repeat 1
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ from sotmot.config import TrackerConfig
 from sotmot.io import read_detections, read_seqinfo
 from sotmot.pipeline import preprocess
 from sotmot.tracklets import build_tracklets
+from sotmot.types import Detections
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_LABELS = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data")) / "MOT16-labels"
@@ -48,6 +52,13 @@ def size_features(boxes: np.ndarray, dim: int = 16) -> np.ndarray:
     k = np.arange(1, dim // 4 + 1) * 2.0
     parts = [np.cos(np.outer(logs[:, c], k)) for c in (0, 1)] + [np.sin(np.outer(logs[:, c], k)) for c in (0, 1)]
     return normalize(np.concatenate(parts, axis=1))
+
+
+def tiled(dets: Detections, length: int, times: int) -> Detections:
+    """The detections of a sequence repeated ``times`` times one after the other (frames offset by ``length``)."""
+    offsets = np.repeat(np.arange(times) * length, len(dets))
+    return Detections(frames=np.tile(dets.frames, times) + offsets, boxes=np.tile(dets.boxes, (times, 1)),
+                      scores=np.tile(dets.scores, times))
 
 
 def timed(solver, tracklets, config, repeat: int) -> tuple[float, int]:
@@ -74,9 +85,12 @@ def peak_mb(solver, tracklets, config) -> float:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--labels", type=Path, default=DEFAULT_LABELS, help="MOT16-labels folder (default: %(default)s)")
-    parser.add_argument("--mergers", default="greedy,flow")
+    parser.add_argument("--mergers", default="greedy,flow", help="solvers to time (default: %(default)s)")
     parser.add_argument("--sequences", default="", help="comma-separated subset, e.g. MOT16-04")
     parser.add_argument("--repeat", type=int, default=3, help="timing runs per point (best is kept)")
+    parser.add_argument("--tile", type=int, default=0,
+                        help="instead of the fractions: each sequence whole, then repeated 2, 5 and TILE times one "
+                             "after the other in time (e.g. --sequences MOT16-04 --tile 10: ~10k frames)")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
     mergers = args.mergers.split(",")
@@ -92,9 +106,12 @@ def main(argv: list[str] | None = None) -> int:
     for seq in seqs:
         info = read_seqinfo(seq)
         dets_all = preprocess(read_detections(info.det_path, info.length), config.preprocess)
-        for fraction in FRACTIONS:
+        steps = [(1.0, t) for t in sorted({1, 2, 5, args.tile})] if args.tile > 1 else [(f, 1) for f in FRACTIONS]
+        for fraction, times in steps:
             last = max(1, int(round(fraction * info.length)))
             dets = dets_all.subset(np.flatnonzero(dets_all.frames <= last))
+            if times > 1:
+                dets, last = tiled(dets, info.length, times), info.length * times
             tracklets = tuple(build_tracklets(dets, size_features(dets.boxes), info.frame_rate, config.tracklets))
             row = {"sequence": info.name, "fraction": fraction, "frames": last, "detections": len(dets),
                    "tracklets": len(tracklets)}

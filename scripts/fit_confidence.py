@@ -24,7 +24,6 @@ keyed by sequence, model file and preprocessing.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import sys
 import tempfile
@@ -33,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.benchmarks import DEFAULT_DATA, before_confirmation
+from sotmot.benchmarks import DEFAULT_DATA, before_confirmation, cached_features
 from sotmot.calibrate import (
     Labelled,
     detection_labels,
@@ -47,7 +46,7 @@ from sotmot.confidence import model_kind
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import METRICS
 from sotmot.io import read_detections, read_seqinfo, write_text_atomic
-from sotmot.pipeline import embed_detections, preprocess, prepare_sequence
+from sotmot.pipeline import prepare_sequence
 
 ROOT = Path(__file__).resolve().parents[1]
 COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
@@ -61,29 +60,6 @@ def labelled_sequences(data: Path, min_length: int) -> list[Path]:
             if read_seqinfo(p).length >= min_length:
                 out.append(p)
     return out
-
-
-def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box: list) -> np.ndarray:
-    """Features of the preprocessed detections of ``seq``, from ``cache`` or computed and stored there."""
-    info = read_seqinfo(seq)
-    model = Path(config.appearance.model or "")
-    key = hashlib.sha256(json.dumps([info.name, model.name, model.stat().st_size if model.is_file() else 0,
-                                     config.preprocess.__dict__, config.appearance.flip],
-                                    sort_keys=True, default=str).encode()).hexdigest()[:16]
-    path = cache / f"{info.name}-{key}.npy"
-    if path.is_file():
-        return np.load(path)
-    if not embedder_box:
-        from sotmot.appearance import make_embedder
-
-        embedder_box.append(make_embedder(config.appearance))
-    dets = preprocess(read_detections(info.det_path, info.length), config.preprocess)
-    features = embed_detections(info, dets, embedder_box[0], progress=sys.stderr.isatty())
-    cache.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp.npy")
-    np.save(tmp, features)
-    tmp.replace(path)
-    return features
 
 
 def table(title: str, rows: list[tuple[str, dict[str, float]]]) -> str:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 from sotmot.config import AssociationConfig
@@ -44,10 +44,14 @@ class Association:
         smallest id.
     links
         The joins the solver made, in decision order.
+    stats
+        What the solver reports about its own work (e.g. the lifted solver's
+        windows not proven optimal); empty for solvers that report nothing.
     """
 
     groups: tuple[tuple[int, ...], ...]
     links: tuple[Link, ...] = ()
+    stats: dict[str, float] = field(default_factory=dict)
 
 
 class Solver(Protocol):

@@ -7,11 +7,17 @@ environment variable ``SOTMOT_DATA``.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import platform
+import sys
 from pathlib import Path
 
+import numpy as np
+
 from sotmot.config import TrackerConfig
+from sotmot.io import atomic_path, read_detections, read_seqinfo
 
 DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
 
@@ -38,3 +44,36 @@ def sequences(data: Path) -> list[Path]:
 def before_confirmation(config: TrackerConfig) -> TrackerConfig:
     """``config`` as sotmot ran before the confirmation stage (issue #11): every box kept, every gap filled."""
     return config.replace("confirm", enabled=False).replace("postprocess", interpolate_max_seconds=None)
+
+
+def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box: list) -> np.ndarray:
+    """Features of the preprocessed detections of ``seq``, from ``cache`` or computed and stored there.
+
+    The cache key holds the sequence, the model file's name and size, the
+    detection cleaning configuration and the flip setting. ``embedder_box`` is a
+    list that receives the embedder when one is first needed, so several calls
+    share it.
+    """
+    from sotmot.pipeline import embed_detections, preprocess
+
+    info = read_seqinfo(seq)
+    model = Path(config.appearance.model or "")
+    # the detector-score calibration changes no box and no feature: it is not part of the key
+    cleaning = {k: v for k, v in config.preprocess.__dict__.items() if k != "confidence"}
+    key = hashlib.sha256(json.dumps([info.name, model.name, model.stat().st_size if model.is_file() else 0,
+                                     cleaning, config.appearance.flip],
+                                    sort_keys=True, default=str).encode()).hexdigest()[:16]
+    path = cache / f"{info.name}-{key}.npy"
+    if path.is_file():
+        return np.load(path)
+    if not embedder_box:
+        from sotmot.appearance import make_embedder
+
+        embedder_box.append(make_embedder(config.appearance))  # built once, for the first sequence not cached
+    dets = preprocess(read_detections(info.det_path, info.length), config.preprocess)
+    features = embed_detections(info, dets, embedder_box[0], progress=sys.stderr.isatty())
+    cache.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            np.save(fh, features)
+    return features

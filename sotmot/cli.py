@@ -325,12 +325,15 @@ def cmd_explain(args: argparse.Namespace) -> int:
 EPILOG_COMPARE = """\
 Each sequence goes once through detection cleaning, appearance and tracklets; then every
 solver runs on those same tracklets. Columns: TrackEval HOTA, MOTA, IDF1, IDSW; the number of
-trajectories; the total cost of the grouping under the flow objective (entry cost per
-trajectory + (1 - affinity) per link; lower is better; greedy is costed the same way);
-the solver's time in seconds.
+trajectories; lifted_obj, the one objective every solver is scored on (the sum over pairs of
+tracklets in one trajectory within the horizon of n_a * n_b * (affinity - lifted_threshold);
+higher is better); window_gap, for the lifted solver, how far CP-SAT's proved bound lies above
+its solution in windows not proven optimal (0: every window optimal); flow_net_cost, the flow
+network's own cost (entry cost per trajectory + (1 - affinity) per link; lower is better for that
+network only); the solver's time in seconds.
 
 example:
-  sotmot compare ../shared/data/PETS09-S2L1 --mergers greedy,flow,flow-nx \\
+  sotmot compare ../shared/data/PETS09-S2L1 --mergers greedy,flow,lifted \\
       --reid-model ../shared/models/person-reidentification-retail-0288.onnx --json compare.json
 """
 

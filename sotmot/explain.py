@@ -5,6 +5,10 @@ kept, annotated with what the solver did: every node (tracklet) carries the
 output track id it ended in; an edge is *taken* when its two tracklets ended
 in one trajectory, one right after the other (ordered by start, end, id), and
 for the greedy merge ``round`` says in which merge round they were joined.
+A taken edge also carries what it adds to the lifted objective of
+:mod:`solvers.lifted` (the one objective every solver is scored on):
+``lifted_gain`` and ``lifted_pairs``, the pairs of tracklets the link puts
+into one trajectory, as ``a->b:+w`` joined by ``;``.
 """
 
 from __future__ import annotations
@@ -18,7 +22,8 @@ import networkx as nx
 import numpy as np
 
 from sotmot.config import TrackerConfig
-from sotmot.constraints import RULES
+from solvers.lifted import link_pairs
+from sotmot.constraints import RULES, link_order_key
 from sotmot.errors import SotmotError
 from sotmot.graph import build_graph
 from sotmot.io import write_text_atomic
@@ -33,7 +38,8 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
     ``sot_boxes`` (boxes added by the SOT step), ``track`` (output id, -1 if
     the trajectory was dropped). Edge attributes: those of
     :func:`~sotmot.graph.build_graph` plus ``taken`` and ``round`` (greedy
-    merge order, 0 when not taken or for solvers that decide at once).
+    merge order, 0 when not taken or for solvers that decide at once), and on
+    taken edges ``lifted_gain`` and ``lifted_pairs`` (see the module docstring).
     """
     tracklets = result.tracklets
     if frames is not None:
@@ -59,6 +65,14 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
         if graph.has_edge(u, v):
             graph.edges[u, v]["taken"] = True
             graph.edges[u, v]["round"] = rounds.get((u, v), 0)
+    for group in result.association.groups:
+        chain = sorted((by_id[t] for t in group), key=link_order_key)
+        for k in range(len(chain) - 1):
+            u, v = chain[k].id, chain[k + 1].id
+            if graph.has_edge(u, v):
+                pairs = link_pairs(chain, k, config.association)
+                graph.edges[u, v]["lifted_gain"] = float(sum(w for _, _, w in pairs))
+                graph.edges[u, v]["lifted_pairs"] = ";".join(f"{a}->{b}:{w:+.1f}" for a, b, w in pairs)
     return graph
 
 
@@ -156,6 +170,11 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
                                        f"REJECTED by {data['failed'].replace(',', ', ')}")
             out.append(f"candidate {x} -> {y}: {state}")
             out.extend("    " + line for line in _verdict(data, config))
+            if data.get("lifted_pairs"):
+                shown = data["lifted_pairs"].split(";")
+                out.append(f"    lifted objective: the link joins {len(shown)} scored pair(s) of tracklets, "
+                           f"total {data['lifted_gain']:+.1f}: " + ", ".join(shown[:6])
+                           + (", ..." if len(shown) > 6 else ""))
     if not found:
         out.append(f"no candidate pair between them: their tracklets are more than l_max = "
                    f"{config.association.l_max} frames apart, so they were never compared")
