@@ -10,7 +10,16 @@ Trackers:
   Apache-2.0), default settings, frame rate from ``seqinfo.ini``;
 * DeepSORT from ``deep-sort-realtime``, fed sotmot's own re-ID embeddings
   (so the comparison isolates association, not the feature model), its
-  cosine gate set to sotmot's calibrated affinity gate (see below).
+  cosine gate set to sotmot's calibrated affinity gate (see below);
+* BoT-SORT, StrongSORT, DeepOCSORT, BoostTrack++, HybridSORT and OccluBoost
+  from ``boxmot`` 25.0.0, each with its defaults, fed sotmot's detections and
+  embeddings through ``boxmot.structures.Detections(embeddings=...)`` (so
+  boxmot builds no re-ID model and downloads nothing) and the frames (for
+  camera-motion compensation); each again with boxmot's offline GSI
+  post-processing (``+GSI``), and without camera-motion compensation where
+  it can be turned off (``no-CMC``; every sequence here has a static
+  camera). ``--shuffle-check`` adds rows with the embeddings permuted across
+  the detections: if a tracker uses them, its scores drop.
 
 Same input for everyone: ``det.txt`` cleaned by sotmot's preprocessing with
 the default configuration (no score threshold; per-frame NMS at 0.6, by IoM
@@ -21,10 +30,12 @@ the number of detections (the MOT16 DPM scores): a monotone map, so each
 peer's own confidence thresholds keep their meaning as quantiles.
 
 Scores come from TrackEval (HOTA, DetA, AssA, MOTA, IDF1, IDSW, FP, FN) per
-sequence, for PETS09-S2L1 and for the MOT16 clips combined. Speed is frames
-per second of each tracker's tracking loop, median of ``--runs`` runs, all
-in this process: detections are in memory, results are written after the
-clock stops. The re-ID features of the detector boxes are computed once per
+sequence, for the full-length sequences combined and for the 30-frame clips
+combined. Speed: ``loop fps`` is frames per second of each tracker's
+tracking loop, median of ``--runs`` runs, all in this process: detections
+are in memory, frames are read outside the clock, results are written after
+the clock stops; ``e2e fps`` adds the re-ID of the detector boxes (frame
+decoding included) for the trackers that use appearance. The re-ID features of the detector boxes are computed once per
 sequence, outside the clock, and given to sotmot and DeepSORT alike (their
 time is printed separately); sotmot's SOT variants read frames and embed
 the boxes they add inside the clock, since that is part of their work.
@@ -63,13 +74,29 @@ COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 SOTMOT = {  # name -> (SOT variant, solver)
     "sotmot": ("none", "greedy"),
     "sotmot flow": ("none", "flow"),
+    "sotmot lifted": ("none", "lifted"),
     "sotmot SOT-template": ("template", "greedy"),
     "sotmot SOT-template flow": ("template", "flow"),
     "sotmot SOT-deep": ("deep", "greedy"),
     "sotmot SOT-deep flow": ("deep", "flow"),
 }
-PEERS = ("SORT", "ByteTrack", "OC-SORT", "DeepSORT")
-GROUPS = {"PETS09-S2L1": lambda name: name.startswith("PETS09"), "MOT16 clips": lambda name: name.startswith("MOT16")}
+#: boxmot trackers: display name -> (boxmot name, options that turn its camera-motion compensation off, or None
+#: where it has none to turn off (StrongSORT) or no switch for it (HybridSORT, always ECC)).
+BOXMOT = {
+    "BoT-SORT": ("botsort", {"use_cmc": False}),
+    "StrongSORT": ("strongsort", None),
+    "DeepOCSORT": ("deepocsort", {"cmc_off": True}),
+    "BoostTrack++": ("boosttrack", {"use_cmc": False}),
+    "HybridSORT": ("hybridsort", None),
+    "OccluBoost": ("occluboost", {"use_cmc": False}),
+}
+BOXMOT_CMC = {"BoT-SORT": "SOF", "DeepOCSORT": "SOF", "BoostTrack++": "ECC", "HybridSORT": "ECC", "OccluBoost": "SOF"}
+#: Every boxmot tracker with its defaults, with boxmot's GSI post-processing, and without CMC where it can be off.
+BOXMOT_ROWS = {**{name: (name, "default") for name in BOXMOT},
+               **{f"{name} +GSI": (name, "gsi") for name in BOXMOT},
+               **{f"{name} no-CMC": (name, "no-cmc") for name, (_, off) in BOXMOT.items() if off is not None}}
+PEERS = ("SORT", "ByteTrack", "OC-SORT", "DeepSORT", *BOXMOT_ROWS)
+GROUPS = {"full-length": lambda name: "clip" not in name, "MOT16 clips": lambda name: "clip" in name}
 
 
 @dataclass
@@ -147,6 +174,57 @@ def run_deepsort(seq: SeqInput, min_affinity: float) -> tuple[Tracks, float]:
     return _tracks(out, boxes_are_xyxy=False), seconds
 
 
+def run_boxmot(row: str, seq: SeqInput, shuffle: bool = False) -> tuple[Tracks, float]:
+    """A boxmot tracker (see :data:`BOXMOT_ROWS`) fed sotmot's detections and embeddings, one frame at a time.
+
+    With embeddings given, boxmot builds no re-ID model. The frames are read
+    (the trackers that compensate camera motion need them) outside the clock;
+    the seconds count ``update`` calls only. ``shuffle`` permutes the
+    embeddings across the sequence's detections (the check that they are used).
+    """
+    import cv2
+    import torch
+    from boxmot.structures.detections import Detections as BoxmotDetections
+    from boxmot.structures.geometry import Boxes
+    from boxmot.trackers.factory import create_tracker
+    from boxmot.trackers.specs import TrackerSpec
+
+    name, mode = BOXMOT_ROWS[row]
+    boxmot_name, cmc_off = BOXMOT[name]
+    options = tuple(sorted((cmc_off or {}).items())) if mode == "no-cmc" else ()
+    tracker = create_tracker(TrackerSpec(name=boxmot_name, options=options))
+    features = seq.features.astype(np.float32)
+    if shuffle:
+        features = features[np.random.default_rng(0).permutation(len(features))]
+    xyxy = xywh_to_xyxy(seq.detections.boxes).astype(np.float32)
+    out, seconds = [], 0.0
+    for frame, rows in enumerate(frames_of(seq), start=1):
+        image = cv2.imread(str(seq.info.frame_path(frame)))
+        dets = BoxmotDetections(geometry=Boxes(torch.from_numpy(xyxy[rows])),
+                                scores=torch.from_numpy(seq.peer_scores[rows].astype(np.float32)),
+                                class_ids=torch.zeros(len(rows), dtype=torch.int64), sample_id=str(frame),
+                                embeddings=torch.from_numpy(features[rows]).reshape(len(rows), features.shape[1]))
+        start = time.perf_counter()
+        result = tracker.update(dets, image)
+        seconds += time.perf_counter() - start
+        out.append((frame, result.track_ids.numpy().astype(np.int64), result.geometry.values.numpy().astype(float),
+                    result.scores.numpy().astype(float)))
+    tracks = _tracks(out, boxes_are_xyxy=True)
+    return (gsi(tracks) if mode == "gsi" else tracks), seconds
+
+
+def gsi(tracks: Tracks, interval: int = 20, tau: float = 10.0) -> Tracks:
+    """boxmot's offline Gaussian-smoothed interpolation (its defaults) applied to ``tracks``."""
+    from boxmot.postprocessing.gsi import gaussian_smooth, linear_interpolation
+
+    if not len(tracks):
+        return tracks
+    data = np.column_stack([tracks.frames, tracks.ids, tracks.boxes, tracks.scores, -np.ones(len(tracks))])
+    smoothed = gaussian_smooth(linear_interpolation(data, interval), tau)
+    return Tracks(frames=smoothed[:, 0].astype(np.int64), ids=smoothed[:, 1].astype(np.int64),
+                  boxes=smoothed[:, 2:6], scores=smoothed[:, 6])
+
+
 def _tracks(rows: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]], boxes_are_xyxy: bool) -> Tracks:
     frames = np.concatenate([np.full(len(ids), f) for f, ids, _, _ in rows]) if rows else np.zeros(0)
     ids = np.concatenate([ids for _, ids, _, _ in rows]) if rows else np.zeros(0)
@@ -179,6 +257,11 @@ def load(path: Path, config: TrackerConfig, embedder) -> SeqInput:
     start = time.perf_counter()
     features = embed_detections(info, dets, embedder)
     return SeqInput(path, info, dets, features, peer_scores(dets.scores), time.perf_counter() - start)
+
+
+def uses_appearance(tracker: str) -> bool:
+    """Whether ``tracker`` needs the re-ID features (its end-to-end time includes computing them)."""
+    return tracker.startswith("sotmot") or tracker == "DeepSORT" or tracker.split(" ")[0] in BOXMOT
 
 
 def bar_chart(path: Path, table: dict[str, dict[str, dict[str, float]]], trackers: list[str]) -> None:
@@ -231,14 +314,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--trackers", default=",".join([*SOTMOT, *PEERS]),
                         help="comma-separated subset (default: all): " + ", ".join([*SOTMOT, *PEERS]))
     parser.add_argument("--runs", type=int, default=3, help="timed runs per tracker and sequence; the median counts")
+    parser.add_argument("--shuffle-check", action="store_true",
+                        help="also run each boxmot tracker with its embeddings permuted across the sequence's "
+                             "detections (rows '... shuffled'): if they are used, scores must drop")
     args = parser.parse_args(argv)
     trackers = [t.strip() for t in args.trackers.split(",") if t.strip()]
     unknown = [t for t in trackers if t not in SOTMOT and t not in PEERS]
     if unknown:
         parser.error(f"unknown trackers {unknown}; choose from {[*SOTMOT, *PEERS]}")
     try:
-        import deep_sort_realtime  # noqa: F401
-        import trackers as _trackers  # noqa: F401
+        if any(t in ("SORT", "ByteTrack", "OC-SORT") for t in trackers):
+            import trackers as _trackers  # noqa: F401
+        if "DeepSORT" in trackers:
+            import deep_sort_realtime  # noqa: F401
+        if any(t in BOXMOT_ROWS for t in trackers):
+            import boxmot  # noqa: F401
     except ImportError as exc:
         print(f"bench_peers needs the benchmark extras ({exc}); run: bash scripts/bootstrap.sh --bench",
               file=sys.stderr)
@@ -270,10 +360,16 @@ def main(argv: list[str] | None = None) -> int:
                 got = run_sotmot(seq, config, variant, [SOTMOT[t][1] for t in names], embedder)
                 made.update({t: got[SOTMOT[t][1]] for t in names})
             for peer in (t for t in trackers if t in PEERS):
-                made[peer] = run_deepsort(seq, config.association.min_affinity) if peer == "DeepSORT" \
-                    else run_trackers_package(peer, seq)
+                if peer in BOXMOT_ROWS:
+                    made[peer] = run_boxmot(peer, seq)
+                    if args.shuffle_check and BOXMOT_ROWS[peer][1] == "default":
+                        made[f"{peer} shuffled"] = run_boxmot(peer, seq, shuffle=True)
+                else:
+                    made[peer] = run_deepsort(seq, config.association.min_affinity) if peer == "DeepSORT" \
+                        else run_trackers_package(peer, seq)
             for tracker, (tracks, secs) in made.items():
-                seconds[tracker].setdefault(name, []).append(secs)
+                seconds.setdefault(tracker, {}).setdefault(name, []).append(secs)
+                files.setdefault(tracker, [])
                 if run == 0:
                     out = results_path(args.out / "results" / tracker.replace(" ", "_"), name)
                     write_results(out, tracks)
@@ -281,6 +377,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  run {run + 1}/{args.runs}: " + ", ".join(f"{t} {s:.2f} s" for t, (_, s) in made.items()),
                   file=sys.stderr, flush=True)
 
+    trackers += [t for t in seconds if t not in trackers]  # the shuffled-embedding rows
     table: dict[str, dict[str, dict[str, float]]] = {}
     for tracker in trackers:
         report = evaluate_files(files[tracker])
@@ -292,26 +389,36 @@ def main(argv: list[str] | None = None) -> int:
                     else report.sequences[chosen[0][3]]
         table[tracker]["ALL"] = report.combined
         med = {n: statistics.median(v) for n, v in seconds[tracker].items()}
+        # end to end: the loop plus the re-ID of the detector boxes (frame decoding included), for the
+        # trackers that use appearance; SORT, ByteTrack and OC-SORT need no more than their loop
+        reid_part = {n: reid[n] if uses_appearance(tracker) else 0.0 for n in med}
         for n, s in med.items():
             table[tracker][n]["fps"] = frames[n] / s
+            table[tracker][n]["e2e fps"] = frames[n] / (s + reid_part[n])
         for group, member in [*GROUPS.items(), ("ALL", lambda n: True)]:
             names = [n for n in med if member(n)]
             if names and group in table[tracker]:
                 table[tracker][group]["fps"] = sum(frames[n] for n in names) / sum(med[n] for n in names)
+                table[tracker][group]["e2e fps"] = sum(frames[n] for n in names) / sum(
+                    med[n] + reid_part[n] for n in names)
 
     rows = [*dict.fromkeys(n for t in trackers for n in table[t])]
     lines = [f"Machine: {machine()}; median of {args.runs} runs; re-ID model {Path(args.model).name}.", ""]
     for row in rows:
-        lines += [f"**{row}**", "", "| tracker | " + " | ".join(COLUMNS) + " | fps |",
-                  "|---|" + "---|" * (len(COLUMNS) + 1)]
+        lines += [f"**{row}**", "", "| tracker | " + " | ".join(COLUMNS) + " | loop fps | e2e fps |",
+                  "|---|" + "---|" * (len(COLUMNS) + 2)]
         for tracker in trackers:
-            v = table[tracker][row]
+            v = table[tracker].get(row)
+            if v is None:
+                continue
             cells = [f"{v[c]:.1f}" if c in ("HOTA", "DetA", "AssA", "MOTA", "IDF1") else f"{v[c]:.0f}"
                      for c in COLUMNS]
-            lines.append(f"| {tracker} | " + " | ".join(cells) + f" | {v['fps']:.1f} |")
+            lines.append(f"| {tracker} | " + " | ".join(cells) + f" | {v['fps']:.1f} | {v['e2e fps']:.1f} |")
         lines.append("")
-    lines.append("re-ID features of the detector boxes (computed once, shared by sotmot and DeepSORT, not in fps): "
-                 + ", ".join(f"{n} {s:.1f} s" for n, s in reid.items()))
+    lines.append("re-ID features of the detector boxes (computed once, shared by sotmot, DeepSORT and the boxmot "
+                 "trackers; in e2e fps, not in loop fps): " + ", ".join(f"{n} {s:.1f} s" for n, s in reid.items()))
+    lines.append("camera-motion compensation in boxmot's defaults: "
+                 + ", ".join(f"{n} {m}" for n, m in BOXMOT_CMC.items()) + "; StrongSORT none")
     goal = []
     peers_run = [t for t in trackers if t in PEERS]
     if "sotmot" in trackers and peers_run:

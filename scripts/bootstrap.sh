@@ -2,7 +2,7 @@
 # Set up .venv from nothing: the package (editable) with its test and torch extras, pinned by constraints.txt,
 # and TrackEval without its declared dependencies (see pyproject.toml for why).
 # Safe to run again: an up-to-date .venv is left as it is.
-#   --bench  also install the peers of scripts/bench_peers.py (SORT, ByteTrack, OC-SORT, DeepSORT)
+#   --bench  also install the peers of scripts/bench_peers.py (SORT, ByteTrack, OC-SORT, DeepSORT, boxmot)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
@@ -30,7 +30,7 @@ extras=test,torch
     trackeval motmetrics
 if [ "$bench" = 1 ]; then
     .venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps -c constraints.txt \
-        trackers supervision deep-sort-realtime
+        trackers supervision deep-sort-realtime boxmot
 fi
 echo "$want" > "$stamp"
 echo "bootstrap: done (.venv/bin/sotmot)" >&2

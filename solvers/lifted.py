@@ -39,10 +39,12 @@ CP-SAT model:
 Links that can never pay (their own weight plus every positive weight they
 could bring into one chain is <= 0) are pruned before the model is built,
 and independent components are solved separately. Each model is warm-started
-from the greedy merge's links. A window for which CP-SAT finds no solution
-within ``lifted_time_limit`` seconds raises :class:`LiftedWindowError`; a
-window solved feasibly but not proven optimal is counted in the
-association's statistics (``windows_not_optimal``, ``bound_gap``).
+from the greedy merge's links. A component for which CP-SAT finds no
+solution within ``lifted_time_limit`` seconds raises
+:class:`LiftedWindowError` naming the window's frames; a component solved
+but not proven optimal is counted in the association's statistics
+(``components_not_optimal``, and ``bound_gap``: the summed distance from its
+solution to CP-SAT's proved bound).
 """
 
 from __future__ import annotations
@@ -313,7 +315,7 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
                   for v in np.flatnonzero(pred >= 0).tolist()}
     return Association(groups=groups, links=tuple(Link(a=u, b=v, affinity=chosen_aff[u, v]) for u, v in sorted(links)),
                        stats={"windows": stats.windows, "components": stats.components,
-                              "windows_not_optimal": stats.not_optimal, "bound_gap": stats.bound_gap,
+                              "components_not_optimal": stats.not_optimal, "bound_gap": stats.bound_gap,
                               "links": stats.arcs, "links_pruned": stats.pruned_arcs, "pairs": stats.pairs})
 
 

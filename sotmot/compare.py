@@ -104,20 +104,24 @@ def compare(seq_dirs: Sequence[str | Path], mergers: Sequence[str], config: Trac
     return result
 
 
+def _width(column: str) -> int:
+    return max(13, len(column) + 2)
+
+
 def format_comparison(comparison: Comparison) -> str:
     """One block per sequence and a COMBINED block: a row per solver."""
     lines = []
     for name, by_merger in comparison.rows.items():
         extra = f" ({comparison.tracklets[name]} tracklets)" if name in comparison.tracklets else ""
         lines.append(f"{name}{extra}")
-        head = f"  {'merger':<9}" + "".join(f"{c:>13}" for c in COLUMNS)
+        head = f"  {'merger':<9}" + "".join(f"{c:>{_width(c)}}" for c in COLUMNS)
         lines.append(head)
         for merger, values in by_merger.items():
             cells = []
             for c in COLUMNS:
                 v = values.get(c, float("nan"))
                 digits = 1 if c in ("HOTA", "MOTA", "IDF1") else _FLOAT_COLUMNS.get(c, 0)
-                cells.append(f"{v:13.{digits}f}")
+                cells.append(f"{v:{_width(c)}.{digits}f}")
             lines.append(f"  {merger:<9}" + "".join(cells))
         lines.append("")
     return "\n".join(lines)

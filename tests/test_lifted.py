@@ -52,7 +52,7 @@ def test_cp_sat_optimum_equals_brute_force_and_beats_greedy(specs):
     value = lifted_objective(ts, lifted.groups, CFG)
     assert value == pytest.approx(brute_force_best(ts, CFG), abs=0.05)  # integer weights: 0.01 per pair
     assert value >= lifted_objective(ts, get_solver("greedy")(ts, CFG).groups, CFG) - 0.05
-    assert lifted.stats["windows_not_optimal"] == 0
+    assert lifted.stats["components_not_optimal"] == 0
 
 
 def test_person_16_pattern_flow_skips_a_tracklet_lifted_does_not():
