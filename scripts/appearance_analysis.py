@@ -26,8 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.appearance import affinity_rows, roc_auc
-from sotmot.appearance.onnx_reid import OnnxReidEmbedder
+from sotmot.appearance import affinity_rows, make_embedder, roc_auc
 from sotmot.config import AppearanceConfig, AssociationConfig, TrackletConfig
 from sotmot.io import FrameReader, read_ground_truth, read_seqinfo
 from sotmot.pipeline import progress_bar
@@ -62,7 +61,7 @@ def balanced_threshold(pos: np.ndarray, neg: np.ndarray) -> float:
 
 
 def analyse(seq_dir: Path, models: list[Path], n_pairs: int, seed: int, progress: bool,
-            tuned: Path | None = None) -> list[dict]:
+            tuned: Path | None = None, variants: tuple[str, ...] = ("onnx",)) -> list[dict]:
     info = read_seqinfo(seq_dir)
     gt = read_ground_truth(info.gt_path, info.length).pedestrians(min_visibility=0.5)
     rng = np.random.default_rng(seed)
@@ -70,15 +69,16 @@ def analyse(seq_dir: Path, models: list[Path], n_pairs: int, seed: int, progress
     needed = np.unique(np.concatenate([pos.ravel(), neg.ravel()]))
     thresholds = sorted({0.5, 0.75, TrackletConfig().min_affinity, AssociationConfig().min_affinity})
     rows = []
-    runs = [(m, m.name, None) for m in models]
+    runs = [(m, m.name if variants == ("onnx",) else f"{m.name} [{v}]", None, v) for m in models for v in variants]
     if tuned is not None:
         import torch
 
         base = Path(torch.load(tuned, map_location="cpu", weights_only=True)["onnx_model"])
-        runs.append((base, f"{base.stem} fine-tuned ({tuned.name})", tuned))
-    for model, label, weights in runs:
+        runs.append((base, f"{base.stem} fine-tuned ({tuned.name})", tuned, "torch"))
+    for model, label, weights, variant in runs:
         if weights is None:
-            embedder = OnnxReidEmbedder(AppearanceConfig(model=str(model)))
+            backend, _, noflip = variant.partition(":")
+            embedder = make_embedder(AppearanceConfig(model=str(model), backend=backend, flip=noflip != "noflip"))
         else:
             from sotmot.appearance.torch_reid import TorchReidEmbedder
 
@@ -96,6 +96,7 @@ def analyse(seq_dir: Path, models: list[Path], n_pairs: int, seed: int, progress
         row = {
             "sequence": info.name, "model": label, "pairs": n_pairs, "seed": seed,
             "boxes_embedded": int(len(needed)), "embed_seconds": round(seconds, 2),
+            "boxes_per_second": round(len(needed) / seconds, 1),
             "auc": roc_auc(aff_pos, aff_neg), "balanced_threshold": balanced_threshold(aff_pos, aff_neg),
             "positive_mean": float(aff_pos.mean()), "negative_mean": float(aff_neg.mean()),
             "at_threshold": {f"{t:.2f}": {"positive_acc": float((aff_pos > t).mean()),
@@ -129,12 +130,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--pairs", type=int, default=3000, help="positive and negative pairs each (paper: 3000)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--tuned", type=Path, help="also a checkpoint from 'sotmot train-appearance' (torch)")
+    parser.add_argument("--variants", default="onnx",
+                        help="comma-separated appearance backends to run each model with, a ':noflip' suffix "
+                             "turning flip-averaging off, e.g. onnx,openvino,openvino:noflip (default: %(default)s); "
+                             "boxes_per_second in the JSON includes reading the frames")
     parser.add_argument("--json", type=Path, help="write the rows as JSON here")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
     rows = []
     for seq in args.seq_dirs:
-        rows.extend(analyse(seq, args.models, args.pairs, args.seed, not args.quiet, args.tuned))
+        rows.extend(analyse(seq, args.models, args.pairs, args.seed, not args.quiet, args.tuned,
+                            tuple(v.strip() for v in args.variants.split(",") if v.strip())))
     print(format_rows(rows))
     if args.json:
         args.json.write_text(json.dumps({"machine": f"{platform.node()} {platform.processor()} "

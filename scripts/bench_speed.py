@@ -7,7 +7,10 @@ if enabled), tracklets, association, postprocess. Prints a table and writes
 JSON with the machine it ran on.
 
     python scripts/bench_speed.py --model ../shared/models/person-reidentification-retail-0288.onnx [--sot template] \
-        [--appearance torch --device cuda]
+        [--appearance openvino] [--no-flip] [--appearance torch --device cuda]
+
+``det/s`` is detections embedded per second of the appearance stage (frame
+decoding included).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ import sys
 import time
 from pathlib import Path
 
-from sotmot.appearance import make_embedder
+from sotmot.appearance import BACKENDS, make_embedder
 from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
 from sotmot.config import TrackerConfig
 from sotmot.pipeline import track_sequence
@@ -32,32 +35,42 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", required=True)
     parser.add_argument("--sot", default="none", choices=["none", "template", "deep"])
     parser.add_argument("--merger", default="greedy")
-    parser.add_argument("--appearance", default="onnx", choices=["onnx", "torch"])
+    parser.add_argument("--appearance", default="onnx", choices=sorted(BACKENDS),
+                        help="appearance backend (default: %(default)s)")
+    parser.add_argument("--no-flip", action="store_true", help="embed each crop once, without its mirror image")
+    parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    config = TrackerConfig().replace("appearance", model=args.model, backend=args.appearance, device=args.device)
+    config = TrackerConfig().replace("appearance", model=args.model, backend=args.appearance, device=args.device,
+                                     flip=not args.no_flip)
     config = config.replace("sot", variant=args.sot)
     embedder = make_embedder(config.appearance)
     rows = {}
-    for seq in sequences(args.data):
+    seqs = sequences(args.data)
+    if args.sequences:
+        seqs = [s for s in seqs if s.name in args.sequences.split(",")]
+    for seq in seqs:
         start = time.perf_counter()
         result = track_sequence(seq, config, merger=args.merger, embedder=embedder)
         total = time.perf_counter() - start
-        rows[result.info.name] = {"frames": result.info.length, "seconds": total,
-                                  "fps": result.info.length / total, "stages": result.timings}
-    head = f"{'sequence':<17}{'fps':>7}" + "".join(f"{s:>13}" for s in STAGES)
+        n_dets = int((~result.detections.from_sot).sum())
+        rows[result.info.name] = {"frames": result.info.length, "seconds": total, "detections": n_dets,
+                                  "fps": result.info.length / total, "stages": result.timings,
+                                  "reid_per_s": n_dets / max(result.timings.get("appearance", 0.0), 1e-9)}
+    head = f"{'sequence':<17}{'fps':>7}{'det/s':>7}" + "".join(f"{s:>13}" for s in STAGES)
     lines = [head, "-" * len(head)]
     for name, r in rows.items():
         cells = "".join(f"{r['stages'].get(s, 0.0):7.2f}s{100 * r['stages'].get(s, 0.0) / r['seconds']:4.0f}%"
                         for s in STAGES)
-        lines.append(f"{name:<17}{r['fps']:7.1f}{cells}")
+        lines.append(f"{name:<17}{r['fps']:7.1f}{r['reid_per_s']:7.0f}{cells}")
     print("\n".join(lines))
     print(f"machine: {machine()}; sot: {args.sot}; merger: {args.merger}; appearance: {args.appearance} "
-          f"on {args.device}")
+          f"on {args.device}, flip {'off' if args.no_flip else 'on'}")
     if args.json:
         args.json.write_text(json.dumps({"machine": machine(), "sot": args.sot, "merger": args.merger,
                                          "appearance": args.appearance, "device": args.device,
+                                         "flip": not args.no_flip,
                                          "rows": rows}, indent=2) + "\n")
     return 0
 

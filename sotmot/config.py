@@ -86,7 +86,10 @@ class AppearanceConfig:
         A name in ``sotmot.appearance.BACKENDS``: ``"onnx"``, a person re-ID
         network run with onnxruntime; ``"torch"``:
         the same network executed by torch, weights read from the ONNX file
-        (needs the ``torch`` extra: ``torch==2.13.0`` and ``onnx``).
+        (needs the ``torch`` extra: ``torch==2.13.0`` and ``onnx``);
+        ``"openvino"``: the same ONNX file (or an OpenVINO IR ``.xml``) run by
+        the OpenVINO runtime on the CPU, about twice as fast as onnxruntime here
+        with the same features (needs the ``openvino`` extra).
     model
         Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
         person-reidentification-retail-0288). ``None`` reads the environment

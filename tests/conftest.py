@@ -30,6 +30,18 @@ def model_0288() -> Path:
     return require(MODEL_0288)
 
 
+@pytest.fixture(scope="session")
+def real_crops() -> np.ndarray:
+    """24 ground-truth pedestrian crops of MOT16-04-clip30 (frames 1, 15, 30), as the re-ID backends take them."""
+    from sotmot.appearance.onnx_reid import crop_boxes
+    from sotmot.io import FrameReader, read_ground_truth, read_seqinfo
+
+    info = read_seqinfo(require(DATA / "MOT16-04-clip30"))
+    gt = read_ground_truth(info.gt_path, info.length).pedestrians(0.5)
+    reader = FrameReader(info)
+    return np.concatenate([crop_boxes(reader(f), gt.boxes[gt.frames == f][:8]) for f in (1, 15, 30)])
+
+
 def write_sequence(root: Path, det_lines: list[str], length: int = 5, frame_rate: float = 2,
                    width: int = 64, height: int = 48, name: str = "SYN", images: bool = True,
                    gt_lines: list[str] | None = None) -> Path:

@@ -72,3 +72,13 @@ def test_compare_runs_every_solver_on_the_same_tracklets(tmp_path, model_0288, c
     assert "trajectories" in capsys.readouterr().out
     assert main(["compare", str(seq), "--mergers", "greedy,nope", "--reid-model", str(model_0288)]) == 2
     assert "valid solvers" in capsys.readouterr().err
+
+
+def test_appearance_backend_and_flip_come_from_the_command_line():
+    from sotmot.cli import _build_config, build_parser
+
+    config = _build_config(build_parser().parse_args(["track", "x", "--out", "y"]))
+    assert config.appearance.backend == "onnx" and config.appearance.flip
+    args = build_parser().parse_args(["track", "x", "--out", "y", "--appearance", "openvino", "--no-flip"])
+    config = _build_config(args)
+    assert config.appearance.backend == "openvino" and not config.appearance.flip

@@ -14,15 +14,6 @@ torch = pytest.importorskip("torch", reason="the torch extra is not installed (p
 onnx = pytest.importorskip("onnx", reason="the torch extra is not installed (pip install 'sotmot[torch]')")
 
 
-@pytest.fixture(scope="module")
-def real_crops():
-    info = read_seqinfo(require(DATA / "MOT16-04-clip30"))
-    gt = read_ground_truth(info.gt_path, info.length).pedestrians(0.5)
-    reader = FrameReader(info)
-    crops = [crop_boxes(reader(f), gt.boxes[gt.frames == f][:8]) for f in (1, 15, 30)]
-    return np.concatenate(crops)
-
-
 @pytest.mark.parametrize("model", ["person-reidentification-retail-0288.onnx",
                                    "person-reidentification-retail-0277.onnx"])
 def test_torch_matches_onnxruntime_on_real_crops(model, real_crops):

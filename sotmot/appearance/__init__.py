@@ -135,7 +135,10 @@ def _affinity_from_cosine(cos: np.ndarray) -> np.ndarray:
 BACKENDS: dict[str, str] = {
     "onnx": "sotmot.appearance.onnx_reid:OnnxReidEmbedder",
     "torch": "sotmot.appearance.torch_reid:TorchReidEmbedder",
+    "openvino": "sotmot.appearance.openvino_reid:OpenVinoReidEmbedder",
 }
+#: The extra that installs what each optional backend imports.
+EXTRAS: dict[str, str] = {"torch": "'sotmot[torch]' (torch==2.13.0 and onnx)", "openvino": "'sotmot[openvino]'"}
 
 
 def embedder_for(config: AppearanceConfig, embedder: Embedder | None = None) -> Embedder:
@@ -157,7 +160,7 @@ def make_embedder(config: AppearanceConfig) -> Embedder:
         importlib.import_module(module)
     except ImportError as exc:
         raise ConfigError(f"appearance backend {config.backend!r} needs {exc.name!r}: pip install "
-                          f"'sotmot[torch]' (torch==2.13.0 and onnx)") from exc
+                          f"{EXTRAS.get(config.backend, repr(exc.name))}") from exc
     factory: Callable[[AppearanceConfig], Embedder] = getattr(importlib.import_module(module), name)
     return factory(config)
 

@@ -73,16 +73,53 @@ def crop_boxes(frame: np.ndarray, boxes: np.ndarray, height: int = CROP_HEIGHT,
     return out
 
 
-class OnnxReidEmbedder:
-    """Flip-averaged re-ID features (paper eq. 1) from an ONNX model.
+class CropEmbedder:
+    """Flip-averaged re-ID features (paper eq. 1) of boxes, batching crops through a runtime.
 
     The feature of a box is the mean of the unit-normalised features of its
-    crop and of the mirrored crop, normalised again.
+    crop and of the mirrored crop, normalised again. A runtime backend sets
+    ``path``, ``flip``, ``batch_size`` and ``dim`` and implements
+    :meth:`_run`; cropping, batching and flip-averaging live here, once.
+    """
+
+    path: Path
+    flip: bool
+    batch_size: int
+    dim: int
+
+    def _run(self, tensor: np.ndarray) -> np.ndarray:
+        """Raw ``(B, D)`` features of one ``(B, 3, 256, 128)`` float32 BGR batch."""
+        raise NotImplementedError
+
+    def _forward(self, crops: np.ndarray) -> np.ndarray:
+        """Raw features ``(N, D)`` of ``(N, 256, 128, 3)`` uint8 BGR crops."""
+        out = np.empty((len(crops), self.dim), dtype=np.float32)
+        for start in range(0, len(crops), self.batch_size):
+            batch = crops[start:start + self.batch_size]
+            out[start:start + len(batch)] = self._run(np.ascontiguousarray(batch.transpose(0, 3, 1, 2),
+                                                                           dtype=np.float32))
+        return out
+
+    def embed_crops(self, crops: np.ndarray) -> np.ndarray:
+        """Flip-averaged unit features ``(N, D)`` of ``(N, 256, 128, 3)`` uint8 BGR crops."""
+        if len(crops) == 0:
+            return np.zeros((0, self.dim), dtype=np.float32)
+        raw = self._forward(np.concatenate([crops, crops[:, :, ::-1]]) if self.flip else crops)
+        n = len(crops)
+        return flip_average(raw[:n], raw[n:] if self.flip else None, self.path)
+
+    def embed(self, frame: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        """Features ``(N, D)`` float32, unit length, of ``(N, 4)`` ``x, y, w, h`` boxes in ``frame``."""
+        return self.embed_crops(crop_boxes(frame, boxes))
+
+
+class OnnxReidEmbedder(CropEmbedder):
+    """Flip-averaged re-ID features from an ONNX model run with onnxruntime.
 
     Parameters
     ----------
     config
-        ``model`` (path), ``flip``, ``batch_size`` and ``threads`` are used.
+        ``model`` (path), ``flip``, ``batch_size``, ``threads`` and ``device`` are used.
     """
 
     def __init__(self, config: AppearanceConfig) -> None:
@@ -107,28 +144,15 @@ class OnnxReidEmbedder:
             raise ModelError(f"{self.path}: cannot be loaded as an ONNX model: {exc}") from exc
         self.input_name, dim = check_model_io(self.path, [(i.name, list(i.shape)) for i in self.session.get_inputs()],
                                               [(o.name, list(o.shape)) for o in self.session.get_outputs()])
-        if not isinstance(dim, int):
-            raise ModelError(f"{self.path}: the embedding size D of the output N x D must be fixed, got {dim!r}")
-        self.dim = dim
+        self.dim = fixed_dim(self.path, dim)
         log.info("re-ID model %s: %d-d embedding", self.path, self.dim)
 
-    def _forward(self, crops: np.ndarray) -> np.ndarray:
-        """Raw features ``(N, D)`` of ``(N, 256, 128, 3)`` uint8 BGR crops."""
-        out = np.empty((len(crops), self.dim), dtype=np.float32)
-        for start in range(0, len(crops), self.batch_size):
-            batch = crops[start:start + self.batch_size]
-            tensor = np.ascontiguousarray(batch.transpose(0, 3, 1, 2), dtype=np.float32)
-            out[start:start + len(batch)] = self.session.run(None, {self.input_name: tensor})[0]
-        return out
+    def _run(self, tensor: np.ndarray) -> np.ndarray:
+        return self.session.run(None, {self.input_name: tensor})[0]
 
-    def embed_crops(self, crops: np.ndarray) -> np.ndarray:
-        """Flip-averaged unit features ``(N, D)`` of ``(N, 256, 128, 3)`` uint8 BGR crops."""
-        if len(crops) == 0:
-            return np.zeros((0, self.dim), dtype=np.float32)
-        raw = self._forward(np.concatenate([crops, crops[:, :, ::-1]]) if self.flip else crops)
-        n = len(crops)
-        return flip_average(raw[:n], raw[n:] if self.flip else None, self.path)
 
-    def embed(self, frame: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-        """Features ``(N, D)`` float32, unit length, of ``(N, 4)`` ``x, y, w, h`` boxes in ``frame``."""
-        return self.embed_crops(crop_boxes(frame, boxes))
+def fixed_dim(path: Path, dim: object) -> int:
+    """The embedding size ``D`` a model declares, which must be a fixed number."""
+    if not isinstance(dim, int):
+        raise ModelError(f"{path}: the embedding size D of the output N x D must be fixed, got {dim!r}")
+    return dim
