@@ -157,7 +157,8 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
         d = graph.nodes[t]
         out.append(f"  tracklet {t}: frames {d['start']}-{d['end']}, {d['length']} boxes "
                    f"({d['sot_boxes']} from SOT), mean score {d['mean_score']:.2f}")
-    pairs = [(u, v) for u in members[track_a] for v in members[track_b] if u != v]
+    # within one track each unordered pair once (both directions are looked at below)
+    pairs = [(u, v) for u in members[track_a] for v in members[track_b] if (u < v if same else u != v)]
     found = 0
     for u, v in pairs:
         for x, y in ((u, v), (v, u)):

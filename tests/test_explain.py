@@ -67,6 +67,9 @@ def test_merged_tracks_are_explained_as_taken(tmp_path):
     graph = inspection_graph(result, config)
     text = explain(graph, 1, 1, config, "greedy")
     assert "TAKEN by greedy in round 1" in text and "were merged" in text
+    assert text.count("candidate ") == 1  # one link inside one track, said once
+    # what the link adds to the lifted objective: the one pair it joins, 4 * 4 * (1 - 0.5)
+    assert "lifted objective: the link joins 1 scored pair(s) of tracklets, total +8.0" in text
 
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
