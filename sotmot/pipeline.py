@@ -140,13 +140,26 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedde
 
 def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
                      progress: "bool | Progress" = False) -> np.ndarray:
-    """Appearance features ``(N, D)`` of every detection, one batched call per frame."""
+    """Appearance features ``(N, D)`` of every detection, one batched call per frame.
+
+    The next frame is decoded in a background thread while the re-ID model
+    embeds the boxes of the current one (both release the GIL), so decoding
+    hides behind inference instead of adding to it.
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
     features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
-    reader = FrameReader(info, cache_size=1)
+    reader = FrameReader(info, cache_size=1)  # called from the one decoding thread only
     per_frame = detections.by_frame()
-    for frame in as_progress(progress)(sorted(per_frame), f"{info.name}: appearance", len(per_frame)):
-        idx = per_frame[frame]
-        features[idx] = embedder.embed(reader(frame), detections.boxes[idx])
+    frames = sorted(per_frame)
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-decode") as pool:
+        upcoming = pool.submit(reader, frames[0]) if frames else None
+        for k, frame in enumerate(as_progress(progress)(frames, f"{info.name}: appearance", len(frames))):
+            image = upcoming.result()
+            if k + 1 < len(frames):
+                upcoming = pool.submit(reader, frames[k + 1])
+            idx = per_frame[frame]
+            features[idx] = embedder.embed(image, detections.boxes[idx])
     return features
 
 

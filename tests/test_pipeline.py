@@ -3,6 +3,7 @@
 import tempfile
 from pathlib import Path
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -64,3 +65,19 @@ def test_preprocess_threshold_and_auto_nms(tmp_path):
     assert preprocess(d, PreprocessConfig()).scores.tolist() == [1.5, -0.5]
     assert preprocess(d, PreprocessConfig(nms="iou")).scores.tolist() == [1.5, 0.9, -0.5]
     assert preprocess(d, PreprocessConfig(score_threshold=0.0)).scores.tolist() == [1.5]
+
+
+def test_a_frame_missing_while_embedding_is_the_reader_s_error(tmp_path):
+    # frames are decoded in a background thread ahead of the re-ID model: its error must still reach the caller
+    from sotmot.errors import InputError
+    from sotmot.io import read_seqinfo
+    from sotmot.pipeline import embed_detections
+
+    seq = write_sequence(tmp_path, [f"{f},-1,10,10,5,8,0.9" for f in range(1, 5)], length=4)
+    (seq / "img1" / "000003.jpg").unlink()
+    info = read_seqinfo(seq)
+    dets = read_detections(info.det_path, info.length)
+    with pytest.raises(InputError, match="frame 3 is missing"):
+        embed_detections(info, dets, GeometryEmbedder())
+    good = embed_detections(info, dets.subset([0, 1, 3]), GeometryEmbedder())
+    assert good.shape == (3, GeometryEmbedder().dim)
