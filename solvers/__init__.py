@@ -24,6 +24,7 @@ SOLVERS: dict[str, str] = {
     "greedy": "solvers.greedy:solve",
     "flow": "solvers.mincostflow:solve",
     "flow-nx": "solvers.networkx_flow:solve",
+    "flow-staged": "solvers.mincostflow:solve_staged",
     "lifted": "solvers.lifted:solve",
 }
 

@@ -10,17 +10,27 @@ A status other than OPTIMAL raises :class:`~sotmot.errors.SolverError`.
 It builds the network straight from the arrays of
 :func:`sotmot.graph.candidate_links` (the networkx graph of the same links is
 what :mod:`solvers.networkx_flow` and the inspection tools use).
+
+:func:`solve_staged` (``flow-staged``) runs the same flow twice: first with
+links over at most ``[association] flow_stage_gap`` frames, then on the
+trajectories that stage made (merged, with their mean features). A
+consecutive-link cover prefers a link that jumps over a tracklet of the same
+person when the jump's affinity is high (issue #13); short links first leave
+fewer tracklets to jump over, and the second stage compares whole
+trajectories instead of short tracklets.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
 
-from solvers.base import Association
+from solvers.base import Association, Link
 from solvers.flow_common import association_from_links, flow_arcs, link_cost
 from sotmot.config import AssociationConfig
+from sotmot.constraints import link_order_key, merge_group
 from sotmot.errors import SolverError
 from sotmot.graph import candidate_links
 from sotmot.types import Tracklet
@@ -48,3 +58,19 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
     chosen = np.flatnonzero(flows[link_arcs] > 0)
     links = list(zip(u[chosen].tolist(), v[chosen].tolist()))
     return association_from_links(tracklets, links, dict(zip(links, affinity[chosen].tolist())))
+
+
+def solve_staged(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Association:
+    """Two-stage min-cost flow: short links first, then links between the trajectories they made."""
+    if not tracklets:
+        return Association(groups=())
+    short = solve(tracklets, dataclasses.replace(config, l_max=min(config.flow_stage_gap, config.l_max)))
+    by_id = {t.id: t for t in tracklets}
+    parts = [sorted((by_id[u] for u in group), key=link_order_key) for group in short.groups]
+    merged = [merge_group(part, new_id=k) for k, part in enumerate(parts)]
+    long = solve(merged, config)
+    groups = sorted(tuple(sorted(u for k in group for u in short.groups[k])) for group in long.groups)
+    # a second-stage link joins the last tracklet of one trajectory to the first of the next
+    joins = [Link(a=max(parts[link.a], key=lambda t: (t.end, t.id)).id, b=parts[link.b][0].id,
+                  affinity=link.affinity) for link in long.links]
+    return Association(groups=tuple(groups), links=short.links + tuple(joins))

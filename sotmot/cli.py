@@ -367,7 +367,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--solver", "--merger", dest="solver", choices=sorted(SOLVERS),
                    help="long-term association solver ([association] solver): greedy (the paper's greedy merge, "
                         "default), flow (min-cost flow, OR-Tools), flow-nx (the same with networkx, slow; for "
-                        "cross-checks), lifted (the lifted objective, exact per window with CP-SAT; slower). "
+                        "cross-checks), flow-staged (flow over short gaps first, then between the trajectories "
+                        "made), lifted (the lifted objective, exact per window with CP-SAT; slower). "
                         "--merger is the older name")
     _add_tracker_options(p)
     p.add_argument("--det", type=Path, metavar="DET.txt",

@@ -278,7 +278,9 @@ class AssociationConfig:
     solver
         The long-term association solver, a name in ``solvers.SOLVERS``:
         ``"greedy"`` (the paper's greedy merge), ``"flow"`` (min-cost flow,
-        OR-Tools), ``"flow-nx"`` (the same with networkx) or ``"lifted"`` (the
+        OR-Tools), ``"flow-nx"`` (the same with networkx), ``"flow-staged"``
+        (the same flow twice: links of at most ``flow_stage_gap`` frames, then
+        links between the trajectories they made) or ``"lifted"`` (the
         lifted objective, exact per window with CP-SAT; ``solvers/lifted.py``).
         ``--solver`` (alias ``--merger``) sets it.
     min_affinity
@@ -287,6 +289,9 @@ class AssociationConfig:
         of same-person pairs on PETS09-S2L1 pass it); 0.45 lies between the
         balanced thresholds of model 0288 on PETS09-S2L1 (0.44) and
         MOT16-04-clip30 (0.50) (docs/calibration.md).
+    flow_stage_gap
+        ``flow-staged``: the longest gap, in frames, that its first stage links
+        across (8 was chosen leave-one-sequence-out from 8, 15 and 30; docs/benchmarks.md).
     lifted_window, lifted_step
         The lifted solver decides the tracklets that start within a window of
         ``lifted_window`` frames at once and commits the links into those that
@@ -314,6 +319,7 @@ class AssociationConfig:
     short_gap: int = 5
     min_affinity: float = 0.45
     solver: str = "greedy"
+    flow_stage_gap: int = 8
     lifted_window: int = 60
     lifted_step: int = 30
     lifted_horizon: int | None = None
@@ -328,6 +334,8 @@ class AssociationConfig:
             _check(getattr(self, name) > 0, "association", f"{name} must be > 0")
         _check(self.short_gap >= 2, "association", "short_gap must be >= 2")
         _check(0.0 <= self.min_affinity <= 1.0, "association", "min_affinity must be in [0, 1]")
+        _check(1 <= self.flow_stage_gap <= 1_000_000, "association", "flow_stage_gap must be between 1 and "
+               "1,000,000 frames")
         _check(1 <= self.lifted_step <= self.lifted_window <= 1_000_000, "association",
                "lifted_step and lifted_window must satisfy 1 <= lifted_step <= lifted_window <= 1,000,000")
         _check(self.lifted_horizon is None or 1 <= self.lifted_horizon <= 1_000_000, "association",

@@ -17,3 +17,18 @@ def tk(tid: int, frames, boxes, feature=(1.0, 0.0), scores=None, det_start: int 
     start = 1000 * tid if det_start is None else det_start
     return Tracklet(id=tid, frames=frames, boxes=boxes, scores=scores,
                     det_index=np.arange(start, start + len(frames)), feature=np.asarray(feature), n_features=len(frames))
+
+
+def direction(degrees_from_x: float, out_of_plane: float = 0.0) -> tuple[float, float, float]:
+    """A unit 3-D feature at this angle from the x axis, tilted out of the x-y plane by ``out_of_plane`` degrees."""
+    a, z = np.radians(degrees_from_x), np.radians(out_of_plane)
+    return (float(np.cos(z) * np.cos(a)), float(np.cos(z) * np.sin(a)), float(np.sin(z)))
+
+
+def one_person_in_three_pieces() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Features of three pieces of one person: first and last at affinity 0.8, the middle at 0.6 to either
+    (as when the middle piece is partly occluded; PETS09-S2L1, person 16)."""
+    first, last = np.array(direction(0.0)), np.array(direction(23.07))
+    bisector = (first + last) / np.linalg.norm(first + last)
+    middle = np.cos(np.radians(46.1)) * bisector + np.sin(np.radians(46.1)) * np.array([0.0, 0.0, 1.0])
+    return first, middle, last

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helpers import tk
+from helpers import direction, one_person_in_three_pieces, tk
 from solvers import get_solver
 from solvers.flow_common import chains_from_links
 from solvers.lifted import LiftedWindowError, lifted_objective, link_pairs
@@ -18,11 +18,6 @@ from sotmot.graph import candidate_links
 # one window covers every test instance, so the solver's answer is the exact optimum of the whole instance
 CFG = AssociationConfig(min_affinity=0.5, lifted_threshold=0.5, lifted_window=1000, lifted_step=1000)
 BOX = [100, 100, 30, 60]
-
-
-def direction(degrees_from_x: float, out_of_plane: float = 0.0) -> tuple[float, float, float]:
-    a, z = np.radians(degrees_from_x), np.radians(out_of_plane)
-    return (np.cos(z) * np.cos(a), np.cos(z) * np.sin(a), np.sin(z))
 
 
 def brute_force_best(ts, cfg) -> float:
@@ -56,11 +51,7 @@ def test_cp_sat_optimum_equals_brute_force_and_beats_greedy(specs):
 
 
 def test_person_16_pattern_flow_skips_a_tracklet_lifted_does_not():
-    # One person in three pieces. The first and last look more alike (affinity 0.8) than either looks like
-    # the middle one (0.6 each), as when the middle piece is partly occluded (PETS09-S2L1, person 16).
-    first, last = direction(0.0), direction(23.07)
-    bisector = np.add(first, last) / np.linalg.norm(np.add(first, last))
-    middle = np.cos(np.radians(46.1)) * bisector + np.sin(np.radians(46.1)) * np.array([0.0, 0.0, 1.0])
+    first, middle, last = one_person_in_three_pieces()
     ts = (tk(1, [1, 2, 3], BOX, feature=first), tk(2, [5, 6, 7], BOX, feature=middle),
           tk(3, [9, 10, 11], BOX, feature=last))
     assert get_solver("flow")(ts, CFG).groups == ((1, 3), (2,))  # the consecutive-link cover jumps over 2

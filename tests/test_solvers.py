@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helpers import tk
+from helpers import one_person_in_three_pieces, tk
 from solvers import SOLVERS, get_solver
 from sotmot.config import AssociationConfig
 from sotmot.constraints import check_pair, gap_velocity, merge_group
@@ -224,3 +224,15 @@ def test_infeasible_and_featureless_input_leaves_every_tracklet_alone(solver):
     assert get_solver(solver)(blank, CFG).groups == ((1,), (2,))
     with pytest.raises(ValueError, match="NaN or infinite"):
         tk(3, [1, 2], BOX, feature=(np.nan, 1.0))
+
+
+def test_staged_flow_links_short_gaps_first_so_it_does_not_jump_over_a_piece():
+    # one flow jumps 1 -> 3 and leaves 2 alone; the staged flow first links 1 -> 2 (2 frames apart,
+    # within flow_stage_gap), then joins that trajectory to 3
+    first, middle, last = one_person_in_three_pieces()
+    ts = (tk(1, [1, 2, 3], BOX, feature=first), tk(2, [5, 6, 7], BOX, feature=middle),
+          tk(3, [20, 21, 22], BOX, feature=last))
+    assert get_solver("flow")(ts, CFG).groups == ((1, 3), (2,))
+    staged = get_solver("flow-staged")(ts, CFG)
+    assert staged.groups == ((1, 2, 3),)
+    assert sorted((link.a, link.b) for link in staged.links) == [(1, 2), (2, 3)]
