@@ -50,9 +50,9 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
     """Features of the preprocessed detections of ``seq``, from ``cache`` or computed and stored there.
 
     The cache key holds the sequence, the model file's name and size, the
-    detection cleaning configuration and the flip setting. ``embedder_box`` is a
-    list that receives the embedder when one is first needed, so several calls
-    share it.
+    detection cleaning configuration, the flip setting, the backend and any
+    fine-tuned weights. ``embedder_box`` is a list that receives the embedder
+    when one is first needed, so several calls share it.
     """
     from sotmot.pipeline import embed_detections, preprocess
 
@@ -60,8 +60,11 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
     model = Path(config.appearance.model or "")
     # the detector-score calibration changes no box and no feature: it is not part of the key
     cleaning = {k: v for k, v in config.preprocess.__dict__.items() if k != "confidence"}
+    # the runtime and fine-tuned weights, when not the defaults (so keys of default runs stay as they were)
+    runtime = [v for v in (config.appearance.backend if config.appearance.backend != "onnx" else None,
+                           config.appearance.weights) if v]
     key = hashlib.sha256(json.dumps([info.name, model.name, model.stat().st_size if model.is_file() else 0,
-                                     cleaning, config.appearance.flip],
+                                     cleaning, config.appearance.flip, *runtime],
                                     sort_keys=True, default=str).encode()).hexdigest()[:16]
     path = cache / f"{info.name}-{key}.npy"
     if path.is_file():
