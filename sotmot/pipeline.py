@@ -144,7 +144,9 @@ def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
 
     The next frame is decoded in a background thread while the re-ID model
     embeds the boxes of the current one (both release the GIL), so decoding
-    hides behind inference instead of adding to it.
+    can overlap inference: a small gain where decoding is a large share of
+    the work and the cores are not all busy with inference
+    (docs/benchmarks.md).
     """
     from concurrent.futures import ThreadPoolExecutor
 
