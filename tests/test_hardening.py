@@ -349,7 +349,9 @@ def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):
 def test_the_solver_is_configuration():
     from sotmot.cli import _build_config, build_parser
 
-    with pytest.raises(ConfigError, match="solver must be one of flow, flow-nx, greedy"):
+    from solvers import SOLVERS
+
+    with pytest.raises(ConfigError, match="solver must be one of " + ", ".join(sorted(SOLVERS))):
         TrackerConfig().replace("association", solver="magic")
     args = build_parser().parse_args(["track", "x", "--out", "y", "--merger", "flow"])
     assert _build_config(args).association.solver == "flow"
