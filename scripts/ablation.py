@@ -3,7 +3,9 @@
 
 Rows per sequence: MOT only, SOT(template)+MOT, SOT(template)+MOT with the SOT
 links as must-link hints, SOT(deep)+MOT, and with "+ends" the extension of the
-confirmed trajectories' ends after association (``[sot] extend_seconds = 0.5``).
+confirmed trajectories' ends after association (``[sot] extend_seconds = 0.5``);
+"no-interp" rows turn interpolation off, to see whether SOT boxes only fill
+gaps that interpolation fills anyway.
 Columns: TrackEval HOTA, MOTA, MOTP, IDF1, FP, FN, IDSW; frames per second of
 the whole pipeline (the detections' re-ID features are computed once per
 sequence and their time is added to every row); the SOT boxes in the output
@@ -43,6 +45,10 @@ ROWS = {
     "SOT(template)+MOT seeds>=0.95": {"variant": "template", "seed_min_confidence": 0.95},
     "SOT(deep)+MOT seeds>=0.9": {"variant": "deep", "seed_min_confidence": 0.9},
     "SOT(deep)+MOT+ends seeds>=0.9": {"variant": "deep", "seed_min_confidence": 0.9, "extend_seconds": 0.5},
+    # without interpolation: does SOT fill gaps that interpolation would have filled anyway? (issue #12)
+    "MOT no-interp": {"variant": "none", "postprocess": {"interpolate": False}},
+    "SOT(template)+MOT no-interp": {"variant": "template", "postprocess": {"interpolate": False}},
+    "SOT(deep)+MOT no-interp": {"variant": "deep", "postprocess": {"interpolate": False}},
 }
 COLUMNS = ("HOTA", "MOTA", "MOTP", "IDF1", "FP", "FN", "IDSW")
 
@@ -88,7 +94,10 @@ def main(argv: list[str] | None = None) -> int:
             embed_seconds = time.perf_counter() - start
             results[info.name] = {}
             for row in rows:
-                config = base.replace("sot", **ROWS[row])
+                spec = dict(ROWS[row])
+                config = base.replace("sot", **{k: v for k, v in spec.items() if k != "postprocess"})
+                if "postprocess" in spec:
+                    config = config.replace("postprocess", **spec["postprocess"])
                 start = time.perf_counter()
                 prepared = prepare_sequence(seq, config, embedder, features=features)
                 run = finish_sequence(prepared, config, embedder=embedder)

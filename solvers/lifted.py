@@ -50,6 +50,7 @@ solution to CP-SAT's proved bound).
 from __future__ import annotations
 
 import dataclasses
+import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -63,6 +64,8 @@ from sotmot.constraints import link_order_key
 from sotmot.errors import SolverError
 from sotmot.graph import candidate_links
 from sotmot.types import Tracklet
+
+log = logging.getLogger(__name__)
 
 #: Integer objective units per 1.0 of lifted weight.
 WEIGHT_SCALE = 100
@@ -309,6 +312,8 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
                 has_succ[gu] = True
         decided[new[starts[new] < commit]] = True
         window_start += config.lifted_step
+    log.info("lifted: %d windows, %d components (%d not proven optimal), %d of %d links pruned, %d pairs",
+             stats.windows, stats.components, stats.not_optimal, stats.pruned_arcs, stats.arcs, stats.pairs)
     links = [(tracklets[int(pred[v])].id, tracklets[v].id) for v in np.flatnonzero(pred >= 0).tolist()]
     groups = chains_from_links([t.id for t in tracklets], links)
     chosen_aff = {(tracklets[int(pred[v])].id, tracklets[v].id): affinity[int(pred[v]), v]
