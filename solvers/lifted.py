@@ -92,10 +92,14 @@ def lifted_weights(tracklets: Sequence[Tracklet], early: np.ndarray, late: np.nd
     early, late = np.asarray(early, dtype=np.int64), np.asarray(late, dtype=np.int64)
     if len(early) == 0:
         return np.zeros(0)
-    starts = np.array([t.start for t in tracklets])
-    ends = np.array([t.end for t in tracklets])
-    counts = np.array([t.n_features for t in tracklets], dtype=np.float64)
-    units = unit(np.stack([t.feature for t in tracklets]))
+    # only the tracklets asked about, so that a window's call costs its own size, not the sequence's
+    used, where = np.unique(np.concatenate([early, late]), return_inverse=True)
+    early, late = where[:len(early)], where[len(early):]
+    chosen = [tracklets[i] for i in used.tolist()]
+    starts = np.array([t.start for t in chosen])
+    ends = np.array([t.end for t in chosen])
+    counts = np.array([t.n_features for t in chosen], dtype=np.float64)
+    units = unit(np.stack([t.feature for t in chosen]))
     aff = unit_affinity_rows(units[early], units[late])
     gap = starts[late] - ends[early]
     scored = gap <= lifted_horizon(config)
