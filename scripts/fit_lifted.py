@@ -11,7 +11,8 @@ the threshold with the best mean HOTA on the *other* sequences; the table
 reports what that threshold gives on the held-out sequence, beside greedy and
 flow, and the lifted objective and solver time of each.
 
-    python scripts/fit_lifted.py --model ../shared/models/person-reidentification-retail-0288.onnx --json fit_lifted.json
+    python scripts/fit_lifted.py --model ../shared/models/person-reidentification-retail-0288.onnx \
+        --json fit_lifted.json
 """
 
 from __future__ import annotations

@@ -139,19 +139,29 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedde
 
 
 def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
-                     progress: "bool | Progress" = False) -> np.ndarray:
+                     progress: "bool | Progress" = False, timings: dict[str, float] | None = None) -> np.ndarray:
     """Appearance features ``(N, D)`` of every detection, one batched call per frame.
 
     The next frame is decoded in a background thread while the re-ID model
     embeds the boxes of the current one (both release the GIL), so decoding
     can overlap inference: a small gain where decoding is a large share of
     the work and the cores are not all busy with inference
-    (docs/benchmarks.md).
+    (docs/benchmarks.md). ``timings``, when given, receives ``"decode"``: the
+    seconds spent reading frames (overlapped with the embedding, so part of,
+    not added to, the stage's wall time).
     """
     from concurrent.futures import ThreadPoolExecutor
 
     features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
-    reader = FrameReader(info, cache_size=1)  # called from the one decoding thread only
+    frame_reader = FrameReader(info, cache_size=1)  # called from the one decoding thread only
+    decoding = [0.0]
+
+    def reader(frame: int) -> np.ndarray:
+        start = time.perf_counter()
+        image = frame_reader(frame)
+        decoding[0] += time.perf_counter() - start
+        return image
+
     per_frame = detections.by_frame()
     frames = sorted(per_frame)
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-decode") as pool:
@@ -162,6 +172,8 @@ def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
                 upcoming = pool.submit(reader, frames[k + 1])
             idx = per_frame[frame]
             features[idx] = embedder.embed(image, detections.boxes[idx])
+    if timings is not None:
+        timings["decode"] = timings.get("decode", 0.0) + decoding[0]
     return features
 
 
@@ -259,7 +271,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     clock.lap("preprocess")
     if features is None:
         embedder = embedder_for(config.appearance, embedder)
-        features = embed_detections(info, dets, embedder, progress)
+        features = embed_detections(info, dets, embedder, progress, timings)
     elif len(features) != len(dets):
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
     clock.lap("appearance")

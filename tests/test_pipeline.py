@@ -79,5 +79,7 @@ def test_a_frame_missing_while_embedding_is_the_reader_s_error(tmp_path):
     dets = read_detections(info.det_path, info.length)
     with pytest.raises(InputError, match="frame 3 is missing"):
         embed_detections(info, dets, GeometryEmbedder())
-    good = embed_detections(info, dets.subset([0, 1, 3]), GeometryEmbedder())
+    timings = {}
+    good = embed_detections(info, dets.subset([0, 1, 3]), GeometryEmbedder(), timings=timings)
     assert good.shape == (3, GeometryEmbedder().dim)
+    assert timings["decode"] > 0  # the reading time, measured in the decoding thread
