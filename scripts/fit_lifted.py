@@ -1,15 +1,16 @@
 #!/usr/bin/env python3
-"""The lifted solver against greedy and flow on the full-length sequences, its threshold fitted leave-one-out.
+"""The lifted and staged-flow solvers against greedy and flow on the full-length sequences, fitted leave-one-out.
 
 Each labelled sequence of at least ``--min-length`` frames under ``--data``
 goes once through cleaning, appearance (cached under ``--cache``) and
-tracklets; then greedy, flow and the lifted solver with every candidate
-``[association] lifted_threshold`` run on those same tracklets, and the full
-pipeline after association (interpolation, confirmation) is scored with
-TrackEval. The threshold is chosen leave-one-sequence-out: for each sequence,
-the threshold with the best mean HOTA on the *other* sequences; the table
-reports what that threshold gives on the held-out sequence, beside greedy and
-flow, and the lifted objective and solver time of each.
+tracklets; then greedy, flow, the lifted solver with every candidate
+``[association] lifted_threshold`` and the staged flow with every candidate
+``flow_stage_gap`` run on those same tracklets, and the full pipeline after
+association (interpolation, confirmation) is scored with TrackEval. Each
+parameter is chosen leave-one-sequence-out: for each sequence, the value with
+the best mean HOTA on the *other* sequences; the table reports what that value
+gives on the held-out sequence, beside greedy and flow, and the lifted
+objective and solver time of each.
 
     python scripts/fit_lifted.py --model ../shared/models/person-reidentification-retail-0288.onnx \
         --json fit_lifted.json
@@ -44,6 +45,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="use sequences with at least this many frames (default: %(default)s)")
     parser.add_argument("--thresholds", default="0.45,0.5,0.55",
                         help="candidate lifted thresholds, comma-separated (default: %(default)s)")
+    parser.add_argument("--stage-gaps", default="8,15,30",
+                        help="candidate flow_stage_gap values of flow-staged, comma-separated (default: %(default)s)")
     parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
     parser.add_argument("--cache", type=Path, default=ROOT / ".cache" / "features",
                         help="feature cache folder (default: %(default)s)")
@@ -55,6 +58,9 @@ def main(argv: list[str] | None = None) -> int:
     thresholds = [float(t) for t in args.thresholds.split(",")]
     runs = {"greedy": ("greedy", config), "flow": ("flow", config)}
     runs.update({f"lifted@{t:g}": ("lifted", config.replace("association", lifted_threshold=t)) for t in thresholds})
+    gaps = [int(g) for g in args.stage_gaps.split(",") if g.strip()]
+    runs.update({f"flow-staged@{g}": ("flow-staged", config.replace("association", flow_stage_gap=g)) for g in gaps})
+    families = {"lifted": [f"lifted@{t:g}" for t in thresholds], "flow-staged": [f"flow-staged@{g}" for g in gaps]}
     seq_dirs = [p for p in sequences(args.data) if read_seqinfo(p).length >= args.min_length]
     if len(seq_dirs) < 2:
         print(f"need at least two sequences of >= {args.min_length} frames under {args.data}", file=sys.stderr)
@@ -86,37 +92,41 @@ def main(argv: list[str] | None = None) -> int:
                 rows[seq][name].update(scores)
             combined[name] = report.combined
     names = list(rows)
-    held_out = {}
+    held_out: dict[str, dict[str, str]] = {family: {} for family in families}
+    fitted_on_all = {}
+    with tempfile.TemporaryDirectory(prefix="sotmot-heldout-") as tmp:
+        for family, candidates in families.items():
+            def mean_hota(run: str, seqs: list[str]) -> float:
+                return float(np.mean([rows[s][run]["HOTA"] for s in seqs]))
+
+            chosen = []
+            for seq in names:
+                train = [s for s in names if s != seq]
+                best = max(candidates, key=lambda run: (mean_hota(run, train), -candidates.index(run)))
+                held_out[family][seq] = best
+                rows[seq][f"{family} held out"] = dict(rows[seq][best], chosen=best)
+                path = results_path(Path(tmp) / family, seq)
+                write_results(path, results[best, seq])  # the held-out results, scored together
+                info = next(f for f in files[best] if f[3] == seq)
+                chosen.append((path, info[1], info[2], seq))
+            combined[f"{family} held out"] = evaluate_files(chosen).combined
+            fitted_on_all[family] = max(candidates, key=lambda run: (mean_hota(run, names), -candidates.index(run)))
     for seq in names:
-        train = [s for s in names if s != seq]
-        best = max(thresholds, key=lambda t: (np.mean([rows[s][f"lifted@{t:g}"]["HOTA"] for s in train]), -t))
-        held_out[seq] = best
-        rows[seq]["lifted held out"] = dict(rows[seq][f"lifted@{best:g}"], threshold=best)
-    chosen = [next(f for f in files[f"lifted@{held_out[seq]:g}"] if f[3] == seq) for seq in names]
-    with tempfile.TemporaryDirectory(prefix="sotmot-lifted-") as tmp:
-        for path, gt, length, seq in chosen:  # the held-out results, scored together
-            write_results(results_path(Path(tmp), seq), results[f"lifted@{held_out[seq]:g}", seq])
-        combined["lifted held out"] = evaluate_files([(results_path(Path(tmp), seq), gt, length, seq)
-                                                      for _, gt, length, seq in chosen]).combined
-    overall = max(thresholds, key=lambda t: (np.mean([rows[s][f"lifted@{t:g}"]["HOTA"] for s in names]), -t))
-    for seq in names:
-        print(f"\n{seq} (held-out threshold {held_out[seq]:g})")
-        print(f"  {'solver':<16}" + "".join(f"{c:>12}" for c in SHOWN))
+        print(f"\n{seq} (held out: " + ", ".join(held_out[f][seq] for f in families) + ")")
+        print(f"  {'solver':<22}" + "".join(f"{c:>12}" for c in SHOWN))
         for name, values in rows[seq].items():
-            print(f"  {name:<16}" + "".join(f"{values.get(c, float('nan')):12.{0 if c == 'IDSW' else 2}f}"
+            print(f"  {name:<22}" + "".join(f"{values.get(c, float('nan')):12.{0 if c == 'IDSW' else 2}f}"
                                            for c in SHOWN))
-    print(f"\nall {len(names)} sequences: TrackEval combined (held out: each sequence with its held-out threshold)")
-    print(f"  {'solver':<16}" + "".join(f"{c:>12}" for c in ("HOTA", "MOTA", "IDF1")))
-    for name in ["greedy", "flow"] + [f"lifted@{t:g}" for t in thresholds]:
-        print(f"  {name:<16}" + "".join(f"{combined[name][c]:12.2f}" for c in ("HOTA", "MOTA", "IDF1")))
-    print(f"  {'lifted held out':<16}" + "".join(f"{combined['lifted held out'][c]:12.2f}"
-                                               for c in ("HOTA", "MOTA", "IDF1")))
-    print(f"threshold fitted on all {len(names)} sequences: {overall:g}")
+    print(f"\nall {len(names)} sequences: TrackEval combined (held out: each sequence with the value chosen without it)")
+    print(f"  {'solver':<22}" + "".join(f"{c:>12}" for c in ("HOTA", "MOTA", "IDF1")))
+    for name in combined:
+        print(f"  {name:<22}" + "".join(f"{combined[name][c]:12.2f}" for c in ("HOTA", "MOTA", "IDF1")))
+    print("fitted on all sequences: " + ", ".join(f"{f} {run}" for f, run in fitted_on_all.items()))
     print(f"machine: {machine()}")
     if args.json:
-        write_text_atomic(args.json, json.dumps({"machine": machine(), "thresholds": thresholds, "rows": rows,
-                                                 "combined": combined, "held_out_threshold": held_out,
-                                                 "fitted_on_all": overall},
+        write_text_atomic(args.json, json.dumps({"machine": machine(), "thresholds": thresholds, "stage_gaps": gaps,
+                                                 "rows": rows, "combined": combined, "held_out": held_out,
+                                                 "fitted_on_all": fitted_on_all},
                                                 indent=1, default=float) + "\n")
     return 0
 
