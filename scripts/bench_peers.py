@@ -35,10 +35,11 @@ combined. Speed: ``loop fps`` is frames per second of each tracker's
 tracking loop, median of ``--runs`` runs, all in this process: detections
 are in memory, frames are read outside the clock, results are written after
 the clock stops; ``e2e fps`` adds the re-ID of the detector boxes (frame
-decoding included) for the trackers that use appearance. The re-ID features of the detector boxes are computed once per
-sequence, outside the clock, and given to sotmot and DeepSORT alike (their
-time is printed separately); sotmot's SOT variants read frames and embed
-the boxes they add inside the clock, since that is part of their work.
+decoding included) for the trackers that use appearance. The re-ID features
+of the detector boxes are computed once per sequence, outside the clock, and
+given to sotmot, DeepSORT and the boxmot trackers alike (their time is
+printed separately); sotmot's SOT variants read frames and embed the boxes
+they add inside the clock, since that is part of their work.
 
 Needs the benchmark extras (not needed to use sotmot)::
 
@@ -66,7 +67,7 @@ from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
 from sotmot.boxes import xywh_to_xyxy, xyxy_to_xywh
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import evaluate_files
-from sotmot.io import read_detections, read_seqinfo, results_path, write_results
+from sotmot.io import FrameReader, read_detections, read_seqinfo, results_path, write_results
 from sotmot.pipeline import embed_detections, finish_sequence, prepare_sequence, preprocess, scores_are_probabilities
 from sotmot.types import Detections, Tracks
 
@@ -182,7 +183,6 @@ def run_boxmot(row: str, seq: SeqInput, shuffle: bool = False) -> tuple[Tracks, 
     the seconds count ``update`` calls only. ``shuffle`` permutes the
     embeddings across the sequence's detections (the check that they are used).
     """
-    import cv2
     import torch
     from boxmot.structures.detections import Detections as BoxmotDetections
     from boxmot.structures.geometry import Boxes
@@ -197,9 +197,10 @@ def run_boxmot(row: str, seq: SeqInput, shuffle: bool = False) -> tuple[Tracks, 
     if shuffle:
         features = features[np.random.default_rng(0).permutation(len(features))]
     xyxy = xywh_to_xyxy(seq.detections.boxes).astype(np.float32)
+    reader = FrameReader(seq.info, cache_size=1)
     out, seconds = [], 0.0
     for frame, rows in enumerate(frames_of(seq), start=1):
-        image = cv2.imread(str(seq.info.frame_path(frame)))
+        image = reader(frame)
         dets = BoxmotDetections(geometry=Boxes(torch.from_numpy(xyxy[rows])),
                                 scores=torch.from_numpy(seq.peer_scores[rows].astype(np.float32)),
                                 class_ids=torch.zeros(len(rows), dtype=torch.int64), sample_id=str(frame),

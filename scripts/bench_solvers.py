@@ -16,7 +16,7 @@ With ``--tile N`` it instead repeats each whole sequence 1, 2, 5 and N times
 one after the other in time, to see how a solver grows on long sequences.
 
     python scripts/bench_solvers.py --json bench_solvers.json
-    python scripts/bench_solvers.py --sequences MOT16-04 --tile 10 --mergers greedy,flow,lifted --repeat 1
+    python scripts/bench_solvers.py --sequences MOT16-04 --tile 10 --mergers greedy,flow --repeat 1
 """
 
 from __future__ import annotations

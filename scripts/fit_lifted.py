@@ -68,7 +68,6 @@ def main(argv: list[str] | None = None) -> int:
     rows: dict[str, dict[str, dict[str, float]]] = {}
     files: dict[str, list] = {name: [] for name in runs}
     embedder_box: list = []
-    results: dict = {}
     with tempfile.TemporaryDirectory(prefix="sotmot-lifted-") as tmp:
         for seq_dir in seq_dirs:
             features = cached_features(seq_dir, config, args.cache, embedder_box)
@@ -79,7 +78,6 @@ def main(argv: list[str] | None = None) -> int:
                 run = finish_sequence(prepared, cfg, solver)
                 path = results_path(Path(tmp) / name, seq)
                 write_results(path, run.tracks)
-                results[name, seq] = run.tracks
                 files[name].append((path, prepared.info.gt_path, prepared.info.length, seq))
                 rows[seq][name] = {"lifted_obj": lifted_objective(prepared.tracklets, run.association.groups,
                                                                   cfg.association),
@@ -91,25 +89,22 @@ def main(argv: list[str] | None = None) -> int:
             for seq, scores in report.sequences.items():
                 rows[seq][name].update(scores)
             combined[name] = report.combined
-    names = list(rows)
-    held_out: dict[str, dict[str, str]] = {family: {} for family in families}
-    fitted_on_all = {}
-    with tempfile.TemporaryDirectory(prefix="sotmot-heldout-") as tmp:
-        for family, candidates in families.items():
-            def mean_hota(run: str, seqs: list[str]) -> float:
-                return float(np.mean([rows[s][run]["HOTA"] for s in seqs]))
+        names = list(rows)
+        held_out: dict[str, dict[str, str]] = {family: {} for family in families}
+        fitted_on_all = {}
 
+        def mean_hota(run: str, seqs: list[str]) -> float:
+            return float(np.mean([rows[s][run]["HOTA"] for s in seqs]))
+
+        for family, candidates in families.items():
             chosen = []
             for seq in names:
                 train = [s for s in names if s != seq]
                 best = max(candidates, key=lambda run: (mean_hota(run, train), -candidates.index(run)))
                 held_out[family][seq] = best
                 rows[seq][f"{family} held out"] = dict(rows[seq][best], chosen=best)
-                path = results_path(Path(tmp) / family, seq)
-                write_results(path, results[best, seq])  # the held-out results, scored together
-                info = next(f for f in files[best] if f[3] == seq)
-                chosen.append((path, info[1], info[2], seq))
-            combined[f"{family} held out"] = evaluate_files(chosen).combined
+                chosen.append(next(f for f in files[best] if f[3] == seq))
+            combined[f"{family} held out"] = evaluate_files(chosen).combined  # the held-out results, together
             fitted_on_all[family] = max(candidates, key=lambda run: (mean_hota(run, names), -candidates.index(run)))
     for seq in names:
         print(f"\n{seq} (held out: " + ", ".join(held_out[f][seq] for f in families) + ")")

@@ -57,22 +57,16 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
     nx.set_edge_attributes(graph, False, "taken")
     nx.set_edge_attributes(graph, 0, "round")
     by_id = {t.id: t for t in result.tracklets}
-    chain_pairs = [(u, v) for group in result.association.groups
-                   for chain in [sorted(group, key=lambda t: (by_id[t].start, by_id[t].end, t))]
-                   for u, v in zip(chain, chain[1:])]
-    rounds = _join_rounds(result.association, chain_pairs)
-    for u, v in chain_pairs:
-        if graph.has_edge(u, v):
-            graph.edges[u, v]["taken"] = True
-            graph.edges[u, v]["round"] = rounds.get((u, v), 0)
-    for group in result.association.groups:
-        chain = sorted((by_id[t] for t in group), key=link_order_key)
+    chains = [sorted((by_id[t] for t in group), key=link_order_key) for group in result.association.groups]
+    rounds = _join_rounds(result.association, [(a.id, b.id) for chain in chains for a, b in zip(chain, chain[1:])])
+    for chain in chains:
         for k in range(len(chain) - 1):
             u, v = chain[k].id, chain[k + 1].id
             if graph.has_edge(u, v):
                 pairs = link_pairs(chain, k, config.association)
-                graph.edges[u, v]["lifted_gain"] = float(sum(w for _, _, w in pairs))
-                graph.edges[u, v]["lifted_pairs"] = ";".join(f"{a}->{b}:{w:+.1f}" for a, b, w in pairs)
+                graph.edges[u, v].update(taken=True, round=rounds.get((u, v), 0),
+                                         lifted_gain=float(sum(w for _, _, w in pairs)),
+                                         lifted_pairs=";".join(f"{a}->{b}:{w:+.1f}" for a, b, w in pairs))
     return graph
 
 
