@@ -1,17 +1,22 @@
 #!/usr/bin/env python3
 """The paper's Table 3, on our data: what does the SOT step add to the MOT part?
 
-Rows per sequence: MOT only, SOT(template)+MOT, SOT(template)+MOT with the SOT
-links as must-link hints, SOT(deep)+MOT, and with "+ends" the extension of the
-confirmed trajectories' ends after association (``[sot] extend_seconds = 0.5``);
-"no-interp" rows turn interpolation off, to see whether SOT boxes only fill
-gaps that interpolation fills anyway.
+Rows per sequence (``--rows``; default: the paper's Table 3 under both rules, with and without interpolation):
+MOT only; SOT(template)+MOT and SOT(deep)+MOT with Algorithm 1 as published
+(``[sot] rules = "paper"``) and with the confident rules (``"confident"``:
+only extensions that reach another box, issue #12); SOT after association,
+"+ends" (trajectory ends extended, ``[sot] extend_seconds`` as configured,
+the default since issue #12; every other row extends nothing) and
+"+gaps" (interpolated boxes replaced by boxes found in the frames, ``[sot]
+refine_gaps``); every row also "no-interp", without interpolation, to see
+whether SOT boxes only fill gaps that interpolation fills anyway.
 Columns: TrackEval HOTA, MOTA, MOTP, IDF1, FP, FN, IDSW; frames per second of
 the whole pipeline (the detections' re-ID features are computed once per
 sequence and their time is added to every row); the SOT boxes in the output
-(Algorithm 1's that survived NMS and confirmation, plus end extensions) and
-their precision against the ground truth (IoU >= 0.5 with a considered
-pedestrian box in that frame).
+(Algorithm 1's that survived NMS and confirmation, end extensions, refined
+gap boxes) and their precision against the ground truth (IoU >= 0.5 with a
+considered pedestrian box in that frame), in all and split into "gap" boxes
+(between the first and last other box of their track) and "end" boxes.
 
     python scripts/ablation.py --model ../shared/models/person-reidentification-retail-0288.onnx --json ablation.json
 """
@@ -35,37 +40,53 @@ from sotmot.evaluate import evaluate_files
 from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_path, write_results
 from sotmot.pipeline import embed_detections, finish_sequence, preprocess, prepare_sequence
 
+ENDS = TrackerConfig().sot.extend_seconds  # "+ends" rows: the default end extension
 ROWS = {
     "MOT": {"variant": "none"},
-    "SOT(template)+MOT": {"variant": "template"},
-    "SOT(template)+MOT+links": {"variant": "template", "must_link": True},
-    "SOT(deep)+MOT": {"variant": "deep"},
-    "MOT+ends": {"variant": "none", "extend_seconds": 0.5},
-    "SOT(deep)+MOT+ends": {"variant": "deep", "extend_seconds": 0.5},
-    "SOT(template)+MOT seeds>=0.95": {"variant": "template", "seed_min_confidence": 0.95},
-    "SOT(deep)+MOT seeds>=0.9": {"variant": "deep", "seed_min_confidence": 0.9},
-    "SOT(deep)+MOT+ends seeds>=0.9": {"variant": "deep", "seed_min_confidence": 0.9, "extend_seconds": 0.5},
-    # without interpolation: does SOT fill gaps that interpolation would have filled anyway? (issue #12)
-    "MOT no-interp": {"variant": "none", "postprocess": {"interpolate": False}},
-    "SOT(template)+MOT no-interp": {"variant": "template", "postprocess": {"interpolate": False}},
-    "SOT(deep)+MOT no-interp": {"variant": "deep", "postprocess": {"interpolate": False}},
+    # Algorithm 1 as published (``[sot] rules = "paper"``), and the confident rules (issue #12)
+    "SOT(template)+MOT": {"variant": "template", "rules": "paper"},
+    "SOT(template)+MOT+links": {"variant": "template", "rules": "paper", "must_link": True},
+    "SOT(deep)+MOT": {"variant": "deep", "rules": "paper"},
+    "SOT(template)+MOT confident": {"variant": "template", "rules": "confident"},
+    "SOT(deep)+MOT confident": {"variant": "deep", "rules": "confident"},
+    "SOT(template)+MOT seeds>=0.95": {"variant": "template", "rules": "paper", "seed_min_confidence": 0.95},
+    "SOT(deep)+MOT seeds>=0.9": {"variant": "deep", "rules": "paper", "seed_min_confidence": 0.9},
+    # SOT after association: trajectory ends, and interpolated boxes replaced by boxes found in the frames
+    "MOT+ends": {"variant": "none", "extend_seconds": ENDS},
+    "MOT+gaps": {"variant": "none", "refine_gaps": True},
+    "MOT+ends+gaps": {"variant": "none", "extend_seconds": ENDS, "refine_gaps": True},
+    "SOT(deep)+MOT+ends": {"variant": "deep", "rules": "paper", "extend_seconds": ENDS},
+    "SOT(deep)+MOT confident+ends": {"variant": "deep", "rules": "confident", "extend_seconds": ENDS},
+    "SOT(deep)+MOT+ends seeds>=0.9": {"variant": "deep", "rules": "paper", "seed_min_confidence": 0.9,
+                                      "extend_seconds": ENDS},
 }
+# every row also without interpolation: does SOT fill gaps that interpolation would have filled anyway? (issue #12)
+ROWS.update({f"{name} no-interp": {**spec, "postprocess": {"interpolate": False}} for name, spec in list(ROWS.items())})
+#: The default rows: the paper's Table 3 (MOT, SOT(template)+MOT, SOT(deep)+MOT) under both rules, with and
+#: without interpolation, and SOT after association.
+TABLE3 = [r for base in ("MOT", "SOT(template)+MOT", "SOT(deep)+MOT", "SOT(template)+MOT confident",
+                         "SOT(deep)+MOT confident", "MOT+ends", "MOT+gaps", "MOT+ends+gaps")
+          for r in (base, f"{base} no-interp")]
 COLUMNS = ("HOTA", "MOTA", "MOTP", "IDF1", "FP", "FN", "IDSW")
 
 
-def added_precision(run) -> tuple[int, float]:
-    """Number of SOT boxes in the output (Algorithm 1's that survived, and end extensions) and the
-    fraction that hit a ground-truth pedestrian."""
+def added_boxes(run) -> dict[str, tuple[int, float]]:
+    """SOT boxes in the output and the fraction that hit a ground-truth pedestrian (IoU >= 0.5), in all and
+    split by where they lie: ``gap`` between the first and last other box of their track, ``end`` before or
+    after them (only SOT reaches there)."""
     t = run.tracks
     gt = read_ground_truth(run.info.gt_path, run.info.length).pedestrians()
-    added = np.flatnonzero(t.from_sot)
-    if len(added) == 0:
-        return 0, float("nan")
-    hits = 0
-    for i in added:
-        g = gt.boxes[gt.frames == t.frames[i]]
-        hits += bool(len(g)) and iou_matrix(t.boxes[i], g).max() >= 0.5
-    return len(added), hits / len(added)
+    where = {"all": [], "gap": [], "end": []}
+    for track_id in np.unique(t.ids[t.from_sot]):
+        rows = np.flatnonzero(t.ids == track_id)
+        anchored = t.frames[rows[~t.from_sot[rows]]]
+        for i in rows[t.from_sot[rows]]:
+            g = gt.boxes[gt.frames == t.frames[i]]
+            hit = bool(len(g)) and iou_matrix(t.boxes[i], g).max() >= 0.5
+            inside = len(anchored) and anchored.min() < t.frames[i] < anchored.max()
+            where["all"].append(hit)
+            where["gap" if inside else "end"].append(hit)
+    return {k: (len(v), float(np.mean(v)) if v else float("nan")) for k, v in where.items()}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -73,7 +94,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
     parser.add_argument("--model", required=True)
     parser.add_argument("--config", type=Path)
-    parser.add_argument("--rows", default=",".join(ROWS), help="comma-separated subset of: " + ", ".join(ROWS))
+    parser.add_argument("--rows", default=",".join(TABLE3),
+                        help="comma-separated subset of: " + ", ".join(ROWS) + " (default: the paper's Table 3 rows, "
+                             "both rules, with and without interpolation)")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
@@ -94,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
             embed_seconds = time.perf_counter() - start
             results[info.name] = {}
             for row in rows:
-                spec = dict(ROWS[row])
+                spec = {"extend_seconds": 0.0, **ROWS[row]}  # rows without "+ends" extend nothing
                 config = base.replace("sot", **{k: v for k, v in spec.items() if k != "postprocess"})
                 if "postprocess" in spec:
                     config = config.replace("postprocess", **spec["postprocess"])
@@ -105,11 +128,13 @@ def main(argv: list[str] | None = None) -> int:
                 path = results_path(Path(tmp) / row, info.name)
                 write_results(path, run.tracks)
                 pairs[row].append((path, info.gt_path, info.length, info.name))
-                n_added, precision = added_precision(run)
-                results[info.name][row] = {"fps": info.length / seconds, "seconds": seconds, "added": n_added,
-                                           "added_precision": precision, "sot_steps": prepared.sot_steps,
-                                           "stage_seconds": run.timings}
-                print(f"{info.name} {row}: {info.length / seconds:.1f} fps, {n_added} added", file=sys.stderr)
+                added = added_boxes(run)
+                results[info.name][row] = {"fps": info.length / seconds, "seconds": seconds,
+                                           "added": added["all"][0], "added_precision": added["all"][1],
+                                           "gap": added["gap"][0], "gap_precision": added["gap"][1],
+                                           "end": added["end"][0], "end_precision": added["end"][1],
+                                           "sot_steps": prepared.sot_steps, "stage_seconds": run.timings}
+                print(f"{info.name} {row}: {info.length / seconds:.1f} fps, {added['all'][0]} added", file=sys.stderr)
         combined: dict[str, dict] = {}
         for row in rows:
             report = evaluate_files(pairs[row])
@@ -118,16 +143,23 @@ def main(argv: list[str] | None = None) -> int:
             combined[row] = dict(report.combined)
             frames = sum(p[2] for p in pairs[row])
             combined[row]["fps"] = frames / sum(results[p[3]][row]["seconds"] for p in pairs[row])
-            combined[row]["added"] = sum(results[p[3]][row]["added"] for p in pairs[row])
-    head = f"{'sequence':<17}{'row':<32}" + "".join(f"{c:>7}" for c in COLUMNS) + f"{'fps':>7}{'added':>7}{'prec':>7}"
+            for kind in ("added", "gap", "end"):
+                per_seq = [results[p[3]][row] for p in pairs[row]]
+                n = sum(v[kind] for v in per_seq)
+                hits = sum(v[kind] * v[f"{kind}_precision"] for v in per_seq if v[kind])
+                combined[row][kind] = n
+                combined[row][f"{kind}_precision"] = hits / n if n else float("nan")
+    head = (f"{'sequence':<17}{'row':<40}" + "".join(f"{c:>7}" for c in COLUMNS)
+            + "".join(f"{c:>7}" for c in ("fps", "added", "prec", "gap", "prec", "end", "prec")))
     lines = [head, "-" * len(head)]
     for name, by_row in list(results.items()) + [("ALL", combined)]:
         for row in rows:
             v = by_row[row]
             cells = "".join(f"{v[c]:7.1f}" if c in ("HOTA", "MOTA", "MOTP", "IDF1") else f"{v[c]:7.0f}"
                             for c in COLUMNS)
-            prec = v.get("added_precision", float("nan"))
-            lines.append(f"{name:<17}{row:<32}{cells}{v['fps']:7.1f}{v['added']:7d}{prec:7.2f}")
+            cells += "".join(f"{v[k]:7d}{v[f'{k}_precision']:7.2f}".replace("    nan", "      –")
+                             for k in ("added", "gap", "end"))
+            lines.append(f"{name:<17}{row:<40}{cells[:7 * len(COLUMNS)]}{v['fps']:7.1f}{cells[7 * len(COLUMNS):]}")
     print("\n".join(lines))
     print(f"machine: {machine()}")
     if args.json:

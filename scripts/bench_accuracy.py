@@ -35,6 +35,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from sotmot.appearance import make_embedder
 from sotmot.benchmarks import DEFAULT_DATA, before_confirmation, machine, sequences
 from sotmot.calibrate import box_labels
 from sotmot.config import TrackerConfig, load_config
@@ -75,6 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     config = load_config(args.config) if args.config else TrackerConfig()
     config = config.replace("appearance", model=args.model)
     configs = {"before": before_confirmation(config), "after": config}
+    embedder = make_embedder(config.appearance)
     hits = [int(h) for h in args.min_hits.split(",") if h.strip()]
     seqs = sequences(args.data)
     if not seqs:
@@ -88,11 +90,11 @@ def main(argv: list[str] | None = None) -> int:
         out = args.results or Path(tmp)
         for seq in seqs:
             start = time.perf_counter()
-            prepared = prepare_sequence(seq, config, progress=sys.stderr.isatty())
+            prepared = prepare_sequence(seq, config, embedder, progress=sys.stderr.isatty())
             seconds = time.perf_counter() - start  # the "after" pipeline: preparation plus its finish
             for label, cfg in configs.items():
                 lap = time.perf_counter()
-                result = finish_sequence(prepared, cfg, args.merger)
+                result = finish_sequence(prepared, cfg, args.merger, embedder)
                 if label == "after":
                     seconds += time.perf_counter() - lap
                 path = results_path(out / label, result.info.name)

@@ -247,7 +247,7 @@ def run_sotmot(seq: SeqInput, config: TrackerConfig, variant: str, solvers: list
     out = {}
     for solver in solvers:
         start = time.perf_counter()
-        result = finish_sequence(prepared, cfg, solver)
+        result = finish_sequence(prepared, cfg, solver, embedder)
         out[solver] = (result.tracks, shared + time.perf_counter() - start)
     return out
 

@@ -1,19 +1,24 @@
 #!/usr/bin/env python3
 """Where the time goes: seconds per stage, per sequence, and each stage's share.
 
-Stages: read (det.txt), preprocess (threshold + NMS), appearance (frame
-decoding + re-ID features; ``decode``: its frame reading, overlapped), sot
-(the SOT step incl. features of added boxes, if enabled), tracklets,
-association, postprocess. Prints a table and writes JSON with the machine it
-ran on.
+Stages: read (det.txt), preprocess (threshold + NMS), appearance (re-ID
+features, with the frame decoding of the appearance pass), sot (the SOT step,
+if enabled: template search and frame decoding), tracklets, association,
+postprocess, confirm, extend (SOT after association: trajectory ends, the
+default since issue #12). ``decode``: the seconds spent reading frames, part
+of the stage that read them (beside the columns, not added to the total).
+With ``--sot`` the frames are decoded once (issue #15): the SOT step decodes
+each frame of its window and computes the detections' features from it, so
+appearance is then all re-ID of the run (detections, SOT candidates, added
+boxes) and the frame decoding counts in sot. Prints a table and writes JSON
+with the machine it ran on.
 
     python scripts/bench_speed.py --model ../shared/models/person-reidentification-retail-0288.onnx [--sot template] \
         [--appearance openvino] [--no-flip] [--appearance torch --device cuda]
 
-``det/s`` is detections embedded per second of the appearance stage (frame
-decoding included). ``decode`` is the part of the appearance stage spent
-reading frames; it overlaps the embedding (a background thread), so it is not
-added to the total.
+``det/s`` is detections embedded per second of the appearance stage (MOT
+only, frame decoding included: it overlaps the embedding in a background
+thread; with ``--sot`` the stage also embeds candidates and it is not shown).
 """
 
 from __future__ import annotations
@@ -29,7 +34,8 @@ from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
 from sotmot.config import TrackerConfig
 from sotmot.pipeline import track_sequence
 
-STAGES = ("read", "preprocess", "appearance", "decode", "sot", "tracklets", "association", "postprocess")
+STAGES = ("read", "preprocess", "appearance", "decode", "sot", "tracklets", "association", "postprocess", "confirm",
+          "extend")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -66,7 +72,8 @@ def main(argv: list[str] | None = None) -> int:
     for name, r in rows.items():
         cells = "".join(f"{r['stages'].get(s, 0.0):7.2f}s{100 * r['stages'].get(s, 0.0) / r['seconds']:4.0f}%"
                         for s in STAGES)
-        lines.append(f"{name:<17}{r['fps']:7.1f}{r['reid_per_s']:7.0f}{cells}")
+        per_s = f"{r['reid_per_s']:7.0f}" if args.sot == "none" else f"{'–':>7}"  # with SOT: candidates too
+        lines.append(f"{name:<17}{r['fps']:7.1f}{per_s}{cells}")
     print("\n".join(lines))
     print(f"machine: {machine()}; sot: {args.sot}; merger: {args.merger}; appearance: {args.appearance} "
           f"on {args.device}, flip {'off' if args.no_flip else 'on'}")

@@ -27,10 +27,10 @@ from pathlib import Path
 import numpy as np
 
 from solvers.lifted import lifted_objective
-from sotmot.benchmarks import DEFAULT_DATA, cached_features, machine, sequences
-from sotmot.config import TrackerConfig, load_config
+from sotmot.appearance import make_embedder
+from sotmot.benchmarks import add_fit_arguments, cached_features, fit_setup, machine
 from sotmot.evaluate import evaluate_files
-from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
+from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,35 +39,23 @@ SHOWN = ("HOTA", "MOTA", "IDF1", "IDSW", "lifted_obj", "solver_s")
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--model", required=True, help="ONNX re-ID model")
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
-    parser.add_argument("--min-length", type=int, default=100,
-                        help="use sequences with at least this many frames (default: %(default)s)")
+    add_fit_arguments(parser, ROOT / ".cache" / "features")
     parser.add_argument("--thresholds", default="0.45,0.5,0.55",
                         help="candidate lifted thresholds, comma-separated (default: %(default)s)")
     parser.add_argument("--stage-gaps", default="8,15,30",
                         help="candidate flow_stage_gap values of flow-staged, comma-separated (default: %(default)s)")
-    parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
-    parser.add_argument("--cache", type=Path, default=ROOT / ".cache" / "features",
-                        help="feature cache folder (default: %(default)s)")
-    parser.add_argument("--json", type=Path, help="write every number here")
     args = parser.parse_args(argv)
 
-    config = load_config(args.config) if args.config else TrackerConfig()
-    config = config.replace("appearance", model=args.model)
+    config, seq_dirs = fit_setup(args)
     thresholds = [float(t) for t in args.thresholds.split(",")]
     runs = {"greedy": ("greedy", config), "flow": ("flow", config)}
     runs.update({f"lifted@{t:g}": ("lifted", config.replace("association", lifted_threshold=t)) for t in thresholds})
     gaps = [int(g) for g in args.stage_gaps.split(",") if g.strip()]
     runs.update({f"flow-staged@{g}": ("flow-staged", config.replace("association", flow_stage_gap=g)) for g in gaps})
     families = {"lifted": [f"lifted@{t:g}" for t in thresholds], "flow-staged": [f"flow-staged@{g}" for g in gaps]}
-    seq_dirs = [p for p in sequences(args.data) if read_seqinfo(p).length >= args.min_length]
-    if len(seq_dirs) < 2:
-        print(f"need at least two sequences of >= {args.min_length} frames under {args.data}", file=sys.stderr)
-        return 1
     rows: dict[str, dict[str, dict[str, float]]] = {}
     files: dict[str, list] = {name: [] for name in runs}
-    embedder_box: list = []
+    embedder_box: list = [make_embedder(config.appearance)]  # for the sequences not cached, and the end extension
     with tempfile.TemporaryDirectory(prefix="sotmot-lifted-") as tmp:
         for seq_dir in seq_dirs:
             features = cached_features(seq_dir, config, args.cache, embedder_box)
@@ -75,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
             seq = prepared.info.name
             rows[seq] = {}
             for name, (solver, cfg) in runs.items():
-                run = finish_sequence(prepared, cfg, solver)
+                run = finish_sequence(prepared, cfg, solver, embedder_box[0])
                 path = results_path(Path(tmp) / name, seq)
                 write_results(path, run.tracks)
                 files[name].append((path, prepared.info.gt_path, prepared.info.length, seq))

@@ -117,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
              f"dropped. Result: {len(prepared.tracklets)} tracklets from {len(prepared.detections)} boxes.", ""]
     runs = {}
     for merger in ("greedy", "flow"):
-        runs[merger] = finish_sequence(prepared, base, merger)
+        runs[merger] = finish_sequence(prepared, base, merger, embedder)
     graph = inspection_graph(runs["greedy"], base)
     graph_fig = draw_png(graph, FIG / "graph_mot16_05.png")
     rejected = {}
@@ -163,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
     pets = args.data / "PETS09-S2L1"
     if pets.is_dir():
         p = prepare_sequence(pets, base, embedder)
-        r = finish_sequence(p, base, "greedy")
+        r = finish_sequence(p, base, "greedy", embedder)
         g = inspection_graph(r, base, (100, 140))
         draw_png(g, FIG / "graph_pets_100_140.png")
         text += ["## The same on PETS09-S2L1, frames 100-140", "",
@@ -172,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
                  f"frames 100-140 ({g.number_of_nodes()} tracklets, {g.number_of_edges()} candidates):", "",
                  "![graph](figures/graph_pets_100_140.png)", ""]
         before = before_confirmation(base)
-        old = finish_sequence(p, before, "greedy")
+        old = finish_sequence(p, before, "greedy", embedder)
         with tempfile.TemporaryDirectory() as tmp:
             scores = {}
             for label, run_ in (("every box kept, every gap filled", old), ("confirmed (default)", r)):

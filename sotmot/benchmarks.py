@@ -7,6 +7,7 @@ environment variable ``SOTMOT_DATA``.
 
 from __future__ import annotations
 
+import argparse
 import hashlib
 import json
 import os
@@ -42,8 +43,10 @@ def sequences(data: Path) -> list[Path]:
 
 
 def before_confirmation(config: TrackerConfig) -> TrackerConfig:
-    """``config`` as sotmot ran before the confirmation stage (issue #11): every box kept, every gap filled."""
-    return config.replace("confirm", enabled=False).replace("postprocess", interpolate_max_seconds=None)
+    """``config`` as sotmot ran before the confirmation stage (issue #11): every box kept, every gap filled, no
+    end extension (issue #12)."""
+    return (config.replace("confirm", enabled=False).replace("postprocess", interpolate_max_seconds=None)
+            .replace("sot", extend_seconds=0.0))
 
 
 def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box: list) -> np.ndarray:
@@ -80,3 +83,27 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
         with open(tmp, "wb") as fh:
             np.save(fh, features)
     return features
+
+
+def add_fit_arguments(parser: argparse.ArgumentParser, cache: Path) -> None:
+    """The arguments every leave-one-sequence-out fit script takes: the model, the data and which of its sequences,
+    a configuration, the feature cache (default ``cache``) and a JSON report."""
+    parser.add_argument("--model", required=True, help="ONNX re-ID model")
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
+    parser.add_argument("--min-length", type=int, default=100,
+                        help="use sequences with at least this many frames (default: %(default)s)")
+    parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
+    parser.add_argument("--cache", type=Path, default=cache, help="feature cache folder (default: %(default)s)")
+    parser.add_argument("--json", type=Path, help="write every number here")
+
+
+def fit_setup(args: argparse.Namespace) -> tuple[TrackerConfig, list[Path]]:
+    """The configuration (with ``--model``) and the sequences of at least ``--min-length`` frames of a fit script;
+    exits with a message when fewer than two (nothing to hold out)."""
+    from sotmot.config import load_config
+
+    config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
+    seq_dirs = [p for p in sequences(args.data) if read_seqinfo(p).length >= args.min_length]
+    if len(seq_dirs) < 2:
+        sys.exit(f"need at least two sequences of >= {args.min_length} frames under {args.data}")
+    return config, seq_dirs

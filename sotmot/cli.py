@@ -97,9 +97,16 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--extend-ends", type=float, metavar="SECONDS",
                    help="SOT after association: follow each confirmed trajectory up to SECONDS past its last and "
                         "before its first box, re-ID checked (default: 0, off; 0.5 is a good start)")
+    p.add_argument("--refine-gaps", action="store_true",
+                   help="SOT after association: replace interpolated boxes by boxes found in the frames where "
+                        "template and re-ID agree (default: off)")
     p.add_argument("--sot", choices=["none", "template", "deep"],
                    help="single-object-tracking step that adds missed boxes (paper Algorithm 1): template = "
                         "OpenCV correlation, deep = re-ID re-ranking (default: the config's, see docs)")
+    p.add_argument("--sot-rules", choices=["paper", "confident"],
+                   help="which boxes the SOT step keeps: paper = Algorithm 1 as published (every extension), "
+                        "confident = only extensions that reach another box, none overlapping a box at IoU > "
+                        "[sot] stop_iou, searched along the extension's motion (default: the config's)")
 
 
 def _build_config(args: argparse.Namespace):
@@ -128,6 +135,10 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("confirm", enabled=True, low_confidence=args.unconfirmed)
     if args.sot:
         config = config.replace("sot", variant=args.sot)
+    if args.sot_rules:
+        config = config.replace("sot", rules=args.sot_rules)
+    if getattr(args, "refine_gaps", False):
+        config = config.replace("sot", refine_gaps=True)
     if args.extend_ends is not None:
         config = config.replace("sot", extend_seconds=args.extend_ends)
     if getattr(args, "solver", None):

@@ -78,7 +78,7 @@ def compare(seq_dirs: Sequence[str | Path], mergers: Sequence[str], config: Trac
             result.rows[name] = {}
             for merger in mergers:
                 start = time.perf_counter()
-                run = finish_sequence(prepared, config, merger)
+                run = finish_sequence(prepared, config, merger, embedder)
                 seconds = run.timings["association"]
                 if fingerprint(prepared.tracklets) != before:
                     raise SotmotError(f"solver {merger!r} changed the tracklets of {name}")

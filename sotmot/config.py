@@ -138,6 +138,16 @@ class SotConfig:
         ``"none"`` (no SOT step), ``"template"`` (OpenCV normalised
         cross-correlation, the paper's naive variant) or ``"deep"`` (template
         proposals re-ranked by the re-ID model).
+    rules
+        ``"paper"``: Algorithm 1 as published (every extension is kept, a
+        candidate is refused only when it overlaps a box at IoU above
+        ``tau_I``, the search is centred on the last box). ``"confident"``
+        (issue #12): a candidate that overlaps any box at IoU above
+        ``stop_iou`` stops the extension, the search is centred on a
+        constant-velocity prior (the extension's own last step), and an
+        extension is kept only if it reaches another box (meets an opposite end
+        or runs into a box); extensions that run to ``L``, to the window's edge
+        or lose the object are dropped, which is where false isolated seeds go.
     tau
         ``next()`` returns its best candidate only if its affinity with the
         seed is above this (paper: 0.5).
@@ -173,17 +183,31 @@ class SotConfig:
         trajectory up to this many seconds past its last and before its first
         box, where interpolation cannot reach; 0 turns it off. Works with any
         ``variant``; candidates are re-ranked by the re-ID model.
+    extend_min_confidence
+        Only trajectories whose boxes' mean confirmation confidence
+        (``[confirm]``, ``sotmot.confidence``) is at least this have their ends
+        extended: extensions of doubtful trajectories are mostly false
+        (issue #12). Trajectories without confidences (confirmation off) are
+        extended.
+    refine_gaps
+        SOT after association, inside gaps: search for each interpolated box
+        around itself with the track's template and re-ID identity, and
+        replace it by the box found when the evidence passes the same gates as
+        an end extension (else the interpolated box stays).
     extend_min_affinity
-        An end extension keeps a candidate only if its re-ID affinity with the
+        An end extension (or a gap box) keeps a candidate only if its re-ID affinity with the
         trajectory's mean feature is at least this. 0.6: the same person one to
         14 frames apart has median affinity 0.71-0.81 with model 0288, a box
         shifted to IoU 0.5 about 0.63, another person 0.33 (issue #12).
-    extend_stop_iou
-        An end extension stops where its candidate overlaps a box of another
-        trajectory at IoU above this.
+    stop_iou
+        An end extension, and an extension under the ``confident`` rules,
+        stops where its candidate overlaps a box of someone else (another
+        trajectory, another detection) at IoU above this: a lagging duplicate
+        of a detection overlaps it at 0.3-0.5.
     """
 
     variant: Literal["none", "template", "deep"] = "none"
+    rules: Literal["paper", "confident"] = "confident"
     tau: float = 0.5
     tau_a: float = 0.75
     tau_I: float = 0.5
@@ -195,22 +219,26 @@ class SotConfig:
     window: int = 0
     must_link: bool = False
     seed_min_confidence: float = 0.0
-    extend_seconds: float = 0.0
-    extend_min_affinity: float = 0.6
-    extend_stop_iou: float = 0.3
+    extend_seconds: float = 1.0
+    extend_min_confidence: float = 0.8
+    refine_gaps: bool = False
+    extend_min_affinity: float = 0.5
+    stop_iou: float = 0.3
 
     def __post_init__(self) -> None:
         _check(self.variant in ("none", "template", "deep"), "sot",
                f"variant must be one of none, template, deep; got {self.variant!r}")
         for name in ("tau", "tau_a", "tau_I", "e"):
             _check(0.0 <= getattr(self, name) <= 1.0, "sot", f"{name} must be in [0, 1]")
+        _check(self.rules in ("paper", "confident"), "sot",
+               f"rules must be one of paper, confident; got {self.rules!r}")
         _check(self.L >= 1, "sot", "L must be >= 1")
         _check(self.search_radius > 0, "sot", "search_radius must be > 0")
         _check(len(self.scales) >= 1 and all(s > 0 for s in self.scales), "sot", "scales must be positive")
         _check(self.rerank >= 1, "sot", "rerank must be >= 1")
         _check(self.window >= 0, "sot", "window must be >= 0")
         _check(0.0 <= self.extend_seconds <= 60.0, "sot", "extend_seconds must be in [0, 60]")
-        for name in ("seed_min_confidence", "extend_min_affinity", "extend_stop_iou"):
+        for name in ("seed_min_confidence", "extend_min_affinity", "extend_min_confidence", "stop_iou"):
             _check(0.0 <= getattr(self, name) <= 1.0, "sot", f"{name} must be in [0, 1]")
 
 

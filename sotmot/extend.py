@@ -1,4 +1,4 @@
-"""SOT after association: extend confirmed trajectories past their first and last detections.
+"""SOT after association: extend confirmed trajectories past their ends, and check their interpolated boxes.
 
 Interpolation fills gaps inside a trajectory but cannot reach before its
 first or after its last box, where a person is often still visible and only
@@ -14,9 +14,14 @@ feature, the paper's seed, the mean was right more often: on MOT17-09-FRCNN
 * no candidate has a template correlation above ``[sot] tau`` and an
   affinity with the trajectory of at least ``extend_min_affinity``;
 * the best candidate overlaps a box of another trajectory (or one already
-  added) at IoU above ``extend_stop_iou``: someone else is there;
+  added) at IoU above ``stop_iou``: someone else is there;
 * less than half the candidate lies inside the image (the person leaves);
 * it has grown ``extend_seconds``, or reached the sequence's first or last frame.
+
+Only trajectories the confirmation stage trusts (mean confidence at least
+``extend_min_confidence``) are extended. :func:`refine_gaps` uses the same
+search inside a trajectory's gaps, where it replaces an interpolated box by
+the box found around it when the evidence passes the same gates.
 
 Added boxes are flagged ``from_sot`` in the output. Boxes are ``x, y, w, h``
 pixels, frames 1-based.
@@ -65,15 +70,78 @@ def end_velocity(frames: np.ndarray, boxes: np.ndarray, direction: int) -> np.nd
     return (c[1] - c[0]) / abs(int(frames[b]) - int(frames[a]))
 
 
+def mean_confidence(confidence: np.ndarray) -> float:
+    """Mean of a track's confirmation confidences (:mod:`sotmot.confidence`); 1 when none was computed."""
+    scored = confidence[np.isfinite(confidence)]
+    return float(scored.mean()) if len(scored) else 1.0
+
+
+class _Finder:
+    """The search both uses share: template proposals around a prior, re-ranked by re-ID against an identity."""
+
+    def __init__(self, tracks: Tracks, read_frame: Callable[[int], np.ndarray], embedder: Embedder,
+                 config: SotConfig) -> None:
+        self.read_frame, self.embedder, self.config = read_frame, embedder, config
+        self.search = TemplateSearch(config)
+        self.occupied: dict[int, list[tuple[int, np.ndarray]]] = {}  # frame -> (track id, box) of every box there
+        for f, i, b in zip(tracks.frames.tolist(), tracks.ids.tolist(), tracks.boxes):
+            self.occupied.setdefault(f, []).append((i, b))
+        self._greys: dict[int, np.ndarray] = {}
+
+    def grey(self, f: int) -> np.ndarray:
+        import cv2
+
+        if f not in self._greys:
+            if len(self._greys) > 64:
+                self._greys.clear()
+            bgr = self.read_frame(f)
+            self._greys[f] = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY) if bgr.ndim == 3 else bgr
+        return self._greys[f]
+
+    def find(self, template: np.ndarray, frame: int, prior: np.ndarray, identity: np.ndarray,
+             track_id: int) -> tuple[np.ndarray | None, float]:
+        """The best candidate for ``track_id`` in ``frame`` around ``prior`` and its re-ID affinity with
+        ``identity``; the box is None when the evidence is not there: no proposal correlates above ``tau``, the best re-ranked one
+        has affinity under ``extend_min_affinity`` with ``identity``, lies less
+        than half inside the image, or overlaps a box of another track at IoU
+        above ``stop_iou``.
+        """
+        cfg = self.config
+        image = self.read_frame(frame)
+        candidates, ncc = self.search.search(template, self.grey(frame), prior, top=cfg.rerank)
+        candidates = candidates[ncc > cfg.tau]
+        if len(candidates) == 0:
+            return None, 0.0
+        aff = affinity_rows(np.repeat(identity[None], len(candidates), 0), self.embedder.embed(image, candidates))
+        best = int(np.argmax(aff))
+        found = candidates[best]
+        if aff[best] < cfg.extend_min_affinity or inside_fraction(found, image.shape[1], image.shape[0]) < 0.5:
+            return None, float(aff[best])
+        others = [b for o, b in self.occupied.get(frame, []) if o != track_id]
+        if others and iou_matrix(found, np.stack(others))[0].max() > cfg.stop_iou:
+            return None, float(aff[best])
+        return found, float(aff[best])
+
+    def claim(self, frame: int, track_id: int, box: np.ndarray) -> None:
+        """``box`` of ``track_id`` now stands in ``frame``: later searches of other tracks avoid it."""
+        self.occupied.setdefault(frame, []).append((track_id, box))
+
+
+def _track_rows(tracks: Tracks, track_id: int) -> np.ndarray:
+    rows = np.flatnonzero(tracks.ids == track_id)
+    return rows[np.argsort(tracks.frames[rows], kind="stable")]
+
+
 def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Callable[[int], np.ndarray],
                 n_frames: int, frame_rate: float, embedder: Embedder, config: SotConfig,
-                progress: Callable | None = None) -> Tracks:
+                progress: Callable | None = None, trace: list[dict] | None = None) -> Tracks:
     """``tracks`` with boxes added before the first and after the last box of each track.
 
     Parameters
     ----------
     tracks
-        Confirmed output tracks.
+        Confirmed output tracks; only those whose mean confirmation confidence is at least
+        ``extend_min_confidence`` are extended.
     features
         Track id -> mean appearance feature of its detections (its identity).
     read_frame
@@ -85,35 +153,25 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
     embedder
         The re-ID model that re-ranks candidates.
     config
-        ``tau``, ``rerank``, ``search_radius``, ``scales`` and the ``extend_*`` fields.
+        ``tau``, ``rerank``, ``search_radius``, ``scales``, ``stop_iou`` and the ``extend_*`` fields.
+    progress
+        Wraps the list of track ids (a progress bar).
+    trace
+        If given, one dict per added box is appended: ``frame``, ``track``,
+        ``direction`` (+1 after the last box, -1 before the first), ``step``
+        (frames from the end), ``box``, ``affinity`` (re-ID, with the track's
+        identity) and ``track_confidence``. ``scripts/fit_sot.py`` fits the gates
+        from it; it shows why an end grew as far as it did.
     """
-    import cv2
-
     steps = max(1, int(round(config.extend_seconds * frame_rate)))
-    search = TemplateSearch(config)
-    occupied: dict[int, list[np.ndarray]] = {}
-    owner: dict[int, list[int]] = {}
-    for f, i, b in zip(tracks.frames.tolist(), tracks.ids.tolist(), tracks.boxes):
-        occupied.setdefault(f, []).append(b)
-        owner.setdefault(f, []).append(i)
+    finder = _Finder(tracks, read_frame, embedder, config)
     added: list[tuple[int, int, np.ndarray]] = []
     ids = np.unique(tracks.ids).tolist()
-    greys: dict[int, np.ndarray] = {}
-
-    def grey(f: int) -> np.ndarray:
-        if f not in greys:
-            if len(greys) > 64:
-                greys.clear()
-            bgr = read_frame(f)
-            greys[f] = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY) if bgr.ndim == 3 else bgr
-        return greys[f]
-
     for track_id in (progress(ids) if progress else ids):
-        rows = np.flatnonzero(tracks.ids == track_id)
-        rows = rows[np.argsort(tracks.frames[rows])]
+        rows = _track_rows(tracks, track_id)
         frames, boxes = tracks.frames[rows], tracks.boxes[rows]
-        identity = features.get(track_id)
-        if identity is None:
+        identity, confidence = features.get(track_id), mean_confidence(tracks.confidence[rows])
+        if identity is None or confidence < config.extend_min_confidence:
             continue
         for direction in (1, -1):
             start = int(frames[-1] if direction == 1 else frames[0])
@@ -124,28 +182,22 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
                 g = start + direction * k
                 if not 1 <= g <= n_frames:
                     break
-                prior = box + np.r_[velocity, 0.0, 0.0]
-                image = read_frame(g)
-                candidates, ncc = search.search(template, grey(g), prior, top=config.rerank)
-                keep = ncc > config.tau
-                if not keep.any():
+                found, affinity = finder.find(template, g, box + np.r_[velocity, 0.0, 0.0], identity, track_id)
+                if found is None:
                     break
-                candidates, ncc = candidates[keep], ncc[keep]
-                aff = affinity_rows(np.repeat(identity[None], len(candidates), 0), embedder.embed(image, candidates))
-                best = int(np.argmax(aff))
-                found = candidates[best]
-                if aff[best] < config.extend_min_affinity:
-                    break
-                if inside_fraction(found, image.shape[1], image.shape[0]) < 0.5:
-                    break
-                others = [b for b, o in zip(occupied.get(g, []), owner.get(g, [])) if o != track_id]
-                if others and iou_matrix(found, np.stack(others))[0].max() > config.extend_stop_iou:
-                    break
-                occupied.setdefault(g, []).append(found)
-                owner.setdefault(g, []).append(track_id)
+                finder.claim(g, track_id, found)
                 added.append((g, track_id, found))
+                if trace is not None:
+                    trace.append({"frame": g, "track": track_id, "direction": direction, "step": k, "box": found,
+                                  "affinity": affinity, "track_confidence": confidence})
                 box = found
     log.info("end extension added %d boxes to %d tracks", len(added), len(ids))
+    return with_added(tracks, added)
+
+
+def with_added(tracks: Tracks, added: list[tuple[int, int, np.ndarray]]) -> Tracks:
+    """``tracks`` plus SOT boxes ``(frame, track id, box)`` (flagged ``from_sot``, the lowest score, no
+    confidence), rows in track, frame order."""
     if not added:
         return tracks
     n = len(added)
@@ -156,3 +208,41 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
             for c in ("frames", "ids", "boxes", "scores", "interpolated", "from_sot", "confidence")]
     order = np.lexsort((both[0], both[1]))
     return Tracks(*both).subset(order)
+
+
+def refine_gaps(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Callable[[int], np.ndarray],
+                embedder: Embedder, config: SotConfig, progress: Callable | None = None) -> Tracks:
+    """``tracks`` with interpolated boxes replaced by boxes found in the frames where the evidence supports them.
+
+    Interpolation puts a box on the straight line between the two detector
+    boxes around a gap; a person who turned, stopped or sped up is elsewhere.
+    Each interpolated box is searched for around itself (the interpolation is
+    the motion prior, known from both sides), with the template of the
+    nearer real box of the track, and re-ranked by re-ID against the track's
+    identity (``features``); it is replaced (flagged ``from_sot``, no longer
+    ``interpolated``) only when :meth:`_Finder.find` accepts a candidate, else
+    the interpolated box stays. Boxes are ``x, y, w, h`` pixels, frames 1-based.
+    """
+    finder = _Finder(tracks, read_frame, embedder, config)
+    boxes = tracks.boxes.copy()
+    interpolated, from_sot = tracks.interpolated.copy(), tracks.from_sot.copy()
+    ids = np.unique(tracks.ids[tracks.interpolated]).tolist()
+    templates: dict[int, np.ndarray] = {}
+    for track_id in (progress(ids) if progress else ids):
+        identity = features.get(track_id)
+        if identity is None:
+            continue
+        rows = _track_rows(tracks, track_id)
+        real = rows[~tracks.interpolated[rows]]
+        for r in rows[tracks.interpolated[rows]]:
+            f = int(tracks.frames[r])
+            nearest = int(real[np.argmin(np.abs(tracks.frames[real] - f))])
+            if nearest not in templates:
+                templates[nearest] = TemplateSearch.template(read_frame(int(tracks.frames[nearest])),
+                                                             tracks.boxes[nearest])
+            found, _ = finder.find(templates[nearest], f, tracks.boxes[r], identity, track_id)
+            if found is not None:
+                boxes[r], interpolated[r], from_sot[r] = found, False, True
+    log.info("gap refinement replaced %d of %d interpolated boxes", int((from_sot & tracks.interpolated).sum()),
+             int(tracks.interpolated.sum()))
+    return Tracks(tracks.frames, tracks.ids, boxes, tracks.scores, interpolated, from_sot, tracks.confidence)

@@ -103,13 +103,19 @@ def preprocess(detections: Detections, config: PreprocessConfig) -> Detections:
     return dets.subset(nms_per_frame(dets, resolve_nms(config, detections), config.nms_threshold))
 
 
-def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedder: Embedder,
+def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, embedder: Embedder,
             config: TrackerConfig, progress: "bool | Progress" = False,
-            confidence: np.ndarray | None = None) -> tuple[Detections, np.ndarray, np.ndarray, int]:
+            confidence: np.ndarray | None = None,
+            timings: dict[str, float] | None = None) -> tuple[Detections, np.ndarray, np.ndarray, int]:
     """The SOT step, then NMS on the enlarged set (paper Sec. 3.3 and 6.1).
 
-    ``confidence`` (``(N,)`` of ``detections``) chooses the seeds with
-    ``[sot] seed_min_confidence``.
+    ``features`` of ``detections``, or None: the SOT step computes them from
+    the frames it decodes, window by window, so each frame is decoded once
+    for appearance, SOT and the added boxes' features. ``confidence``
+    (``(N,)`` of ``detections``) chooses the seeds with ``[sot]
+    seed_min_confidence``. ``timings``, when given, receives ``"appearance"``
+    (the seconds of re-ID inside the step: detections, candidates, added
+    boxes) and ``"decode"`` (frame reading).
 
     Returns the enlarged detections (added boxes flagged ``from_sot``), their
     features, the SOT links ``(K, 2)`` as indices into them (links whose ends
@@ -117,19 +123,28 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray, embedde
     """
     from sotmot.sot import SotTracker
 
-    deep = config.sot.variant == "deep"
-    reader = FrameReader(info, cache_size=1)
-    tracker = SotTracker(config.sot, reader, info.length, embed=embedder.embed if deep else None,
-                         det_features=features if deep else None)
+    spent = {"appearance": 0.0, "decode": 0.0}
+
+    def timed(stage: str, work: Callable) -> Callable:
+        def run(*args):
+            start = time.perf_counter()
+            out = work(*args)
+            spent[stage] += time.perf_counter() - start
+            return out
+        return run
+
+    tracker = SotTracker(config.sot, timed("decode", FrameReader(info, cache_size=1)), info.length,
+                         embed=timed("appearance", embedder.embed), det_features=features)
     seeds = None if confidence is None else confidence >= config.sot.seed_min_confidence
     show = as_progress(progress)
     result = tracker.run(detections, progress=lambda items: show(items, f"{info.name}: SOT ({config.sot.variant})"),
                          seeds=seeds)
-    n = len(detections)
+    if timings is not None:
+        for stage, seconds in spent.items():
+            timings[stage] = timings.get(stage, 0.0) + seconds
     enlarged = result.detections
-    added = enlarged.subset(np.arange(n, len(enlarged)))
-    added_features = result.features if deep else embed_detections(info, added, embedder, progress)
-    all_features = np.concatenate([features, added_features.astype(features.dtype)])
+    features = result.det_features if features is None else features
+    all_features = np.concatenate([features, result.features.astype(features.dtype)])
     keep = nms_per_frame(enlarged, resolve_nms(config.preprocess, detections), config.preprocess.nms_threshold)
     remap = np.full(len(enlarged), -1)
     remap[keep] = np.arange(len(keep))
@@ -269,22 +284,29 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     dets = preprocess(raw, config.preprocess)
     log.info("%s: %d detections, %d after preprocessing", info.name, len(raw), len(dets))
     clock.lap("preprocess")
-    if features is None:
+    sot = config.sot.variant != "none"
+    if features is None and not sot:  # with SOT, the SOT step computes them from the frames it decodes
         embedder = embedder_for(config.appearance, embedder)
         features = embed_detections(info, dets, embedder, progress, timings)
-    elif len(features) != len(dets):
+    elif features is not None and len(features) != len(dets):
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
     clock.lap("appearance")
     links, steps = np.zeros((0, 2), np.int64), 0
     method, knots = confidence_knots(config.preprocess.confidence, raw.scores,
                                      load_calibration(config.confirm.calibration))
     log.info("%s: detection confidence by %r", info.name, method)
-    if config.sot.variant != "none":
+    if sot:
         embedder = embedder_for(config.appearance, embedder)
+        inside: dict[str, float] = {}
         dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress,
-                                               detection_confidence(dets.scores, knots))
+                                               detection_confidence(dets.scores, knots), inside)
         log.info("%s: SOT added %d boxes (after NMS)", info.name, int(dets.from_sot.sum()))
         clock.lap("sot")
+        # the re-ID inside the SOT step (the detections' features too, when it computed them) counts as appearance;
+        # "decode" is reported beside the stages, as part of the one that read the frames (here: sot)
+        timings["sot"] -= inside["appearance"]
+        timings["appearance"] += inside["appearance"]
+        timings["decode"] = timings.get("decode", 0.0) + inside["decode"]
     tracklets = build_tracklets(dets, features, info.frame_rate, config.tracklets,
                                 must_link=links if config.sot.must_link else None)
     clock.lap("tracklets")
@@ -339,7 +361,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
     tracks, dropped = (confirm(tracks, config, prepared.confidence_method) if config.confirm.enabled
                        else (tracks, Tracks.empty()))
     clock.lap("confirm")
-    if config.sot.extend_seconds > 0 and len(tracks):
+    if (config.sot.extend_seconds > 0 or config.sot.refine_gaps) and len(tracks):
         tracks = extend_trajectories(prepared, trajectories, tracks, config, embedder, progress)
         clock.lap("extend")
     log.info("%s: %d tracklets -> %d trajectories -> %d tracks, %d boxes kept, %d dropped as unconfirmed (%s)",
@@ -351,17 +373,22 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
 
 def extend_trajectories(prepared: Prepared, trajectories: list[Tracklet], tracks: Tracks, config: TrackerConfig,
                         embedder: Embedder | None = None, progress: "bool | Progress" = False) -> Tracks:
-    """SOT after association: :func:`sotmot.extend.extend_ends` on the output ``tracks``."""
-    from sotmot.extend import extend_ends
+    """SOT after association (:mod:`sotmot.extend`) on the output ``tracks``: interpolated boxes replaced by
+    boxes found in the frames (``[sot] refine_gaps``), then the ends extended (``[sot] extend_seconds``)."""
+    from sotmot.extend import extend_ends, refine_gaps
 
     info = prepared.info
     ids = output_ids(trajectories, config.postprocess, info.frame_rate)
     identity = {i: t.feature for t, i in zip(trajectories, ids) if i is not None}
-    before = len(tracks)
-    tracks = extend_ends(tracks, identity, FrameReader(info, cache_size=8), info.length, info.frame_rate,
-                         embedder_for(config.appearance, embedder), config.sot,
-                         progress=lambda items: as_progress(progress)(items, f"{info.name}: extend ends"))
-    log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
+    reader, embedder = FrameReader(info, cache_size=8), embedder_for(config.appearance, embedder)
+    if config.sot.refine_gaps:
+        tracks = refine_gaps(tracks, identity, reader, embedder, config.sot,
+                             progress=lambda items: as_progress(progress)(items, f"{info.name}: refine gaps"))
+    if config.sot.extend_seconds > 0:
+        before = len(tracks)
+        tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, config.sot,
+                             progress=lambda items: as_progress(progress)(items, f"{info.name}: extend ends"))
+        log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
     return tracks
 
 

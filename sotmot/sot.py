@@ -26,6 +26,15 @@ Two appearance variants score candidates:
   re-ranked by the re-ID model's affinity with the seed's feature, all
   candidates of a step in one batched forward pass.
 
+Under ``[sot] rules = "confident"`` (issue #12) three rules change: a
+candidate overlapping any box at IoU above ``stop_iou`` stops the end (a
+lagging duplicate of a detection is not added), the search is centred on a
+constant-velocity prior (the end's own last step), and an extension is kept
+only if it *reaches* another box (meets an opposite end or runs into a box);
+extensions that grow to ``L``, leave the window or lose the object are
+removed at the end of the window. False isolated seeds have nothing to reach.
+Seeds can also be limited by confidence (``seed_min_confidence``).
+
 The step runs over windows of frames (``window`` frames, default ``2 L + 1``)
 so only a window's frames are kept in memory; an end never leaves its window.
 Boxes are ``x, y, w, h`` pixels, frames 1-based.
@@ -41,7 +50,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sotmot.appearance import affinity_rows
-from sotmot.boxes import iou_matrix, pixel_bounds
+from sotmot.boxes import centers, iou_matrix, pixel_bounds
 from sotmot.config import SotConfig
 from sotmot.types import Detections
 
@@ -63,16 +72,20 @@ class SotResult:
         ``(K, 2)`` detection indices ``(earlier, later)`` that SOT linked in
         adjacent frames: an extension step or two ends that met.
     features
-        Deep features of the added boxes (``deep`` variant only; else None),
-        row ``i`` for added box ``i``.
+        Deep features of the added boxes, row ``i`` for added box ``i``, when
+        the tracker has an embedder (else None).
     steps
         Number of extension attempts.
+    det_features
+        Features of the input detections: those given, or those computed
+        window by window from the frames SOT decoded anyway (else None).
     """
 
     detections: Detections
     links: np.ndarray
     features: np.ndarray | None = None
     steps: int = 0
+    det_features: np.ndarray | None = None
 
 
 @dataclass(order=True)
@@ -84,6 +97,8 @@ class _End:
     score: float = field(compare=False)
     length: int = field(compare=False)
     direction: int = field(compare=False)
+    chain: int = field(compare=False)
+    velocity: np.ndarray = field(compare=False)
 
 
 def crop_resized(frame: np.ndarray, box: np.ndarray, width: int, height: int) -> np.ndarray:
@@ -179,16 +194,20 @@ class SotTracker:
     n_frames
         Sequence length (frames are ``1..n_frames``).
     embed
-        For the ``deep`` variant: ``(frame, boxes) -> (N, D)`` unit features.
+        ``(frame, boxes) -> (N, D)`` unit features; the ``deep`` variant needs
+        it. With it, the added boxes get features from the frames of their
+        window (no second decoding of those frames), whatever the variant.
     det_features
-        For the ``deep`` variant: features of the input detections.
+        Features of the input detections. None with ``embed``: they are
+        computed window by window from the frames SOT decodes anyway, so a
+        run with SOT decodes each frame once (``SotResult.det_features``).
     """
 
     def __init__(self, config: SotConfig, read_frame: Callable[[int], np.ndarray], n_frames: int,
                  embed: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
                  det_features: np.ndarray | None = None) -> None:
-        if config.variant == "deep" and (embed is None or det_features is None):
-            raise ValueError("the deep SOT variant needs an embedder and the detections' features")
+        if config.variant == "deep" and embed is None:
+            raise ValueError("the deep SOT variant needs an embedder")
         self.config = config
         self.read_frame = read_frame
         self.n_frames = n_frames
@@ -247,6 +266,10 @@ class SotTracker:
                                                    else [None] * n)
         self._templates: dict[int, np.ndarray] = {}
         links: list[tuple[int, int]] = []
+        confident = cfg.rules == "confident"
+        overlap = cfg.stop_iou if confident else cfg.tau_I  # a candidate overlapping a box this much is refused
+        chain_of: dict[int, int] = {}  # added box -> the extension (chain) that added it
+        reached: list[bool] = []  # per chain: did it reach another box (``confident`` keeps only those)
         window = cfg.window or 2 * cfg.L + 1
         ranks = _score_ranks(detections.scores)
         per_frame = detections.by_frame()
@@ -269,6 +292,12 @@ class SotTracker:
                 return cached(f)[0]
 
             in_frame: dict[int, list[int]] = {f: list(per_frame.get(f, [])) for f in range(w0, w1 + 1)}
+            if self.det_features is None and self.embed is not None:  # the detections' features, from these frames
+                for f, idx in in_frame.items():
+                    if idx:
+                        for d, feature in zip(idx, self.embed(image(f), detections.boxes[idx])):
+                            self._features[d] = feature
+            first_added = len(self._boxes)
             ends: dict[int, set[int]] = {}
             heap: list[_End] = []
             counter = 0
@@ -278,7 +307,9 @@ class SotTracker:
                     if seeds is not None and not seeds[d]:
                         continue
                     for direction in (1, -1):
-                        heapq.heappush(heap, _End(-ranks[d], counter, d, d, ranks[d], 1, direction))
+                        heapq.heappush(heap, _End(-ranks[d], counter, d, d, ranks[d], 1, direction,
+                                                  len(reached), np.zeros(2)))
+                        reached.append(False)
                         counter += 1
             while heap:
                 end = heapq.heappop(heap)
@@ -304,11 +335,16 @@ class SotTracker:
                             meet = facing[best]
                             ends[meet].discard(-end.direction)
                             links.append((end.box_id, meet) if end.direction == 1 else (meet, end.box_id))
+                            reached[end.chain] = True
+                            if meet in chain_of:  # two extensions met half way: both reached a box
+                                reached[chain_of[meet]] = True
                             continue
-                found, aff, feature = self.next(box, seed, *cached(g))
+                prior = box + np.r_[end.velocity, 0.0, 0.0] if confident else box
+                found, aff, feature = self.next(prior, seed, *cached(g))
                 if len(found) == 0 or aff < cfg.tau_a:
                     continue
-                if others and iou_matrix(found, np.stack([self._boxes[b] for b in others]))[0].max() > cfg.tau_I:
+                if others and iou_matrix(found, np.stack([self._boxes[b] for b in others]))[0].max() > overlap:
+                    reached[end.chain] = True  # it ran into a box: someone is already there
                     continue
                 new = len(self._boxes)
                 self._boxes.append(found)
@@ -316,20 +352,47 @@ class SotTracker:
                 self._features.append(feature)
                 in_frame[g].append(new)
                 ends[new] = {end.direction}
+                chain_of[new] = end.chain
                 links.append((end.box_id, new) if end.direction == 1 else (new, end.box_id))
+                step = centers(found[None])[0] - centers(box[None])[0]
                 heapq.heappush(heap, _End(-end.score * cfg.e, counter, new, seed, end.score * cfg.e,
-                                          end.length + 1, end.direction))
+                                          end.length + 1, end.direction, end.chain, step))
                 counter += 1
+            if self.embed is not None:  # added boxes the variant did not embed (template): their frames are here
+                todo: dict[int, list[int]] = {}
+                for b in range(first_added, len(self._boxes)):
+                    if self._features[b] is None:
+                        todo.setdefault(self._frames[b], []).append(b)
+                for f, idx in todo.items():
+                    for b, feature in zip(idx, self.embed(image(f), np.stack([self._boxes[b] for b in idx]))):
+                        self._features[b] = feature
+        if confident:
+            self._drop_unreached(n, [b for b in range(n, len(self._boxes)) if not reached[chain_of[b]]], links)
         added = len(self._boxes) - n
         scores = np.concatenate([detections.scores, np.full(added, _added_score(detections.scores))])
         enlarged = Detections(np.asarray(self._frames), np.asarray(self._boxes).reshape(-1, 4), scores,
                               np.r_[detections.from_sot, np.ones(added, bool)])
-        feats = None
-        if cfg.variant == "deep":
-            feats = (np.stack(self._features[n:]) if added
-                     else np.zeros((0, self.det_features.shape[1]), np.float32))
+        feats = det_feats = None
+        if self.embed is not None:
+            dim = next((len(f) for f in self._features if f is not None), 0)
+            feats = np.stack(self._features[n:]) if added else np.zeros((0, dim), np.float32)
+            det_feats = np.stack(self._features[:n]) if n else np.zeros((0, dim), np.float32)
         log.info("SOT (%s) added %d boxes to %d detections in %d steps", cfg.variant, added, n, self.steps)
-        return SotResult(enlarged, np.asarray(links, dtype=np.int64).reshape(-1, 2), feats, self.steps)
+        return SotResult(enlarged, np.asarray(links, dtype=np.int64).reshape(-1, 2), feats, self.steps, det_feats)
+
+
+    def _drop_unreached(self, n: int, drop: list[int], links: list[tuple[int, int]]) -> None:
+        """Remove the added boxes ``drop`` (indices >= ``n``) and their links, renumbering the rest."""
+        if not drop:
+            return
+        gone = set(drop)
+        keep = [b for b in range(len(self._boxes)) if b not in gone]
+        new_index = {b: i for i, b in enumerate(keep)}
+        self._boxes = [self._boxes[b] for b in keep]
+        self._frames = [self._frames[b] for b in keep]
+        self._features = [self._features[b] for b in keep]
+        links[:] = [(new_index[a], new_index[b]) for a, b in links if a in new_index and b in new_index]
+        log.debug("SOT (confident rules) dropped %d boxes of extensions that reached no box", len(gone))
 
 
 def _score_ranks(scores: np.ndarray) -> np.ndarray:

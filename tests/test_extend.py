@@ -6,7 +6,7 @@ import numpy as np
 
 from conftest import GeometryEmbedder
 from sotmot.config import SotConfig, TrackerConfig
-from sotmot.extend import end_velocity, extend_ends, inside_fraction
+from sotmot.extend import end_velocity, extend_ends, inside_fraction, refine_gaps
 from sotmot.types import Tracks
 
 WIDTH, HEIGHT, LENGTH = 200, 120, 34
@@ -82,14 +82,44 @@ def test_velocity_and_inside_fraction():
     assert inside_fraction(np.array([95.0, 0, 10, 10]), 100, 100) == 0.5
 
 
-def test_pipeline_runs_the_extension_only_when_asked(tmp_path):
+def test_pipeline_extends_ends_by_default_and_not_when_turned_off(tmp_path):
     from conftest import write_sequence
     from sotmot.pipeline import track_sequence
 
     lines = [f"{f},-1,{10 + 2 * f},20,20,40,0.95" for f in range(1, 9)]
     seq = write_sequence(tmp_path, lines, length=10, frame_rate=4, width=120, height=80)
     config = TrackerConfig().replace("confirm", enabled=False)
-    off = track_sequence(seq, config, embedder=GeometryEmbedder())
+    off = track_sequence(seq, config.replace("sot", extend_seconds=0.0), embedder=GeometryEmbedder())
     assert "extend" not in off.timings
-    on = track_sequence(seq, config.replace("sot", extend_seconds=1.0), embedder=GeometryEmbedder())
+    on = track_sequence(seq, config, embedder=GeometryEmbedder())
     assert "extend" in on.timings and len(on.tracks) >= len(off.tracks)
+
+
+def test_doubtful_trajectories_are_not_extended():
+    images = frames_with_walker()
+    detected = range(1, 21)
+    boxes = [[walker_x(f), 40, 20, 40] for f in detected]
+
+    def extended(confidence):
+        tracks = Tracks(list(detected), [1] * 20, boxes, [0.9] * 20, confidence=[confidence] * 20)
+        out = extend_ends(tracks, {1: LOOK}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(),
+                          SotConfig(extend_seconds=1.5, extend_min_confidence=0.7))
+        return int(out.from_sot.sum())
+
+    assert extended(0.9) >= 7 and extended(0.6) == 0
+    assert extended(float("nan")) >= 7  # confirmation off: no confidence to judge by
+
+
+def test_an_interpolated_box_off_the_person_is_replaced_by_the_box_found_there():
+    images = frames_with_walker()
+    frames = list(range(1, 21))
+    boxes = np.array([[walker_x(f), 40, 20, 40] for f in frames])
+    interpolated = np.isin(frames, [9, 10, 11])
+    boxes[interpolated, 0] -= 7  # interpolation put the box 7 px behind the person (they sped up)
+    tracks = Tracks(frames, [1] * 20, boxes, [0.9] * 20, interpolated=interpolated)
+    out = refine_gaps(tracks, {1: LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig())
+    assert out.from_sot.tolist() == interpolated.tolist() and not out.interpolated.any()
+    assert np.abs(out.boxes[interpolated, 0] - [walker_x(f) for f in (9, 10, 11)]).max() <= 1.0
+    assert np.array_equal(out.boxes[~interpolated], tracks.boxes[~interpolated])
+    kept = refine_gaps(tracks, {1: -LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig())
+    assert np.array_equal(kept.boxes, tracks.boxes) and kept.interpolated.tolist() == interpolated.tolist()
