@@ -40,7 +40,7 @@ from sotmot.evaluate import evaluate_files
 from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_path, write_results
 from sotmot.pipeline import embed_detections, finish_sequence, preprocess, prepare_sequence
 
-ENDS = TrackerConfig().sot.extend_seconds  # "+ends" rows: the default end extension
+ENDS = None  # "+ends" rows: the end extension as configured (the default's, or --config's)
 ROWS = {
     "MOT": {"variant": "none"},
     # Algorithm 1 as published (``[sot] rules = "paper"``), and the confident rules (issue #12)
@@ -118,6 +118,8 @@ def main(argv: list[str] | None = None) -> int:
             results[info.name] = {}
             for row in rows:
                 spec = {"extend_seconds": 0.0, **ROWS[row]}  # rows without "+ends" extend nothing
+                if spec["extend_seconds"] is ENDS:
+                    spec["extend_seconds"] = base.sot.extend_seconds
                 config = base.replace("sot", **{k: v for k, v in spec.items() if k != "postprocess"})
                 if "postprocess" in spec:
                     config = config.replace("postprocess", **spec["postprocess"])

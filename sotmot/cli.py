@@ -95,8 +95,9 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                    help="boxes more likely false than true after association: drop them (default), write them "
                         "to DIR/<name>.low.txt, or keep them (confirmation off); see docs/calibration.md")
     p.add_argument("--extend-ends", type=float, metavar="SECONDS",
-                   help="SOT after association: follow each confirmed trajectory up to SECONDS past its last and "
-                        "before its first box, re-ID checked (default: 0, off; 0.5 is a good start)")
+                   help="SOT after association: follow each confirmed trajectory the confirmation trusts up to "
+                        "SECONDS past its last and before its first box, re-ID checked (default: the config's, 1; "
+                        "0 turns it off)")
     p.add_argument("--refine-gaps", action="store_true",
                    help="SOT after association: replace interpolated boxes by boxes found in the frames where "
                         "template and re-ID agree (default: off)")

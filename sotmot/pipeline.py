@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -153,40 +154,67 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, 
     return enlarged.subset(keep), all_features[keep], links, result.steps
 
 
+#: Frames the appearance stage decodes (and crops) ahead of the one the model embeds.
+PREFETCH_FRAMES = 8
+
+
 def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
                      progress: "bool | Progress" = False, timings: dict[str, float] | None = None) -> np.ndarray:
-    """Appearance features ``(N, D)`` of every detection, one batched call per frame.
+    """Appearance features ``(N, D)`` of every detection.
 
-    The next frame is decoded in a background thread while the re-ID model
-    embeds the boxes of the current one (both release the GIL), so decoding
-    can overlap inference: a small gain where decoding is a large share of
-    the work and the cores are not all busy with inference
-    (docs/benchmarks.md). ``timings``, when given, receives ``"decode"``: the
-    seconds spent reading frames (overlapped with the embedding, so part of,
-    not added to, the stage's wall time).
+    The next frames (:data:`PREFETCH_FRAMES`) are decoded (and, for the
+    crop-based backends, their boxes cropped) in a background thread while
+    the re-ID model embeds earlier ones (both release the GIL), so decoding
+    overlaps inference. The
+    crop-based backends (onnx, openvino) get the crops of several frames in
+    one call that fills about one forward pass (``batch_size`` rows, a
+    flipped crop counting as one): a frame holds a few boxes, and
+    small batches waste the runtime's time (docs/benchmarks.md); other
+    embedders are called once per frame. ``timings``, when given, receives
+    ``"decode"``: the seconds spent reading (and cropping) frames, overlapped
+    with the embedding, so part of, not added to, the stage's wall time.
     """
     from concurrent.futures import ThreadPoolExecutor
+
+    from sotmot.appearance.onnx_reid import CropEmbedder, crop_boxes
 
     features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
     frame_reader = FrameReader(info, cache_size=1)  # called from the one decoding thread only
     decoding = [0.0]
+    per_frame = detections.by_frame()
+    frames = sorted(per_frame)
+    batched = isinstance(embedder, CropEmbedder)
+    per_call = max(1, embedder.batch_size // (2 if embedder.flip else 1)) if batched else 1  # crops: one forward pass
 
     def reader(frame: int) -> np.ndarray:
         start = time.perf_counter()
         image = frame_reader(frame)
+        if batched:
+            image = crop_boxes(image, detections.boxes[per_frame[frame]])
         decoding[0] += time.perf_counter() - start
         return image
 
-    per_frame = detections.by_frame()
-    frames = sorted(per_frame)
+    pending: list[tuple[np.ndarray, np.ndarray]] = []  # (rows, crops) not embedded yet
+
+    def flush() -> None:
+        rows = np.concatenate([r for r, _ in pending])
+        features[rows] = embedder.embed_crops(np.concatenate([c for _, c in pending]))
+        pending.clear()
+
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-decode") as pool:
-        upcoming = pool.submit(reader, frames[0]) if frames else None
+        # a few frames ahead: one call of the model consumes several frames' crops at once
+        upcoming = deque(pool.submit(reader, f) for f in frames[:PREFETCH_FRAMES])
         for k, frame in enumerate(as_progress(progress)(frames, f"{info.name}: appearance", len(frames))):
-            image = upcoming.result()
-            if k + 1 < len(frames):
-                upcoming = pool.submit(reader, frames[k + 1])
+            item = upcoming.popleft().result()
+            if k + PREFETCH_FRAMES < len(frames):
+                upcoming.append(pool.submit(reader, frames[k + PREFETCH_FRAMES]))
             idx = per_frame[frame]
-            features[idx] = embedder.embed(image, detections.boxes[idx])
+            if not batched:
+                features[idx] = embedder.embed(item, detections.boxes[idx])
+                continue
+            pending.append((np.asarray(idx), item))
+            if sum(len(r) for r, _ in pending) >= per_call or k + 1 == len(frames):
+                flush()
     if timings is not None:
         timings["decode"] = timings.get("decode", 0.0) + decoding[0]
     return features
