@@ -16,6 +16,12 @@ with the machine it ran on.
     python scripts/bench_speed.py --model ../shared/models/person-reidentification-retail-0288.onnx [--sot template] \
         [--appearance openvino] [--no-flip] [--appearance torch --device cuda]
 
+With ``--sot none`` (the default) the same run times ``--peers`` end to end:
+each peer's tracking loop on sotmot's detections and features, plus the
+seconds of sotmot's appearance stage (the same re-ID work, which every
+appearance tracker needs), so the table shows which side the frames go
+faster on.
+
 ``det/s`` is detections embedded per second of the appearance stage (MOT
 only, frame decoding included: it overlaps the embedding in a background
 thread; with ``--sot`` the stage also embeds candidates and it is not shown).
@@ -38,6 +44,26 @@ STAGES = ("read", "preprocess", "appearance", "decode", "sot", "tracklets", "ass
           "extend")
 
 
+def time_peers(peers: list[str], seq: Path, result, config: TrackerConfig) -> dict[str, dict[str, float]]:
+    """Each peer's loop on the detections and features of sotmot's run ``result``, and its end-to-end fps with
+    the seconds of sotmot's appearance stage added (the re-ID every appearance tracker needs)."""
+    if not peers:
+        return {}
+    try:
+        from sotmot.peers import SeqInput, peer_scores, run_peer
+    except ImportError as exc:  # pragma: no cover - the bench extra is missing
+        print(f"peers skipped ({exc}); install them with bash scripts/bootstrap.sh --bench", file=sys.stderr)
+        return {}
+    frames, reid = result.info.length, result.timings.get("appearance", 0.0)
+    inputs = SeqInput(seq, result.info, result.detections, result.features, peer_scores(result.detections.scores),
+                      reid)
+    out = {}
+    for peer in peers:
+        _, loop = run_peer(peer, inputs, config.association.min_affinity)
+        out[peer] = {"loop_seconds": loop, "loop_fps": frames / max(loop, 1e-9), "fps": frames / (reid + loop)}
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
@@ -49,8 +75,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-flip", action="store_true", help="embed each crop once, without its mirror image")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
+    parser.add_argument("--peers", default="DeepSORT,OccluBoost +GSI",
+                        help="trackers timed end to end beside sotmot (MOT only): their loop on sotmot's detections "
+                             "and features plus the seconds of sotmot's appearance stage, the same re-ID work for "
+                             "them; '' for none; needs bash scripts/bootstrap.sh --bench (default: %(default)s)")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
+    peers = [p.strip() for p in args.peers.split(",") if p.strip()] if args.sot == "none" else []
     config = TrackerConfig().replace("appearance", model=args.model, backend=args.appearance, device=args.device,
                                      flip=not args.no_flip)
     config = config.replace("sot", variant=args.sot)
@@ -66,7 +97,8 @@ def main(argv: list[str] | None = None) -> int:
         n_dets = int((~result.detections.from_sot).sum())
         rows[result.info.name] = {"frames": result.info.length, "seconds": total, "detections": n_dets,
                                   "fps": result.info.length / total, "stages": result.timings,
-                                  "reid_per_s": n_dets / max(result.timings.get("appearance", 0.0), 1e-9)}
+                                  "reid_per_s": n_dets / max(result.timings.get("appearance", 0.0), 1e-9),
+                                  "peers": time_peers(peers, seq, result, config)}
     head = f"{'sequence':<17}{'fps':>7}{'det/s':>7}" + "".join(f"{s:>13}" for s in STAGES)
     lines = [head, "-" * len(head)]
     for name, r in rows.items():
@@ -75,6 +107,13 @@ def main(argv: list[str] | None = None) -> int:
         per_s = f"{r['reid_per_s']:7.0f}" if args.sot == "none" else f"{'–':>7}"  # with SOT: candidates too
         lines.append(f"{name:<17}{r['fps']:7.1f}{per_s}{cells}")
     print("\n".join(lines))
+    if any(r["peers"] for r in rows.values()):
+        head = f"{'sequence':<17}{'sotmot':>9}" + "".join(f"{p:>22}" for p in peers)
+        lines = ["\nend to end fps (loop fps), the same re-ID for everyone", head, "-" * len(head)]
+        for name, r in rows.items():
+            lines.append(f"{name:<17}{r['fps']:9.1f}" + "".join(
+                f"{r['peers'][p]['fps']:>12.1f} ({r['peers'][p]['loop_fps']:7.0f})" for p in peers))
+        print("\n".join(lines))
     print(f"machine: {machine()}; sot: {args.sot}; merger: {args.merger}; appearance: {args.appearance} "
           f"on {args.device}, flip {'off' if args.no_flip else 'on'}")
     if args.json:

@@ -100,11 +100,12 @@ class _Finder:
 
     def find(self, template: np.ndarray, frame: int, prior: np.ndarray, identity: np.ndarray,
              track_id: int) -> tuple[np.ndarray | None, float]:
-        """The best candidate for ``track_id`` in ``frame`` around ``prior`` and its re-ID affinity with
-        ``identity``; the box is None when the evidence is not there: no proposal correlates above ``tau``, the best re-ranked one
-        has affinity under ``extend_min_affinity`` with ``identity``, lies less
-        than half inside the image, or overlaps a box of another track at IoU
-        above ``stop_iou``.
+        """The best candidate for ``track_id`` in ``frame`` around ``prior``, and its re-ID affinity with ``identity``.
+
+        The box is None when the evidence is not there: no proposal
+        correlates above ``tau``, or the best re-ranked one has affinity under
+        ``extend_min_affinity``, lies less than half inside the image, or
+        overlaps a box of another track at IoU above ``stop_iou``.
         """
         cfg = self.config
         image = self.read_frame(frame)

@@ -1,0 +1,194 @@
+"""Other trackers run on sotmot's inputs, for the benchmarks (``scripts/bench_peers.py``, ``scripts/bench_speed.py``).
+
+Every peer gets the same :class:`SeqInput`: sotmot's preprocessed detections,
+their re-ID features (computed once, by sotmot's embedder) and scores mapped
+to [0, 1] where they are not (:func:`peer_scores`). Each ``run_*`` returns the
+peer's output as :class:`~sotmot.types.Tracks` and the seconds of its
+tracking loop alone. The peers' packages (``trackers`` and ``supervision``,
+``deep-sort-realtime``, ``boxmot``) come with ``bash scripts/bootstrap.sh
+--bench`` and are imported only when their tracker runs.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sotmot.boxes import xywh_to_xyxy, xyxy_to_xywh
+from sotmot.config import TrackerConfig
+from sotmot.io import FrameReader, read_detections, read_seqinfo
+from sotmot.pipeline import embed_detections, preprocess, scores_are_probabilities
+from sotmot.types import Detections, Tracks
+
+#: boxmot trackers: display name -> (boxmot name, options that turn its camera-motion compensation off, or None
+#: where it has none to turn off (StrongSORT) or no switch for it (HybridSORT, always ECC)).
+BOXMOT = {
+    "BoT-SORT": ("botsort", {"use_cmc": False}),
+    "StrongSORT": ("strongsort", None),
+    "DeepOCSORT": ("deepocsort", {"cmc_off": True}),
+    "BoostTrack++": ("boosttrack", {"use_cmc": False}),
+    "HybridSORT": ("hybridsort", None),
+    "OccluBoost": ("occluboost", {"use_cmc": False}),
+}
+BOXMOT_CMC = {"BoT-SORT": "SOF", "DeepOCSORT": "SOF", "BoostTrack++": "ECC", "HybridSORT": "ECC", "OccluBoost": "SOF"}
+#: Every boxmot tracker with its defaults, with boxmot's GSI post-processing, and without CMC where it can be off.
+BOXMOT_ROWS = {**{name: (name, "default") for name in BOXMOT},
+               **{f"{name} +GSI": (name, "gsi") for name in BOXMOT},
+               **{f"{name} no-CMC": (name, "no-cmc") for name, (_, off) in BOXMOT.items() if off is not None}}
+@dataclass
+class SeqInput:
+    """What every tracker gets for one sequence."""
+
+    path: Path
+    info: object
+    detections: Detections
+    features: np.ndarray
+    peer_scores: np.ndarray
+    reid_seconds: float
+
+
+def peer_scores(scores: np.ndarray) -> np.ndarray:
+    """Scores in [0, 1] for peers: unchanged if they already are, else rank / count (see the module docstring)."""
+    scores = np.asarray(scores, dtype=np.float64)
+    if scores_are_probabilities(scores):
+        return scores
+    from scipy.stats import rankdata
+
+    return rankdata(scores, method="average") / len(scores)
+
+
+def frames_of(seq: SeqInput) -> list[np.ndarray]:
+    """Row indices of the detections of each frame, 1..length."""
+    frames = seq.detections.frames
+    order = np.argsort(frames, kind="stable")
+    bounds = np.searchsorted(frames[order], np.arange(1, seq.info.length + 2))
+    return [order[bounds[f]:bounds[f + 1]] for f in range(seq.info.length)]
+
+
+def run_trackers_package(name: str, seq: SeqInput) -> tuple[Tracks, float]:
+    """SORT, ByteTrack or OC-SORT from ``trackers``: boxes of detections given a track id, per frame."""
+    import supervision as sv
+    from trackers import ByteTrackTracker, OCSORTTracker, SORTTracker
+
+    cls = {"SORT": SORTTracker, "ByteTrack": ByteTrackTracker, "OC-SORT": OCSORTTracker}[name]
+    tracker = cls(frame_rate=float(seq.info.frame_rate))
+    per_frame = frames_of(seq)
+    xyxy = xywh_to_xyxy(seq.detections.boxes)
+    inputs = [sv.Detections(xyxy=xyxy[rows], confidence=seq.peer_scores[rows],
+                            class_id=np.zeros(len(rows), dtype=int)) for rows in per_frame]
+    out: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]] = []
+    start = time.perf_counter()
+    for frame, dets in enumerate(inputs, start=1):
+        result = tracker.update(dets)
+        keep = np.asarray(result.tracker_id) >= 0
+        out.append((frame, np.asarray(result.tracker_id)[keep], result.xyxy[keep],
+                    np.asarray(result.confidence)[keep]))
+    seconds = time.perf_counter() - start
+    return as_tracks(out, boxes_are_xyxy=True), seconds
+
+
+def run_deepsort(seq: SeqInput, min_affinity: float) -> tuple[Tracks, float]:
+    """DeepSORT (deep-sort-realtime) on sotmot's features; confirmed tracks matched in the frame."""
+    from deep_sort_realtime.deepsort_tracker import DeepSort
+
+    # sotmot's affinity is 1 - ||a - b|| / 2 on unit features, and cosine distance is ||a - b||^2 / 2,
+    # so the affinity gate g is the cosine distance 2 (1 - g)^2
+    tracker = DeepSort(max_cosine_distance=2.0 * (1.0 - min_affinity) ** 2, embedder=None)
+    per_frame = frames_of(seq)
+    boxes, scores = seq.detections.boxes, seq.peer_scores
+    inputs = [([(boxes[r].tolist(), float(scores[r]), "person") for r in rows], [seq.features[r] for r in rows])
+              for rows in per_frame]
+    out = []
+    start = time.perf_counter()
+    for frame, (raw, embeds) in enumerate(inputs, start=1):
+        tracks = tracker.update_tracks(raw, embeds=embeds)
+        live = [t for t in tracks if t.is_confirmed() and t.time_since_update == 0]
+        out.append((frame, np.array([int(t.track_id) for t in live], dtype=np.int64),
+                    np.array([t.to_ltwh(orig=True) for t in live], dtype=np.float64).reshape(-1, 4),
+                    np.array([t.get_det_conf() or 0.0 for t in live], dtype=np.float64)))
+    seconds = time.perf_counter() - start
+    return as_tracks(out, boxes_are_xyxy=False), seconds
+
+
+def run_boxmot(row: str, seq: SeqInput, shuffle: bool = False) -> tuple[Tracks, float]:
+    """A boxmot tracker (see :data:`BOXMOT_ROWS`) fed sotmot's detections and embeddings, one frame at a time.
+
+    With embeddings given, boxmot builds no re-ID model. The frames are read
+    (the trackers that compensate camera motion need them) outside the clock;
+    the seconds count ``update`` calls only. ``shuffle`` permutes the
+    embeddings across the sequence's detections (the check that they are used).
+    """
+    import torch
+    from boxmot.structures.detections import Detections as BoxmotDetections
+    from boxmot.structures.geometry import Boxes
+    from boxmot.trackers.factory import create_tracker
+    from boxmot.trackers.specs import TrackerSpec
+
+    name, mode = BOXMOT_ROWS[row]
+    boxmot_name, cmc_off = BOXMOT[name]
+    options = tuple(sorted((cmc_off or {}).items())) if mode == "no-cmc" else ()
+    tracker = create_tracker(TrackerSpec(name=boxmot_name, options=options))
+    features = seq.features.astype(np.float32)
+    if shuffle:
+        features = features[np.random.default_rng(0).permutation(len(features))]
+    xyxy = xywh_to_xyxy(seq.detections.boxes).astype(np.float32)
+    reader = FrameReader(seq.info, cache_size=1)
+    out, seconds = [], 0.0
+    for frame, rows in enumerate(frames_of(seq), start=1):
+        image = reader(frame)
+        dets = BoxmotDetections(geometry=Boxes(torch.from_numpy(xyxy[rows])),
+                                scores=torch.from_numpy(seq.peer_scores[rows].astype(np.float32)),
+                                class_ids=torch.zeros(len(rows), dtype=torch.int64), sample_id=str(frame),
+                                embeddings=torch.from_numpy(features[rows]).reshape(len(rows), features.shape[1]))
+        start = time.perf_counter()
+        result = tracker.update(dets, image)
+        seconds += time.perf_counter() - start
+        out.append((frame, result.track_ids.numpy().astype(np.int64), result.geometry.values.numpy().astype(float),
+                    result.scores.numpy().astype(float)))
+    tracks = as_tracks(out, boxes_are_xyxy=True)
+    return (gsi(tracks) if mode == "gsi" else tracks), seconds
+
+
+def gsi(tracks: Tracks, interval: int = 20, tau: float = 10.0) -> Tracks:
+    """boxmot's offline Gaussian-smoothed interpolation (its defaults) applied to ``tracks``."""
+    from boxmot.postprocessing.gsi import gaussian_smooth, linear_interpolation
+
+    if not len(tracks):
+        return tracks
+    data = np.column_stack([tracks.frames, tracks.ids, tracks.boxes, tracks.scores, -np.ones(len(tracks))])
+    smoothed = gaussian_smooth(linear_interpolation(data, interval), tau)
+    return Tracks(frames=smoothed[:, 0].astype(np.int64), ids=smoothed[:, 1].astype(np.int64),
+                  boxes=smoothed[:, 2:6], scores=smoothed[:, 6])
+
+
+def as_tracks(rows: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]], boxes_are_xyxy: bool) -> Tracks:
+    """A peer's output, ``(frame, ids, boxes, scores)`` per frame, as :class:`Tracks` with ids 1, 2, ..."""
+    frames = np.concatenate([np.full(len(ids), f) for f, ids, _, _ in rows]) if rows else np.zeros(0)
+    ids = np.concatenate([ids for _, ids, _, _ in rows]) if rows else np.zeros(0)
+    boxes = np.concatenate([b for _, _, b, _ in rows]).reshape(-1, 4) if rows else np.zeros((0, 4))
+    scores = np.concatenate([s for _, _, _, s in rows]) if rows else np.zeros(0)
+    if boxes_are_xyxy:
+        boxes = xyxy_to_xywh(boxes)
+    _, ids = np.unique(ids, return_inverse=True)  # 1-based consecutive identities
+    return Tracks(frames=frames, ids=ids + 1, boxes=boxes, scores=scores)
+
+
+def load(path: Path, config: TrackerConfig, embedder) -> SeqInput:
+    """A sequence's :class:`SeqInput`: detections cleaned by ``config``, embedded (and timed) by ``embedder``."""
+    info = read_seqinfo(path)
+    dets = preprocess(read_detections(info.det_path, info.length), config.preprocess)
+    start = time.perf_counter()
+    features = embed_detections(info, dets, embedder)
+    return SeqInput(path, info, dets, features, peer_scores(dets.scores), time.perf_counter() - start)
+
+
+def run_peer(name: str, seq: SeqInput, min_affinity: float) -> tuple[Tracks, float]:
+    """Any peer by its display name (SORT, ByteTrack, OC-SORT, DeepSORT, or a row of :data:`BOXMOT_ROWS`)."""
+    if name in BOXMOT_ROWS:
+        return run_boxmot(name, seq)
+    if name == "DeepSORT":
+        return run_deepsort(seq, min_affinity)
+    return run_trackers_package(name, seq)

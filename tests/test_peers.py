@@ -1,0 +1,45 @@
+"""The glue that runs other trackers on sotmot's inputs for the benchmarks (``sotmot.peers``)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sotmot.io import SeqInfo
+from sotmot.peers import SeqInput, as_tracks, frames_of, peer_scores, run_peer
+from sotmot.types import Detections
+
+
+def test_peer_scores_keep_probabilities_and_rank_the_rest():
+    probabilities = np.array([0.2, 0.9, 0.5])
+    assert np.array_equal(peer_scores(probabilities), probabilities)
+    dpm = np.array([-1.5, 3.0, 0.2, 0.2])
+    mapped = peer_scores(dpm)
+    assert mapped.min() > 0 and mapped.max() == 1.0
+    assert mapped[0] < mapped[2] == mapped[3] < mapped[1]  # monotone, ties kept
+
+
+def scene(length=4):
+    info = SeqInfo(path=Path("toy"), name="toy", frame_rate=10.0, length=length, width=200, height=100)
+    frames = [1, 1, 2, 4]
+    dets = Detections(frames, [[10, 10, 20, 40], [100, 10, 20, 40], [12, 10, 20, 40], [16, 10, 20, 40]],
+                      [0.9, 0.8, 0.9, 0.9])
+    feats = np.eye(4, dtype=np.float32)[[0, 1, 0, 0]]
+    return SeqInput(None, info, dets, feats, peer_scores(dets.scores), 0.0)
+
+
+def test_frames_of_lists_every_frame_with_its_rows():
+    rows = frames_of(scene())
+    assert [r.tolist() for r in rows] == [[0, 1], [2], [], [3]]
+
+
+def test_peer_output_becomes_tracks_with_consecutive_ids():
+    out = as_tracks([(1, np.array([7, 3]), np.array([[0, 0, 10, 20], [5, 5, 15, 25]], float), np.ones(2)),
+                   (2, np.array([7]), np.array([[1, 0, 11, 20]], float), np.ones(1))], boxes_are_xyxy=True)
+    assert sorted(set(out.ids.tolist())) == [1, 2] and out.boxes[0].tolist() == [0, 0, 10, 20]
+
+
+def test_deepsort_runs_on_sotmot_features():
+    pytest.importorskip("deep_sort_realtime")
+    tracks, seconds = run_peer("DeepSORT", scene(), min_affinity=0.5)
+    assert seconds >= 0 and set(tracks.frames.tolist()) <= {1, 2, 3, 4}
