@@ -101,11 +101,14 @@ def main(argv: list[str] | None = None) -> int:
                                                         d.from_sot[rows]), np.arange(len(rows)))
         sot_fig = save(fig, "sot.jpg")
         text += ["## 2. The SOT step (optional, `--sot template`)", "",
-                 f"Algorithm 1 extends every box forward and backward; with the template variant it made "
+                 f"Algorithm 1 extends every box forward and backward. Under the `{sot_cfg.sot.rules}` rules (the "
+                 f"default when SOT is on: an extension is kept only if it reaches another box, and none may "
+                 f"overlap a box at IoU > {sot_cfg.sot.stop_iou:g}) the template variant made "
                  f"{prepared_sot.sot_steps} extension attempts and kept {len(added)} new boxes (after NMS). "
                  f"Frame {f_sot}, new boxes dashed:", "", f"![SOT]({sot_fig})", "",
-                 "On our data this step lowers misses but, even with the confirmation stage below, costs "
-                 "MOTA on most full-length sequences, so it is off by default; see `docs/benchmarks.md`.", ""]
+                 "On our data this step, before association, does not raise MOTA over the confirmed output, so "
+                 "it is off by default; SOT runs after association instead (section 8); see "
+                 "`docs/benchmarks.md`.", ""]
 
     # 3. tracklets, graph, greedy vs flow
     prepared = prepare_sequence(seq, base, embedder)
@@ -173,9 +176,11 @@ def main(argv: list[str] | None = None) -> int:
                  "![graph](figures/graph_pets_100_140.png)", ""]
         before = before_confirmation(base)
         old = finish_sequence(p, before, "greedy", embedder)
+        no_ends = finish_sequence(p, base.replace("sot", extend_seconds=0.0), "greedy", embedder)
         with tempfile.TemporaryDirectory() as tmp:
             scores = {}
-            for label, run_ in (("every box kept, every gap filled", old), ("confirmed (default)", r)):
+            for label, run_ in (("every box kept, every gap filled", old), ("confirmed", no_ends),
+                                ("confirmed, ends extended (default)", r)):
                 path = results_path(Path(tmp) / label.split()[0], p.info.name)
                 write_results(path, run_.tracks)
                 scores[label] = evaluate_files([(path, p.info.gt_path, p.info.length, p.info.name)]
@@ -191,7 +196,16 @@ def main(argv: list[str] | None = None) -> int:
                  f"them in `<name>.low.txt`; each box's probability is in `<name>.flags.csv`):", "",
                  "| output | HOTA | MOTA | IDF1 | FP | FN |", "|---|---|---|---|---|---|",
                  *[f"| {k} | {v['HOTA']:.1f} | {v['MOTA']:.1f} | {v['IDF1']:.1f} | {v['FP']:.0f} | {v['FN']:.0f} |"
-                   for k, v in scores.items()], ""]
+                   for k, v in scores.items()], "",
+                 "## 8. SOT after association: the ends of trusted trajectories", "",
+                 f"Interpolation cannot reach before a trajectory's first or after its last box. Each trajectory "
+                 f"whose mean confirmation confidence is at least {base.sot.extend_min_confidence:g} is followed "
+                 f"up to {base.sot.extend_seconds:g} s past both ends by the SOT machinery (template proposals "
+                 f"around a constant-velocity prior, re-ranked by re-ID against the trajectory's mean feature, "
+                 f"kept while the affinity is >= {base.sot.extend_min_affinity:g}; `sotmot/extend.py`). On "
+                 f"PETS09-S2L1 it added {int(r.tracks.from_sot.sum())} boxes (the last row above); at 7 fps "
+                 f"people move far between frames and few ends can be followed. On the 30 fps sequences it adds "
+                 f"more and gains about 1 MOTA (`docs/benchmarks.md`).", ""]
     write_text_atomic(DOCS / "walkthrough.md", "\n".join(text))
     print(f"wrote {DOCS / 'walkthrough.md'} and {len(list(FIG.iterdir()))} figures")
     return 0
