@@ -165,12 +165,11 @@ def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
     The next frames (:data:`PREFETCH_FRAMES`) are decoded (and, for the
     crop-based backends, their boxes cropped) in a background thread while
     the re-ID model embeds earlier ones (both release the GIL), so decoding
-    overlaps inference. The
-    crop-based backends (onnx, openvino) get the crops of several frames in
-    one call that fills about one forward pass (``batch_size`` rows, a
-    flipped crop counting as one): a frame holds a few boxes, and
-    small batches waste the runtime's time (docs/benchmarks.md); other
-    embedders are called once per frame. ``timings``, when given, receives
+    overlaps inference. The crop-based backends (onnx, openvino) get the
+    crops of several frames in one call that fills about one forward pass
+    (``batch_size`` rows; with the flip a crop is two rows): a frame holds a
+    few boxes, and small batches waste the runtime's time
+    (docs/benchmarks.md); other embedders are called once per frame. ``timings``, when given, receives
     ``"decode"``: the seconds spent reading (and cropping) frames, overlapped
     with the embedding, so part of, not added to, the stage's wall time.
     """
