@@ -49,17 +49,18 @@ def time_peers(peers: list[str], seq: Path, result, config: TrackerConfig) -> di
     the seconds of sotmot's appearance stage added (the re-ID every appearance tracker needs)."""
     if not peers:
         return {}
-    try:
-        from sotmot.peers import SeqInput, peer_scores, run_peer
-    except ImportError as exc:  # pragma: no cover - the bench extra is missing
-        print(f"peers skipped ({exc}); install them with bash scripts/bootstrap.sh --bench", file=sys.stderr)
-        return {}
+    from sotmot.peers import SeqInput, peer_scores, run_peer
+
     frames, reid = result.info.length, result.timings.get("appearance", 0.0)
     inputs = SeqInput(seq, result.info, result.detections, result.features, peer_scores(result.detections.scores),
                       reid)
     out = {}
     for peer in peers:
-        _, loop = run_peer(peer, inputs, config.association.min_affinity)
+        try:  # the peers' packages are imported when their tracker first runs
+            _, loop = run_peer(peer, inputs, config.association.min_affinity)
+        except ImportError as exc:
+            print(f"{peer} skipped ({exc}); install the peers with bash scripts/bootstrap.sh --bench", file=sys.stderr)
+            continue
         out[peer] = {"loop_seconds": loop, "loop_fps": frames / max(loop, 1e-9), "fps": frames / (reid + loop)}
     return out
 
@@ -107,12 +108,13 @@ def main(argv: list[str] | None = None) -> int:
         per_s = f"{r['reid_per_s']:7.0f}" if args.sot == "none" else f"{'–':>7}"  # with SOT: candidates too
         lines.append(f"{name:<17}{r['fps']:7.1f}{per_s}{cells}")
     print("\n".join(lines))
-    if any(r["peers"] for r in rows.values()):
-        head = f"{'sequence':<17}{'sotmot':>9}" + "".join(f"{p:>22}" for p in peers)
+    timed = [p for p in peers if all(p in r["peers"] for r in rows.values())]
+    if timed:
+        head = f"{'sequence':<17}{'sotmot':>9}" + "".join(f"{p:>22}" for p in timed)
         lines = ["\nend to end fps (loop fps), the same re-ID for everyone", head, "-" * len(head)]
         for name, r in rows.items():
             lines.append(f"{name:<17}{r['fps']:9.1f}" + "".join(
-                f"{r['peers'][p]['fps']:>12.1f} ({r['peers'][p]['loop_fps']:7.0f})" for p in peers))
+                f"{r['peers'][p]['fps']:>12.1f} ({r['peers'][p]['loop_fps']:7.0f})" for p in timed))
         print("\n".join(lines))
     print(f"machine: {machine()}; sot: {args.sot}; merger: {args.merger}; appearance: {args.appearance} "
           f"on {args.device}, flip {'off' if args.no_flip else 'on'}")

@@ -33,7 +33,7 @@ import numpy as np
 from sotmot.appearance import make_embedder
 from sotmot.benchmarks import add_fit_arguments, cached_features, fit_setup, machine
 from sotmot.evaluate import evaluate_files
-from sotmot.extend import extend_ends, with_added
+from sotmot.extend import end_steps, extend_ends, with_added
 from sotmot.io import FrameReader, results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.postprocess import output_ids
@@ -50,7 +50,7 @@ def floats(text: str) -> list[float]:
 def cut(tracks: Tracks, trace: list[dict], frame_rate: float, min_confidence: float, min_affinity: float,
         seconds: float) -> Tracks:
     """``tracks`` with the traced end boxes that the gates ``(min_confidence, min_affinity, seconds)`` keep."""
-    steps = max(1, int(round(seconds * frame_rate)))
+    steps = end_steps(seconds, frame_rate)
     stopped, kept = set(), []
     for box in trace:  # in the order they were added: each end's boxes one step after another
         end = (box["track"], box["direction"])

@@ -70,6 +70,11 @@ def end_velocity(frames: np.ndarray, boxes: np.ndarray, direction: int) -> np.nd
     return (c[1] - c[0]) / abs(int(frames[b]) - int(frames[a]))
 
 
+def end_steps(seconds: float, frame_rate: float) -> int:
+    """How many frames an end may grow: ``extend_seconds`` at the sequence's frame rate, at least one."""
+    return max(1, int(round(seconds * frame_rate)))
+
+
 def mean_confidence(confidence: np.ndarray) -> float:
     """Mean of a track's confirmation confidences (:mod:`sotmot.confidence`); 1 when none was computed."""
     scored = confidence[np.isfinite(confidence)]
@@ -164,7 +169,7 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
         identity) and ``track_confidence``. ``scripts/fit_sot.py`` fits the gates
         from it; it shows why an end grew as far as it did.
     """
-    steps = max(1, int(round(config.extend_seconds * frame_rate)))
+    steps = end_steps(config.extend_seconds, frame_rate)
     finder = _Finder(tracks, read_frame, embedder, config)
     added: list[tuple[int, int, np.ndarray]] = []
     ids = np.unique(tracks.ids).tolist()
