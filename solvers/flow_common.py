@@ -4,7 +4,9 @@ The formulation (Zhang, Li, Nevatia, CVPR 2008, as
 cited by the paper): each tracklet ``u`` becomes ``("in", u) -> ("out", u)``
 with a unit-capacity observation arc, a source ``"S"`` enters every ``in``
 node, every ``out`` node exits to the sink ``"T"``, and a link arc
-``("out", u) -> ("in", v)`` exists for every allowed edge. A bypass arc
+``("out", u) -> ("in", v)`` exists for every allowed edge between tracklets
+whose spans do not meet (a path cover's links; see
+:func:`sotmot.graph.candidate_links`). A bypass arc
 ``S -> T`` lets the solver choose how many trajectories to start.
 
 Costs (floats, before scaling to integers by :func:`integer_costs`):

@@ -26,9 +26,9 @@ carries its trajectory: its lifted weight to a new tracklet ``b`` sums
 ``w(a, b)`` over the trajectory's tracklets ``a``. Each window is an exact
 CP-SAT model:
 
-* ``x[u, v]`` for every link that the IoU, velocity and gap rules of the
-  constraint function allow (the very rules of the other solvers,
-  :func:`sotmot.graph.candidate_links`), with at most one successor and one
+* ``x[u, v]`` for every link between tracklets whose spans do not meet that
+  the IoU, velocity and gap rules of the constraint function allow (the very
+  rules of the other solvers, :func:`sotmot.graph.candidate_links`), with at most one successor and one
   predecessor per tracklet; no affinity gate on links: the objective decides;
 * ``y[a, b]`` ("same trajectory") for every pair the links can join within
   ``H`` frames, tied to the links exactly: ``x[a, c]`` forces ``y[a, b] =
@@ -274,8 +274,8 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
         return Association(groups=())
     # one canonical order, so that the model, and the optimum CP-SAT picks among ties, do not depend on the input's
     tracklets = sorted(tracklets, key=link_order_key)
-    # every link the IoU, velocity and gap rules allow: the objective, not an affinity gate, decides
-    cands = candidate_links(tracklets, dataclasses.replace(config, min_affinity=0.0))
+    # every path-cover link the IoU, velocity and gap rules allow: the objective, not an affinity gate, decides
+    cands = candidate_links(tracklets, dataclasses.replace(config, min_affinity=0.0), disjoint=True)
     starts = np.array([t.start for t in tracklets], dtype=np.int64)
     ends = np.array([t.end for t in tracklets], dtype=np.int64)
     arc_u, arc_v = cands.u, cands.v  # oriented by link_order_key, i.e. by position here

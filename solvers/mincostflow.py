@@ -42,7 +42,7 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
 
     if not tracklets:
         return Association(groups=())
-    cands = candidate_links(tracklets, config)
+    cands = candidate_links(tracklets, config, disjoint=True)
     ids = np.array([t.id for t in tracklets], dtype=np.int64)
     u, v, affinity = ids[cands.u], ids[cands.v], cands.screen.affinity
     nodes, tails, heads, capacities, costs, link_arcs = flow_arcs(ids, u, v, link_cost(affinity), config)

@@ -21,7 +21,7 @@ from sotmot.types import Tracklet
 
 def network(tracklets: Sequence[Tracklet], config: AssociationConfig) -> tuple[nx.DiGraph, nx.DiGraph]:
     """The association graph and its flow network as a networkx ``DiGraph``."""
-    graph = build_graph(tracklets, config)
+    graph = build_graph(tracklets, config, disjoint=True)
     nodes, tails, heads, capacities, costs, _ = flow_network(graph, config)
     net = nx.DiGraph()
     for key in nodes:

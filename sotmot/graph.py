@@ -42,15 +42,24 @@ class Candidates:
 
 
 def candidate_links(tracklets: Sequence[Tracklet], config: AssociationConfig,
-                    include_rejected: bool = False) -> Candidates:
+                    include_rejected: bool = False, disjoint: bool = False) -> Candidates:
     """Every candidate link of ``tracklets`` checked at once; only the allowed ones unless ``include_rejected``.
 
     A link joins tracklets within ``l_max`` frames, oriented by :func:`link_order_key`.
+    ``disjoint`` keeps only pairs whose time spans do not meet: the links of a
+    path cover (the flow and lifted solvers). In a chain ``u -> v -> w`` whose
+    ``v`` overlaps ``u``, the merged trajectory may end with ``u``'s boxes, so
+    the checked junction ``v -> w`` is not the gap the merge makes; between
+    disjoint tracklets every junction of a chain is a checked link.
     """
     ids = [t.id for t in tracklets]
     if len(set(ids)) != len(ids):
         raise SolverError("tracklet ids must be unique")
     pairs = candidate_pairs(tracklets, config.l_max)
+    if disjoint and len(pairs):
+        starts = np.array([t.start for t in tracklets])
+        ends = np.array([t.end for t in tracklets])
+        pairs = pairs[starts[pairs].max(axis=1) > ends[pairs].min(axis=1)]
     features = unit(np.stack([t.feature for t in tracklets])) if tracklets else np.zeros((0, 1))
     aff = pair_affinities(features, pairs)
     screen = check_pairs(tracklets, pairs, aff, config, complete=include_rejected)
@@ -65,7 +74,7 @@ def candidate_links(tracklets: Sequence[Tracklet], config: AssociationConfig,
 
 
 def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
-                include_rejected: bool = False) -> nx.DiGraph:
+                include_rejected: bool = False, disjoint: bool = False) -> nx.DiGraph:
     """The association graph of ``tracklets`` (see the module docstring).
 
     Parameters
@@ -77,6 +86,9 @@ def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
     include_rejected
         Also add candidate edges that fail a constraint (``allowed=False``),
         for inspection. Solvers use only allowed edges.
+    disjoint
+        Only edges between tracklets whose spans do not meet (the flow
+        network's links; see :func:`candidate_links`).
 
     Returns
     -------
@@ -89,7 +101,7 @@ def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
         ``min_segment_iou``, ``allowed``, ``failed`` (comma-separated) and one
         boolean per constraint (``ok_iou``, ``ok_gap``, ...).
     """
-    links = candidate_links(tracklets, config, include_rejected)
+    links = candidate_links(tracklets, config, include_rejected, disjoint)
     graph = nx.DiGraph()
     for t in tracklets:
         graph.add_node(t.id, start=t.start, end=t.end, length=len(t), mean_score=float(t.scores.mean()))

@@ -22,8 +22,8 @@ BOX = [100, 100, 30, 60]
 
 
 def allowed_links(ts, cfg) -> list[tuple[int, int]]:
-    """The links the IoU, velocity and gap rules allow (no affinity gate), as ``(u id, v id)``."""
-    cands = candidate_links(ts, dataclasses.replace(cfg, min_affinity=0.0))
+    """The path-cover links the IoU, velocity and gap rules allow (no affinity gate), as ``(u id, v id)``."""
+    cands = candidate_links(ts, dataclasses.replace(cfg, min_affinity=0.0), disjoint=True)
     return [(ts[u].id, ts[v].id) for u, v in zip(cands.u.tolist(), cands.v.tolist())]
 
 

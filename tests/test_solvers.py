@@ -5,7 +5,7 @@ import itertools
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from helpers import one_person_in_three_pieces, tk
@@ -64,6 +64,8 @@ SPECS = st.lists(st.tuples(st.integers(1, 60), st.integers(1, 6), st.sampled_fro
 @pytest.mark.parametrize("name", sorted(SOLVERS))
 @settings(max_examples=60, deadline=None)
 @given(specs=SPECS)
+# tracklet 2 overlaps 1+3 in time: a path cover that linked 1+3 -> 2 -> 4 made the gap 3 -> 22 unchecked
+@example(specs=[(1, 1, 100, -0.5), (2, 1, 100, 0.0), (2, 2, 100, -0.5), (22, 1, 300, 0.0)])
 def test_every_group_is_a_partition_and_obeys_the_constraints(name, specs):
     solver = get_solver(name)
     ts = random_tracklets(specs)
