@@ -198,11 +198,15 @@ class FrameErrors:
         Frame -> list of ``(tracker_box, tracker_id)``.
     misses
         Frame -> list of ground-truth boxes nobody matched.
+    identities
+        ``(frame, tracker_id)`` -> the ground-truth identity its box is matched
+        to (TrackEval's numbering of the sequence's identities, from 0).
     """
 
     matched: dict[int, list] = field(default_factory=dict)
     false_positives: dict[int, list] = field(default_factory=dict)
     misses: dict[int, list] = field(default_factory=dict)
+    identities: dict[tuple[int, int], int] = field(default_factory=dict)
 
     def totals(self) -> dict[str, int]:
         """Counts: TP, FP, FN, IDSW."""
@@ -263,6 +267,7 @@ def frame_errors(results: str | Path, gt: str | Path, length: int, name: str) ->
             g, tid = int(gt_ids[r]), trk_ids[c]
             switch = g in last_match and last_match[g] != tid
             out.matched.setdefault(frame, []).append((gt_boxes[r], trk_boxes[c], tid, switch))
+            out.identities[frame, tid] = g
             last_match[g] = tid
             now[g] = tid
         previous = now
