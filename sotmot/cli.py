@@ -344,7 +344,8 @@ EPILOG_COMPARE = """\
 Each sequence goes once through detection cleaning, appearance and tracklets; then every
 solver runs on those same tracklets. Columns: TrackEval HOTA, MOTA, IDF1, IDSW; the number of
 trajectories; lifted_obj, the one objective every solver is scored on (the sum over pairs of
-tracklets in one trajectory within the horizon of n_a * n_b * (affinity - lifted_threshold);
+tracklets in one trajectory within the horizon of n_a * n_b times the learned log-likelihood
+ratio that they are one person, or (affinity - lifted_threshold) with lifted_costs = "threshold";
 higher is better); window_gap, for the lifted solver, how far CP-SAT's proved bound lies above
 its solution in windows not proven optimal (0: every window optimal); flow_net_cost, the flow
 network's own cost (entry cost per trajectory + (1 - affinity) per link; lower is better for that

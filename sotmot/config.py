@@ -331,9 +331,23 @@ class AssociationConfig:
     lifted_horizon
         Largest gap in frames between two tracklets of one trajectory that the
         lifted objective scores; None: ``l_max``.
+    lifted_costs
+        What a pair of tracklets ``a``, ``b`` (``n`` detector boxes each) of one
+        trajectory adds to the lifted objective: ``"learned"``, ``n_a * n_b``
+        times the log-likelihood ratio of "one person" against "two people"
+        given their affinity and the shorter one's length (``lifted_coefficients``);
+        ``"threshold"``, ``n_a * n_b * (affinity - lifted_threshold)``.
+    lifted_coefficients
+        The learned costs' log-likelihood ratio ``c0 + c1 a + c2 log m + c3 a log m``
+        (``a`` the affinity, ``m`` the shorter tracklet's number of boxes):
+        logistic regression on ground truth with both classes weighted equally,
+        fitted by ``scripts/fit_lifted.py`` on the four full-length
+        sequences (held-out results in docs/benchmarks.md). A longer tracklet
+        has a steadier mean feature, so the affinity at which a pair starts to
+        pay rises with its length (0.38 for single boxes, 0.56 at 30 boxes).
     lifted_threshold
-        Affinity above which two tracklets of one trajectory add to the lifted
-        objective (``n_a * n_b * (affinity - threshold)``); None: ``min_affinity``.
+        ``lifted_costs = "threshold"``: the affinity above which two tracklets
+        of one trajectory add to the lifted objective; None: ``min_affinity``.
         0.5 was chosen leave-one-sequence-out over the full-length sequences
         from 0.45, 0.5 and 0.55 (docs/benchmarks.md).
     lifted_time_limit
@@ -355,6 +369,8 @@ class AssociationConfig:
     lifted_window: int = 60
     lifted_step: int = 30
     lifted_horizon: int | None = None
+    lifted_costs: Literal["learned", "threshold"] = "learned"
+    lifted_coefficients: tuple[float, float, float, float] = (-12.27, 32.41, -5.38, 6.43)
     lifted_threshold: float | None = 0.5
     lifted_time_limit: float = 10.0
     lifted_workers: int = 1
@@ -374,6 +390,10 @@ class AssociationConfig:
                "lifted_horizon must be None or between 1 and 1,000,000 frames")
         _check(self.lifted_threshold is None or 0.0 <= self.lifted_threshold <= 1.0, "association",
                "lifted_threshold must be None or in [0, 1]")
+        _check(self.lifted_costs in ("learned", "threshold"), "association",
+               f"lifted_costs must be 'learned' or 'threshold'; got {self.lifted_costs!r}")
+        _check(len(self.lifted_coefficients) == 4 and all(math.isfinite(c) for c in self.lifted_coefficients),
+               "association", "lifted_coefficients must be four finite numbers (c0, c1, c2, c3)")
         _check(self.lifted_time_limit > 0, "association", "lifted_time_limit must be > 0 seconds")
         _check(1 <= self.lifted_workers <= 64, "association", "lifted_workers must be between 1 and 64")
         from solvers import SOLVERS  # the registry of solvers is the list of valid names

@@ -1,5 +1,6 @@
 """Graph export and explanations: the decisions of a run, in files and in words."""
 
+import math
 import re
 import shutil
 import subprocess
@@ -68,8 +69,11 @@ def test_merged_tracks_are_explained_as_taken(tmp_path):
     text = explain(graph, 1, 1, config, "greedy")
     assert "TAKEN by greedy in round 1" in text and "were merged" in text
     assert text.count("candidate ") == 1  # one link inside one track, said once
-    # what the link adds to the lifted objective: the one pair it joins, 4 * 4 * (1 - 0.5)
-    assert "lifted objective: the link joins 1 scored pair(s) of tracklets, total +8.0" in text
+    # what the link adds to the lifted objective: the one pair it joins (affinity 1, 4 boxes each), 4 * 4 times the
+    # learned log-likelihood ratio
+    c0, c1, c2, c3 = config.association.lifted_coefficients
+    gain = 4 * 4 * (c0 + c1 + (c2 + c3) * math.log(4))
+    assert f"lifted objective: the link joins 1 scored pair(s) of tracklets, total {gain:+.1f}" in text
 
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")

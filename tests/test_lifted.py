@@ -11,13 +11,15 @@ from hypothesis import strategies as st
 from helpers import direction, one_person_in_three_pieces, tk
 from solvers import get_solver
 from solvers.flow_common import chains_from_links
-from solvers.lifted import LiftedWindowError, lifted_objective, link_pairs
+from solvers.lifted import LiftedWindowError, lifted_objective, link_pairs, pair_scores
 from sotmot.config import AssociationConfig
 from sotmot.constraints import link_order_key
 from sotmot.graph import candidate_links
 
-# one window covers every test instance, so the solver's answer is the exact optimum of the whole instance
-CFG = AssociationConfig(min_affinity=0.5, lifted_threshold=0.5, lifted_window=1000, lifted_step=1000)
+# one window covers every test instance, so the solver's answer is the exact optimum of the whole instance; the
+# threshold costs keep the hand-computed weights of these tests simple (the learned costs have their own tests)
+CFG = AssociationConfig(min_affinity=0.5, lifted_costs="threshold", lifted_threshold=0.5, lifted_window=1000,
+                        lifted_step=1000)
 BOX = [100, 100, 30, 60]
 
 
@@ -80,7 +82,7 @@ def test_person_16_pattern_flow_skips_a_tracklet_lifted_does_not():
 def test_windows_carry_a_trajectory_across_their_borders():
     # one person in 3-frame pieces over 100 frames, decided in windows of 20 frames that commit 10
     ts = tuple(tk(k, np.arange(5 * k, 5 * k + 3), BOX, feature=(1.0, 0.05 * (k % 2))) for k in range(1, 20))
-    cfg = AssociationConfig(min_affinity=0.5, lifted_window=20, lifted_step=10)
+    cfg = dataclasses.replace(CFG, lifted_window=20, lifted_step=10)
     result = get_solver("lifted")(ts, cfg)
     assert result.groups == (tuple(range(1, 20)),)
     assert result.stats["windows"] > 5
@@ -97,3 +99,71 @@ def test_links_that_can_never_pay_are_pruned_and_strangers_stay_apart():
     result = get_solver("lifted")(ts, CFG)
     assert result.groups == ((1,), (2,))
     assert result.stats["links"] == 1 and result.stats["links_pruned"] == 1
+
+
+def features_with_affinities(affinity: np.ndarray) -> np.ndarray:
+    """Unit features whose pairwise affinities ``1 - ||f_i - f_j|| / 2`` are ``affinity`` (symmetric, 1 on the
+    diagonal), from the Gram matrix of the cosines they imply."""
+    cosine = 1.0 - 2.0 * (1.0 - affinity) ** 2
+    values, vectors = np.linalg.eigh(cosine)
+    assert values.min() > -1e-9, "no unit vectors have these affinities"
+    return vectors * np.sqrt(np.clip(values, 0.0, None))
+
+
+def test_learned_costs_keep_two_people_apart_where_long_tracklets_outweigh_a_clear_short_link():
+    # MOT17-09-FRCNN, persons 8 and 11: long pieces 1 and 4 of one person (affinity 0.71), person two's long
+    # piece 3 between them at a mediocre 0.54 / 0.55 to either, and its short piece 2 (6 boxes) at a clear 0.75
+    aff = np.full((4, 4), 0.4)  # the short piece to person one's pieces
+    np.fill_diagonal(aff, 1.0)
+    for (i, j), a in {(0, 2): 0.54, (2, 3): 0.55, (0, 3): 0.71, (1, 2): 0.75}.items():
+        aff[i, j] = aff[j, i] = a
+    f = features_with_affinities(aff)
+    ts = (tk(1, np.arange(1, 31), BOX, feature=f[0]), tk(2, np.arange(1, 7), [300, 100, 30, 60], feature=f[1]),
+          tk(3, np.arange(35, 56), BOX, feature=f[2]), tk(4, np.arange(60, 90), BOX, feature=f[3]))
+    # the threshold costs: 30 * 21 * 0.04 + 21 * 30 * 0.05 for the two cross pairs beat the short link's 6 * 21 * 0.25
+    assert get_solver("lifted")(ts, CFG).groups == ((1, 3, 4), (2,))
+    learned = dataclasses.replace(CFG, lifted_costs="learned",
+                                  lifted_coefficients=AssociationConfig().lifted_coefficients)
+    assert get_solver("lifted")(ts, learned).groups == ((1, 4), (2, 3))
+
+
+def test_learned_costs_ask_more_affinity_of_longer_tracklets():
+    cfg = AssociationConfig()  # the shipped coefficients
+    affinity = np.linspace(0.0, 1.0, 1001)
+    pays_from = [affinity[np.argmax(pair_scores(affinity, np.full(1001, n), np.full(1001, 40.0), cfg) > 0)]
+                 for n in (1.0, 5.0, 30.0)]
+    assert 0.3 < pays_from[0] < pays_from[1] < pays_from[2] < 0.7
+    # the score follows the formula of the coefficients, on the shorter tracklet's length
+    c0, c1, c2, c3 = cfg.lifted_coefficients
+    assert pair_scores(np.array([0.6]), np.array([40.0]), np.array([8.0]), cfg)[0] == pytest.approx(
+        c0 + c1 * 0.6 + c2 * np.log(8.0) + c3 * 0.6 * np.log(8.0))
+
+
+def test_tracklet_identities_and_the_learned_costs_fit(tmp_path):
+    from conftest import write_sequence
+    from sotmot.calibrate import fit_lifted_costs, lifted_pair_samples, tracklet_identities
+    from sotmot.io import read_seqinfo
+
+    # two people over 8 frames; tracklet 3 covers person 1, then (a wrong link) person 2 for 3 of its 5 boxes
+    gt = [f"{f},1,10,10,20,30,1,1,1" for f in range(1, 9)] + [f"{f},2,60,10,20,30,1,1,1" for f in range(1, 9)]
+    seq = write_sequence(tmp_path, [], length=8, width=96, height=64, images=False, gt_lines=gt)
+    one, two = [10, 10, 20, 30], [60, 10, 20, 30]
+    ts = (tk(1, [1, 2], one), tk(2, [1, 2, 3], two), tk(3, [4, 5, 6, 7, 8], [one, one, two, two, two]),
+          tk(4, [7, 8], [5, 40, 10, 10]))  # 4: on nobody
+    ids = tracklet_identities(ts, read_seqinfo(seq), tmp_path / "work")
+    assert ids[0] >= 0 and ids[1] >= 0 and ids[0] != ids[1]
+    assert ids[2] == ids[1] and ids[3] == -1  # the majority: 3 of 5 boxes
+    features, same = lifted_pair_samples(ts, ids, AssociationConfig())
+    # 1-3 and 2-3 (one person); 1-2 overlap in time, 4 is nobody's
+    assert same.tolist() == [0.0, 1.0] and features.shape == (2, 3)
+    # a long tracklet needs more affinity: same-person affinity rises with length, other people's does not
+    rng = np.random.default_rng(0)
+    short = rng.integers(1, 31, 4000).astype(float)
+    label = rng.random(4000) < 0.15
+    affinity = np.where(label, 0.55 + 0.05 * np.log(short), 0.35) + rng.normal(0, 0.06, 4000)
+    c0, c1, c2, c3 = fit_lifted_costs([(np.stack([affinity, np.log(short), affinity * np.log(short)], 1),
+                                        label.astype(float))])
+    pays_from = [-(c0 + c2 * np.log(n)) / (c1 + c3 * np.log(n)) for n in (1.0, 30.0)]
+    assert 0.4 < pays_from[0] < pays_from[1] < 0.6
+    with pytest.raises(ValueError, match="both"):
+        fit_lifted_costs([(features[:1], same[:1])])
