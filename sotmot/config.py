@@ -342,7 +342,8 @@ class AssociationConfig:
         (``a`` the affinity, ``m`` the shorter tracklet's number of boxes):
         logistic regression on ground truth with both classes weighted equally,
         fitted by ``scripts/fit_lifted.py`` on the four full-length
-        sequences (held-out results in docs/benchmarks.md). A longer tracklet
+        sequences (held-out results in docs/benchmarks.md), for re-ID model
+        0288's affinities: refit them for another model. A longer tracklet
         has a steadier mean feature, so the affinity at which a pair starts to
         pay rises with its length (0.38 for single boxes, 0.56 at 30 boxes).
     lifted_threshold
