@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sotmot.appearance import unit, unit_affinity_rows
 from sotmot.confidence import (
     FAMILIES,
     FEATURES,
@@ -35,7 +36,6 @@ from sotmot.confidence import (
     isotonic,
     model_kind,
 )
-from sotmot.appearance import unit, unit_affinity_rows
 from sotmot.config import AssociationConfig, TrackerConfig
 from sotmot.evaluate import EvalReport, evaluate_files, frame_errors
 from sotmot.io import SeqInfo, read_detections, read_seqinfo, results_path, write_results
