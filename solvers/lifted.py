@@ -117,13 +117,12 @@ def pair_scores(affinity: np.ndarray, n_early: np.ndarray, n_late: np.ndarray,
     return coef[0] + pair_features(affinity, n_early, n_late) @ coef[1:]
 
 
-def lifted_weights(tracklets: Sequence[Tracklet], early: np.ndarray, late: np.ndarray,
-                   config: AssociationConfig) -> np.ndarray:
-    """``w(a, b)`` for every ``early[k]`` -> ``late[k]`` (positions in ``tracklets``, each ``early`` tracklet before
-    its ``late`` one in :func:`~sotmot.constraints.link_order_key` order); 0 where the gap exceeds ``H``."""
+def pair_inputs(tracklets: Sequence[Tracklet], early: np.ndarray,
+                late: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What the lifted costs read of every pair ``early[k]`` -> ``late[k]`` (positions in ``tracklets``): the
+    affinity of their mean features, the detections of each, and the gap in frames (``late``'s first frame minus
+    ``early``'s last). Shared by the solver and the fit of the learned costs."""
     early, late = np.asarray(early, dtype=np.int64), np.asarray(late, dtype=np.int64)
-    if len(early) == 0:
-        return np.zeros(0)
     # only the tracklets asked about, so that a window's call costs its own size, not the sequence's
     used, where = np.unique(np.concatenate([early, late]), return_inverse=True)
     early, late = where[:len(early)], where[len(early):]
@@ -132,10 +131,18 @@ def lifted_weights(tracklets: Sequence[Tracklet], early: np.ndarray, late: np.nd
     ends = np.array([t.end for t in chosen])
     counts = np.array([t.n_features for t in chosen], dtype=np.float64)
     units = unit(np.stack([t.feature for t in chosen]))
-    aff = unit_affinity_rows(units[early], units[late])
-    gap = starts[late] - ends[early]
+    return unit_affinity_rows(units[early], units[late]), counts[early], counts[late], starts[late] - ends[early]
+
+
+def lifted_weights(tracklets: Sequence[Tracklet], early: np.ndarray, late: np.ndarray,
+                   config: AssociationConfig) -> np.ndarray:
+    """``w(a, b)`` for every ``early[k]`` -> ``late[k]`` (positions in ``tracklets``, each ``early`` tracklet before
+    its ``late`` one in :func:`~sotmot.constraints.link_order_key` order); 0 where the gap exceeds ``H``."""
+    if len(early) == 0:
+        return np.zeros(0)
+    aff, n_early, n_late, gap = pair_inputs(tracklets, early, late)
     scored = gap <= lifted_horizon(config)
-    return np.where(scored, counts[early] * counts[late] * pair_scores(aff, counts[early], counts[late], config), 0.0)
+    return np.where(scored, n_early * n_late * pair_scores(aff, n_early, n_late, config), 0.0)
 
 
 def lifted_objective(tracklets: Sequence[Tracklet], groups: Sequence[Sequence[int]],

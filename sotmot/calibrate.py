@@ -22,7 +22,6 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.appearance import unit, unit_affinity_rows
 from sotmot.confidence import (
     FAMILIES,
     FEATURES,
@@ -37,18 +36,24 @@ from sotmot.confidence import (
     model_kind,
 )
 from sotmot.config import AssociationConfig, TrackerConfig
-from sotmot.evaluate import EvalReport, evaluate_files, frame_errors
+from sotmot.evaluate import EvalReport, FrameErrors, evaluate_files, frame_errors
 from sotmot.io import SeqInfo, read_detections, read_seqinfo, results_path, write_results
 from sotmot.pipeline import Prepared, associate, box_scorer, confirm, preprocess
 from sotmot.postprocess import expand, output_ids, to_tracks
 from sotmot.types import Tracklet, Tracks
 
 
-def box_labels(tracks: Tracks, info: SeqInfo, workdir: Path) -> np.ndarray:
-    """``(N,)`` label of each row of ``tracks``: 1 true positive, 0 false positive, -1 not scored."""
+def clear_matching(tracks: Tracks, info: SeqInfo, workdir: Path) -> FrameErrors:
+    """``tracks`` written as the sequence's results under ``workdir`` and matched to its ground truth, frame by
+    frame (:func:`sotmot.evaluate.frame_errors`)."""
     path = results_path(workdir, info.name)
     write_results(path, tracks)
-    errors = frame_errors(path, info.gt_path, info.length, info.name)
+    return frame_errors(path, info.gt_path, info.length, info.name)
+
+
+def box_labels(tracks: Tracks, info: SeqInfo, workdir: Path) -> np.ndarray:
+    """``(N,)`` label of each row of ``tracks``: 1 true positive, 0 false positive, -1 not scored."""
+    errors = clear_matching(tracks, info, workdir)
     status: dict[tuple[int, int], int] = {}
     for frame, rows in errors.matched.items():
         for _, _, tid, _ in rows:
@@ -283,9 +288,7 @@ def tracklet_identities(tracklets: Sequence[Tracklet], info: SeqInfo, workdir: P
     tracks = Tracks(np.concatenate([t.frames for t in tracklets]),
                     np.concatenate([np.full(len(t.frames), k + 1) for k, t in enumerate(tracklets)]),
                     np.concatenate([t.boxes for t in tracklets]), np.concatenate([t.scores for t in tracklets]))
-    path = results_path(workdir, info.name)
-    write_results(path, tracks)
-    matched = frame_errors(path, info.gt_path, info.length, info.name).identities
+    matched = clear_matching(tracks, info, workdir).identities
     out = np.full(len(tracklets), -1, dtype=np.int64)
     for k, t in enumerate(tracklets):
         ids, counts = np.unique([matched.get((int(f), k + 1), -1) for f in t.frames], return_counts=True)
@@ -304,20 +307,18 @@ def lifted_pair_samples(tracklets: Sequence[Tracklet], identities: np.ndarray,
     trajectory of the lifted solver can hold. Label 1 when both are the same
     person.
     """
-    from solvers.lifted import lifted_horizon, pair_features
+    from solvers.lifted import lifted_horizon, pair_features, pair_inputs
 
     known = np.flatnonzero(identities >= 0)
-    chosen = [tracklets[k] for k in known]
-    starts = np.array([t.start for t in chosen], dtype=np.int64)
-    ends = np.array([t.end for t in chosen], dtype=np.int64)
-    early, late = np.nonzero((starts[None, :] - ends[:, None] >= 1)
-                             & (starts[None, :] - ends[:, None] <= lifted_horizon(config)))
+    starts = np.array([tracklets[k].start for k in known], dtype=np.int64)
+    ends = np.array([tracklets[k].end for k in known], dtype=np.int64)
+    gap = starts[None, :] - ends[:, None]
+    early, late = np.nonzero((gap >= 1) & (gap <= lifted_horizon(config)))
     if len(early) == 0:
         return np.zeros((0, 3)), np.zeros(0)
-    units = unit(np.stack([t.feature for t in chosen]))
-    counts = np.array([t.n_features for t in chosen], dtype=np.float64)
-    features = pair_features(unit_affinity_rows(units[early], units[late]), counts[early], counts[late])
-    return features, (identities[known][early] == identities[known][late]).astype(np.float64)
+    affinity, n_early, n_late, _ = pair_inputs(tracklets, known[early], known[late])
+    same = identities[known[early]] == identities[known[late]]
+    return pair_features(affinity, n_early, n_late), same.astype(np.float64)
 
 
 def fit_lifted_costs(samples: Sequence[tuple[np.ndarray, np.ndarray]]) -> tuple[float, float, float, float]:
