@@ -17,17 +17,23 @@ jobs are sent. Each worker process loads the appearance model once.
 
 from __future__ import annotations
 
+import hashlib
+import logging
 import os
+import signal
 import threading
 import time
 import traceback
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
 from sotmot.config import AppearanceConfig, TrackerConfig
 from sotmot.errors import ConfigError, SotmotError
 
+log = logging.getLogger(__name__)
 _EMBEDDERS: dict[AppearanceConfig, object] = {}  # per worker process (pool or Dask), shared by its threads
 _EMBEDDERS_LOCK = threading.Lock()
 _SLOTS = None  # free terminal lines for the per-sequence progress bars of pool workers
@@ -56,9 +62,36 @@ class Outcome:
     message: str
 
 
+def _die_with_parent() -> None:
+    """End this worker process when the process that started it ends (TERM, KILL, a crash).
+
+    Linux is asked to send SIGKILL at the parent's death (``PR_SET_PDEATHSIG``);
+    a watchdog thread that sees the parent change covers other systems and a
+    parent that died before the request. SIGTERM gets its default action back:
+    the pool ends its workers with it.
+    """
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    parent = os.getppid()
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # 1: PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="sotmot-parent-watch", daemon=True).start()
+
+
 def _init_worker(config: TrackerConfig, bar_lock=None, slots=None) -> None:
-    """Load the appearance model; with progress bars, share tqdm's lock and the free terminal lines."""
+    """Tie the worker to its parent and load the appearance model; with progress bars, share tqdm's lock
+    and the free terminal lines."""
     global _SLOTS
+    _die_with_parent()
     _worker_embedder(config.appearance)
     if bar_lock is not None:
         from tqdm import tqdm
@@ -97,17 +130,56 @@ def low_confidence_path(results: Path) -> Path:
     return results.with_name(results.stem + ".low.txt")
 
 
+def output_paths(out_dir: str | Path, name: str, config: TrackerConfig) -> list[Path]:
+    """Every file tracking sequence ``name`` writes into ``out_dir``, the results file ``<name>.txt`` last."""
+    from sotmot.io import results_path
+    from sotmot.provenance import record_path
+    from sotmot.render import flags_path
+
+    out = results_path(out_dir, name)
+    side = [flags_path(out), record_path(out)]
+    if config.confirm.enabled and config.confirm.low_confidence == "file":
+        side.append(low_confidence_path(out))
+    return side + [out]
+
+
+def sequence_inputs(info, config: TrackerConfig) -> list[Path | None]:
+    """The files tracking ``info`` reads: no output may land on one of them (:func:`sotmot.io.refuse_overwriting`)."""
+    return [info.path / "seqinfo.ini", info.det_path, info.gt_path, config.appearance.model,
+            config.appearance.weights, config.confirm.calibration]
+
+
+def resolve_paths(config: TrackerConfig) -> TrackerConfig:
+    """``config`` with the re-ID model (flag, config or ``SOTMOT_REID_MODEL``), fine-tuned weights and
+    calibration file as absolute paths.
+
+    Done once, by the process that starts the run: the run record then names
+    (and hashes) the model however it was given, and workers on other
+    machines read the same files rather than their own environment.
+    """
+    from sotmot.appearance.onnx_reid import ENV_VAR
+
+    def absolute(path: str | None) -> str | None:
+        return None if not path else str(Path(path).expanduser().resolve())
+
+    config = config.replace("appearance", model=absolute(config.appearance.model or os.environ.get(ENV_VAR)),
+                            weights=absolute(config.appearance.weights))
+    return config.replace("confirm", calibration=absolute(config.confirm.calibration))
+
+
 def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
               progress=False, embedder=None) -> Outcome:
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
-    from sotmot.io import read_seqinfo, results_path, write_results
+    from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
     from sotmot.pipeline import track_sequence
     from sotmot.provenance import record_path, run_record, why_rerun, write_record
     from sotmot.render import flags_path, write_flags
 
     try:
         info = read_seqinfo(seq_dir)
-        out = results_path(out_dir, info.name)
+        outputs = output_paths(out_dir, info.name, config)
+        refuse_overwriting(outputs, sequence_inputs(info, config), "choose another --out")
+        out = outputs[-1]
         record = run_record(info, config, merger)
         rerun = ""
         if resume:
@@ -118,16 +190,20 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
             rerun = f" (re-run: {why})" if out.is_file() else ""
         start = time.perf_counter()
         result = track_sequence(seq_dir, config, merger=merger, embedder=embedder, progress=progress)
-        side = [flags_path(out), record_path(out)]
+        text = format_results(result.tracks)
+        record["results_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()  # --resume checks it
+        written: list[Path] = []
         try:
-            if config.confirm.enabled and config.confirm.low_confidence == "file":
-                side.append(low_confidence_path(out))
-                write_results(side[-1], result.dropped)
+            if low_confidence_path(out) in outputs:
+                write_results(low_confidence_path(out), result.dropped)
+                written.append(low_confidence_path(out))
             write_flags(out, result.tracks)
+            written.append(flags_path(out))
             write_record(out, record)
-            write_results(out, result.tracks)  # last: a results file exists only with its side files
+            written.append(record_path(out))
+            write_text_atomic(out, text)  # last: a results file exists only with its side files
         except BaseException:
-            for path in side:  # no side file of a results file that was not written
+            for path in written:  # no side file of a results file that was not written (made by this run)
                 path.unlink(missing_ok=True)
             raise
         fps = info.length / (time.perf_counter() - start)
@@ -164,6 +240,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     if merger is not None:  # the solver is configuration: the run record and every worker see one value
         config = config.replace("association", solver=merger)
     merger = config.association.solver
+    config = resolve_paths(config)
     seq_dirs = [str(s) for s in seq_dirs]
     out_dir = str(check_output_dir(out_dir))  # a file, a read-only folder: said now, not after the work
     report = report or (lambda outcome: None)
@@ -171,6 +248,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         if workers > 1:
             raise ConfigError("use --workers (this machine) or --cluster (Dask), not both")
         return _track_on_dask(cluster, seq_dirs, out_dir, config, merger, resume, progress, report)
+    workers = usable_workers(workers, len(seq_dirs))
     from sotmot.appearance import make_embedder
 
     if workers <= 1 or len(seq_dirs) <= 1:
@@ -196,7 +274,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         for line in range(1, workers + 1):
             slots.put(line)
         initargs = (config, tqdm.get_lock(), slots)
-    with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=initargs) as pool:
+    with _pool(workers, initargs) as pool:
         futures = {pool.submit(_pooled_job, seq, out_dir, config, merger, resume, progress): seq
                    for seq in seq_dirs}
         by_seq = _gather(futures, as_completed(futures), "in a worker process", progress,
@@ -206,7 +284,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     for seq in seq_dirs:
         if not _broken(by_seq[seq]):
             continue
-        with ProcessPoolExecutor(max_workers=1, initializer=_init_worker, initargs=(config,)) as alone:
+        with _pool(1, (config,)) as alone:
             future = alone.submit(_pooled_job, seq, out_dir, config, merger, resume, False)
             by_seq.update(_gather({future: seq}, as_completed([future]), "in a worker process", False,
                                   lambda o: None))
@@ -215,6 +293,30 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
                                                        f"(a crash in native code, e.g. OpenCV or onnxruntime)")
         report(by_seq[seq])
     return [by_seq[s] for s in seq_dirs]
+
+
+def usable_workers(asked: int, sequences: int) -> int:
+    """How many worker processes a run of ``sequences`` starts when ``asked`` for: never more than there are
+    sequences to track or CPUs to run them (each worker loads the re-ID model, a few hundred MB)."""
+    cpus = os.cpu_count() or 1
+    usable = max(1, min(asked, sequences, cpus))
+    if usable < asked:
+        log.info("%d worker processes asked for; %d used (%d sequences, %d CPUs)", asked, usable, sequences, cpus)
+    return usable
+
+
+@contextmanager
+def _pool(workers: int, initargs: tuple) -> Iterator[ProcessPoolExecutor]:
+    """A process pool whose workers are ended, not waited for, when the block is left by an error or a signal."""
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=initargs)
+    try:
+        yield pool
+    except BaseException:
+        for process in list((pool._processes or {}).values()):  # the executor offers no public way
+            process.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
 
 
 def _broken(outcome: Outcome) -> bool:
@@ -273,10 +375,7 @@ def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: Trac
         raise ConfigError(f"--cluster needs the 'distributed' package ({exc}); {DASK_HINT}") from exc
     # the workers resolve paths on their side: send absolute ones (a shared filesystem is assumed)
     seq_dirs_abs = [str(Path(s).resolve()) for s in seq_dirs]
-    out_dir = str(Path(out_dir).resolve())
-    model = config.appearance.model
-    if model and Path(model).exists():
-        config = config.replace("appearance", model=str(Path(model).resolve()))
+    out_dir = str(Path(out_dir).resolve())  # the model paths were made absolute by resolve_paths
     try:
         client = Client(address, timeout="10s")
     except (OSError, TimeoutError) as exc:

@@ -6,7 +6,9 @@ import argparse
 import json
 import logging
 import math
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from sotmot.errors import SotmotError
@@ -48,6 +50,16 @@ def _positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _frame_rate(text: str) -> float:
+    """argparse type: a frame rate above 0 and at most :data:`sotmot.io.mot.MAX_FRAME_RATE`."""
+    from sotmot.io.mot import MAX_FRAME_RATE
+
+    value = _positive_float(text)
+    if value > MAX_FRAME_RATE:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_FRAME_RATE:g} frames per second, got {text}")
     return value
 
 
@@ -170,6 +182,8 @@ def _video_sequences(args: argparse.Namespace, work: Path, det: Path | None) -> 
 def cmd_track(args: argparse.Namespace) -> int:
     import tempfile
 
+    from sotmot.batch import output_paths
+    from sotmot.io import refuse_overwriting
     from sotmot.io.video import is_video
 
     videos = [p for p in args.seq_dirs if is_video(p)]
@@ -180,21 +194,32 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise SotmotError("--det is for a video input; a sequence folder has det/det.txt")
     if videos and args.cluster:
         raise SotmotError("video input is decoded on this machine; use --workers, not --cluster")
-    if not videos:
-        return _track(args, args.seq_dirs)
-    with tempfile.TemporaryDirectory(prefix="sotmot-video-") as work:
-        return _track(args, _video_sequences(args, Path(work), args.det))
-
-
-def _track(args: argparse.Namespace, seq_dirs: list[Path]) -> int:
-    from sotmot.batch import track_many
-    from sotmot.io import read_seqinfo
-
+    if videos and args.eval:
+        raise SotmotError(f"{videos[0]}: --eval needs ground truth (a sequence folder with gt/gt.txt); a video has "
+                          f"none")
     config = _build_config(args)
+    for video in videos:  # its sequence is decoded into a temporary folder: check against the user's files now
+        refuse_overwriting(output_paths(args.out, video.stem, config), [video, args.det], "choose another --out")
+    if not videos:
+        return _track(args, config, args.seq_dirs)
+    with tempfile.TemporaryDirectory(prefix="sotmot-video-") as work:
+        return _track(args, config, _video_sequences(args, Path(work), args.det))
+
+
+def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
+    from sotmot.batch import output_paths, sequence_inputs, track_many
+    from sotmot.io import read_seqinfo, refuse_overwriting
+
     infos = [read_seqinfo(s) for s in seq_dirs]  # fail early on a bad folder, before any work
     names = [i.name for i in infos]
     if len(set(names)) != len(names):
         raise SotmotError(f"two sequences share a name: {names}")
+    for info in infos:
+        refuse_overwriting(output_paths(args.out, info.name, config), sequence_inputs(info, config),
+                           "choose another --out")
+        if args.eval and not info.gt_path.is_file():
+            raise SotmotError(f"{info.gt_path}: --eval needs the ground truth of {info.name}, and there is none; "
+                              f"track without --eval")
 
     def report(outcome) -> None:
         from tqdm import tqdm
@@ -245,7 +270,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from solvers import get_solver
     from sotmot.compare import compare, format_comparison
 
-    mergers = [m.strip() for m in args.mergers.split(",") if m.strip()]
+    mergers = [m.strip() for m in args.mergers.split(",")]
+    if not all(mergers):
+        raise SotmotError(f"--solvers {args.mergers!r}: give solver names separated by commas, none empty "
+                          f"(e.g. greedy,flow)")
+    if len(set(mergers)) != len(mergers):
+        raise SotmotError(f"--solvers {args.mergers!r} names a solver twice")
     for m in mergers:
         get_solver(m)  # unknown names fail here, listing the valid ones
     config = _build_config(args)
@@ -258,8 +288,12 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def cmd_render(args: argparse.Namespace) -> int:
     import tempfile
 
+    from sotmot.io import refuse_overwriting
     from sotmot.io.video import is_video
+    from sotmot.render import flags_path
 
+    inputs = [args.seq_dir, args.results, flags_path(args.results)]
+    refuse_overwriting([args.out], inputs, "choose another --out")  # before a video is decoded
     if not is_video(args.seq_dir):
         return _render(args, args.seq_dir)
     if args.gt:
@@ -271,9 +305,11 @@ def cmd_render(args: argparse.Namespace) -> int:
 def _render(args: argparse.Namespace, seq_dir: Path) -> int:
     from sotmot.io import read_results, read_seqinfo
     from sotmot.pipeline import progress_bar
-    from sotmot.render import read_flags, render
+    from sotmot.render import check_render_target, flags_path, read_flags, render
 
     info = read_seqinfo(seq_dir)
+    inputs = [args.seq_dir, args.results, flags_path(args.results)]
+    check_render_target(info, args.out, inputs)  # before reading and matching anything
     tracks = read_flags(args.results, read_results(args.results, info.length))
     errors = None
     if args.gt:
@@ -282,7 +318,7 @@ def _render(args: argparse.Namespace, seq_dir: Path) -> int:
         errors = frame_errors(args.results, info.gt_path, info.length, info.name)
         totals = errors.totals()
         print(f"CLEAR matching (as TrackEval): FP {totals['FP']}, FN {totals['FN']}, IDSW {totals['IDSW']}")
-    out = render(info, tracks, args.out, errors=errors,
+    out = render(info, tracks, args.out, errors=errors, inputs=inputs,
                  progress=lambda it: progress_bar(it, f"{info.name}: render", _progress(args), info.length))
     print(f"{info.length} frames, {tracks.n_tracks} tracks -> {out}")
     return 0
@@ -318,13 +354,18 @@ def cmd_graph(args: argparse.Namespace) -> int:
     from sotmot.explain import export_graph, inspection_graph, parse_frames
     from sotmot.graph_view import draw_png, tracklet_crops, write_html
 
-    frames = parse_frames(args.frames)
+    from sotmot.io import check_output_dir, read_seqinfo
+
+    frames = parse_frames(args.frames, read_seqinfo(args.seq_dir).length)
+    check_output_dir(args.out)  # a file, a read-only folder: said now, not after the tracking
     config, result = _track_for_inspection(args)
     graph = inspection_graph(result, config, frames)
-    paths = export_graph(graph, args.out)
     title = f"{result.info.name}: association graph ({config.association.solver})"
-    paths.append(draw_png(graph, args.out / "graph.png"))
-    paths.append(write_html(graph, args.out / "graph.html", tracklet_crops(result, graph), title))
+    files = {args.out / name: data for name, data in graph_files(graph).items()}
+    files[args.out / "graph.png"] = png_bytes(graph)
+    files[args.out / "graph.html"] = html_page(graph, tracklet_crops(result, graph), title).encode("utf-8")
+    write_files_atomic(files)  # all four or none: a full disk leaves no partial set
+    paths = list(files)
     taken = sum(1 for *_, d in graph.edges(data=True) if d["taken"])
     print(f"{graph.number_of_nodes()} tracklets, {graph.number_of_edges()} candidate links "
           f"({taken} taken by {config.association.solver}) -> " + ", ".join(str(p) for p in paths))
@@ -387,17 +428,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--det", type=Path, metavar="DET.txt",
                    help="with a video file as SEQ_DIR: its detections (MOTChallenge layout: frame, id, x, y, w, h, "
                         "score; frames counted from 1 at the video's first frame)")
-    p.add_argument("--fps", type=_positive_float, metavar="N",
+    p.add_argument("--fps", type=_frame_rate, metavar="N",
                    help="with a video: its frame rate, when the container's is missing or wrong")
     p.add_argument("--eval", action="store_true", help="score the results with TrackEval afterwards")
     p.add_argument("--workers", type=_positive_int, default=1, metavar="N",
-                   help="track N sequences at once in separate processes (default: 1)")
+                   help="track N sequences at once in separate processes (default: 1; never more than the "
+                        "sequences or the CPUs; the workers end with this process)")
     p.add_argument("--cluster", metavar="dask://HOST:PORT",
                    help="run the sequences on an existing Dask cluster (its scheduler's address); the "
                         "workers must see the same paths (shared filesystem) and have sotmot installed "
                         "(pip install -e '.[dask]')")
     p.add_argument("--resume", action="store_true",
-                   help="skip sequences whose results file already exists (files are written atomically)")
+                   help="skip sequences whose results exist from the same run settings (model, config, inputs, "
+                        "all hashed in <name>.run.json) and are unchanged since (their hash is recorded too)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_track)
 
@@ -453,7 +496,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "interpolated boxes)")
     p.add_argument("--out", type=Path, required=True, metavar="VIDEO.mp4|DIR",
                    help="a .mp4 or .avi file, or a folder name without extension for one JPEG per frame; never "
-                        "inside the sequence folder; written under a hidden .partial name and renamed when complete")
+                        "inside the sequence folder, never over an input. A video or a new folder is written under "
+                        "a hidden .partial name and renamed when complete; an existing folder must be empty or hold "
+                        "an earlier render's NNNNNN.jpg frames only, and is written into frame by frame")
     p.add_argument("--gt", action="store_true", help="draw SEQ_DIR/gt/gt.txt beside, with the errors marked")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar (drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_render)
@@ -482,7 +527,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that every ``with`` and ``finally`` cleans up as for Ctrl-C."""
+
+
+def _terminate(signum, frame) -> None:
+    raise Terminated
+
+
 def main(argv: list[str] | None = None) -> int:
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)
     parser = build_parser()
     args = parser.parse_args(argv)
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
@@ -492,6 +547,9 @@ def main(argv: list[str] | None = None) -> int:
     except SotmotError as exc:
         print(f"sotmot: error: {exc}", file=sys.stderr)
         return 2
+    except Terminated:
+        print("sotmot: terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("sotmot: interrupted", file=sys.stderr)
         return 130

@@ -124,8 +124,8 @@ class AppearanceConfig:
         _check(self.backend in BACKENDS, "appearance",
                f"backend must be one of {', '.join(sorted(BACKENDS))}; got {self.backend!r}")
         _check(self.device in ("cpu", "cuda"), "appearance", f"device must be 'cpu' or 'cuda'; got {self.device!r}")
-        _check(self.batch_size >= 1, "appearance", "batch_size must be >= 1")
-        _check(self.threads >= 0, "appearance", "threads must be >= 0")
+        _check(1 <= self.batch_size <= 4096, "appearance", "batch_size must be between 1 and 4096 crops")
+        _check(0 <= self.threads <= 1024, "appearance", "threads must be between 0 and 1024")
 
 
 @dataclass(frozen=True)
@@ -236,11 +236,12 @@ class SotConfig:
             _check(0.0 <= getattr(self, name) <= 1.0, "sot", f"{name} must be in [0, 1]")
         _check(self.rules in ("paper", "confident"), "sot",
                f"rules must be one of paper, confident; got {self.rules!r}")
-        _check(self.L >= 1, "sot", "L must be >= 1")
-        _check(self.search_radius > 0, "sot", "search_radius must be > 0")
-        _check(len(self.scales) >= 1 and all(s > 0 for s in self.scales), "sot", "scales must be positive")
-        _check(self.rerank >= 1, "sot", "rerank must be >= 1")
-        _check(self.window >= 0, "sot", "window must be >= 0")
+        _check(1 <= self.L <= 1000, "sot", "L must be between 1 and 1000 boxes")
+        _check(0 < self.search_radius <= 10, "sot", "search_radius must be in (0, 10] box sizes")
+        _check(1 <= len(self.scales) <= 16 and all(0.5 <= s <= 2.0 for s in self.scales), "sot",
+               "scales must be 1 to 16 factors, each in [0.5, 2]")
+        _check(1 <= self.rerank <= 64, "sot", "rerank must be between 1 and 64")
+        _check(0 <= self.window <= 100_000, "sot", "window must be between 0 and 100,000 frames")
         _check(0.0 <= self.extend_seconds <= 60.0, "sot", "extend_seconds must be in [0, 60]")
         for name in ("seed_min_confidence", "extend_min_affinity", "extend_min_confidence", "stop_iou"):
             _check(0.0 <= getattr(self, name) <= 1.0, "sot", f"{name} must be in [0, 1]")
@@ -280,11 +281,11 @@ class TrackletConfig:
     l_min: int = 1
 
     def __post_init__(self) -> None:
-        _check(self.batch_seconds > 0, "tracklets", "batch_seconds must be > 0")
-        _check(self.tail >= 1, "tracklets", "tail must be >= 1")
+        _check(0 < self.batch_seconds <= 60, "tracklets", "batch_seconds must be in (0, 60]")
+        _check(1 <= self.tail <= 1000, "tracklets", "tail must be between 1 and 1000")
         _check(0.0 <= self.min_affinity <= 1.0, "tracklets", "min_affinity must be in [0, 1]")
         _check(0.0 <= self.min_iou <= 1.0, "tracklets", "min_iou must be in [0, 1]")
-        _check(self.l_min >= 0, "tracklets", "l_min must be >= 0")
+        _check(0 <= self.l_min <= 1000, "tracklets", "l_min must be between 0 and 1000")
 
 
 @dataclass(frozen=True)
@@ -384,8 +385,8 @@ class AssociationConfig:
         _check(0.0 <= self.tau_iou < 1.0, "association", "tau_iou must be in [0, 1)")
         _check(1 <= self.l_max <= 1_000_000, "association", "l_max must be between 1 and 1,000,000 frames")
         for name in ("velocity_adjacent", "velocity_short", "velocity_long"):
-            _check(getattr(self, name) > 0, "association", f"{name} must be > 0")
-        _check(self.short_gap >= 2, "association", "short_gap must be >= 2")
+            _check(0 < getattr(self, name) <= 10, "association", f"{name} must be in (0, 10] widths per frame")
+        _check(2 <= self.short_gap <= 1_000_000, "association", "short_gap must be between 2 and 1,000,000 frames")
         _check(0.0 <= self.min_affinity <= 1.0, "association", "min_affinity must be in [0, 1]")
         _check(1 <= self.flow_stage_gap <= 1_000_000, "association", "flow_stage_gap must be between 1 and "
                "1,000,000 frames")
@@ -399,7 +400,7 @@ class AssociationConfig:
                f"lifted_costs must be 'learned' or 'threshold'; got {self.lifted_costs!r}")
         _check(len(self.lifted_coefficients) == 4 and all(math.isfinite(c) for c in self.lifted_coefficients),
                "association", "lifted_coefficients must be four finite numbers (c0, c1, c2, c3)")
-        _check(self.lifted_time_limit > 0, "association", "lifted_time_limit must be > 0 seconds")
+        _check(0 < self.lifted_time_limit <= 3600, "association", "lifted_time_limit must be in (0, 3600] seconds")
         _check(1 <= self.lifted_workers <= 64, "association", "lifted_workers must be between 1 and 64")
         from solvers import SOLVERS  # the registry of solvers is the list of valid names
 
@@ -435,10 +436,10 @@ class PostprocessConfig:
     interpolate_max_seconds: float | None = 2.0
 
     def __post_init__(self) -> None:
-        _check(self.smooth_window >= 0, "postprocess", "smooth_window must be >= 0")
-        _check(self.min_length >= 1, "postprocess", "min_length must be >= 1")
-        _check(self.interpolate_max_seconds is None or self.interpolate_max_seconds > 0, "postprocess",
-               "interpolate_max_seconds must be > 0 (or absent to fill every gap)")
+        _check(0 <= self.smooth_window <= 1000, "postprocess", "smooth_window must be between 0 and 1000")
+        _check(1 <= self.min_length <= 1_000_000, "postprocess", "min_length must be between 1 and 1,000,000")
+        _check(self.interpolate_max_seconds is None or 0 < self.interpolate_max_seconds <= 3600, "postprocess",
+               "interpolate_max_seconds must be in (0, 3600] (or absent to fill every gap)")
 
 
 @dataclass(frozen=True)
@@ -577,6 +578,16 @@ def config_from_dict(data: dict[str, Any]) -> TrackerConfig:
     return TrackerConfig(**parts)
 
 
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object as a dict; a key given twice is an error (TOML refuses it too), never last-wins."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise ConfigError(f"key {key!r} is given twice")
+        out[key] = value
+    return out
+
+
 def load_config(path: str | Path) -> TrackerConfig:
     """Read a TOML (``.toml``) or JSON (``.json``) configuration file."""
     path = Path(path)
@@ -584,11 +595,13 @@ def load_config(path: str | Path) -> TrackerConfig:
         raise ConfigError(f"{path}: configuration file not found")
     try:
         if path.suffix == ".json":
-            data = json.loads(path.read_text(encoding="utf-8-sig"))
+            data = json.loads(path.read_text(encoding="utf-8-sig"), object_pairs_hook=_unique_keys)
         elif path.suffix == ".toml":
             data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
         else:
-            raise ConfigError(f"{path}: configuration must be a .toml or .json file")
+            raise ConfigError("configuration must be a .toml or .json file")
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
     except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"{path}: cannot be parsed: {exc}") from exc
     except UnicodeDecodeError as exc:

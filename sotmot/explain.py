@@ -26,7 +26,7 @@ from solvers.lifted import link_pairs
 from sotmot.constraints import RULES, link_order_key
 from sotmot.errors import SotmotError
 from sotmot.graph import build_graph
-from sotmot.io import write_text_atomic
+from sotmot.io import write_files_atomic
 from sotmot.pipeline import TrackResult
 from sotmot.postprocess import output_ids
 
@@ -117,18 +117,21 @@ def json_scalar(value, digits: int | None = None):
 
 
 def export_graph(graph: nx.DiGraph, out_dir: str | Path) -> list[Path]:
-    """Write ``graph.graphml`` and ``graph.json`` (networkx node-link) into ``out_dir``, atomically."""
-    out_dir = Path(out_dir)
+    """Write ``graph.graphml`` and ``graph.json`` (networkx node-link) into ``out_dir``, both or neither."""
+    files = {Path(out_dir) / name: data for name, data in graph_files(graph).items()}
+    write_files_atomic(files)
+    return list(files)
+
+
+def graph_files(graph: nx.DiGraph) -> dict[str, bytes]:
+    """``graph.graphml`` and ``graph.json`` (networkx node-link) of ``graph``: file name -> bytes."""
     clean = nx.DiGraph()
     for n, data in graph.nodes(data=True):
         clean.add_node(n, **{key: json_scalar(value) for key, value in data.items()})
     for u, v, data in graph.edges(data=True):
         clean.add_edge(u, v, **{key: json_scalar(value) for key, value in data.items()})
-    graphml = out_dir / "graph.graphml"
-    write_text_atomic(graphml, "\n".join(nx.generate_graphml(clean)) + "\n")
-    js = out_dir / "graph.json"
-    write_text_atomic(js, json.dumps(nx.node_link_data(clean, edges="edges"), indent=1) + "\n")
-    return [graphml, js]
+    return {"graph.graphml": ("\n".join(nx.generate_graphml(clean)) + "\n").encode("utf-8"),
+            "graph.json": (json.dumps(nx.node_link_data(clean, edges="edges"), indent=1) + "\n").encode("utf-8")}
 
 
 def _verdict(data: dict, config: TrackerConfig) -> list[str]:
@@ -178,8 +181,12 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
     return "\n".join(out)
 
 
-def parse_frames(text: str | None) -> tuple[int, int] | None:
-    """``"A:B"`` -> ``(A, B)`` (1-based, inclusive); None stays None."""
+def parse_frames(text: str | None, length: int | None = None) -> tuple[int, int] | None:
+    """``"A:B"`` -> ``(A, B)`` (1-based, inclusive); None stays None.
+
+    With ``length`` (the sequence's ``seqLength``), a range that starts
+    after the last frame is an error: it would select nothing.
+    """
     if text is None:
         return None
     try:
@@ -188,6 +195,8 @@ def parse_frames(text: str | None) -> tuple[int, int] | None:
         raise SotmotError(f"--frames must look like A:B (e.g. 1:100), got {text!r}") from None
     if a < 1 or b < a:
         raise SotmotError(f"--frames {text}: need 1 <= A <= B")
+    if length is not None and a > length:
+        raise SotmotError(f"--frames {text}: the sequence has frames 1 to {length} only")
     return a, b
 
 
@@ -199,4 +208,6 @@ def parse_ids(text: str) -> Sequence[int]:
         raise SotmotError(f"--ids must be two track ids like 3,17, got {text!r}") from None
     if len(ids) != 2:
         raise SotmotError(f"--ids needs exactly two track ids, got {text!r}")
+    if ids[0] == ids[1]:
+        raise SotmotError(f"--ids needs two different track ids, got {text!r}")
     return ids

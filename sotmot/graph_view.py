@@ -87,7 +87,14 @@ def _edge_points(pos: dict, u, v) -> tuple[tuple[float, float], tuple[float, flo
 
 
 def draw_png(graph: nx.DiGraph, path: str | Path, width: int = 1400) -> Path:
-    """Write the picture as a PNG."""
+    """Write the picture as a PNG (atomically)."""
+    path = Path(path)
+    write_bytes_atomic(path, png_bytes(graph, width))
+    return path
+
+
+def png_bytes(graph: nx.DiGraph, width: int = 1400) -> bytes:
+    """The picture, PNG-encoded."""
     import cv2
 
     pos, geo = layout(graph, width)
@@ -131,17 +138,23 @@ def draw_png(graph: nx.DiGraph, path: str | Path, width: int = 1400) -> Path:
         x += 40 + 8 * len(label)
     cv2.putText(img, "x: frame; one lane per tracklet (id, then output track); blue bars hold SOT boxes",
                 (MARGIN_LEFT, y + 28), font, 0.4, (90, 90, 90), 1, cv2.LINE_AA)
-    path = Path(path)
     ok, data = cv2.imencode(".png", img)
     if not ok:
         raise RuntimeError("PNG encoding failed")
-    write_bytes_atomic(path, data.tobytes())
-    return path
+    return data.tobytes()
 
 
 def write_html(graph: nx.DiGraph, path: str | Path, crops: dict | None = None, title: str = "association graph",
                width: int = 1400) -> Path:
-    """Write the interactive page: SVG picture, details panel, rejection filters, all inline.
+    """Write :func:`html_page` to ``path`` (atomically)."""
+    path = Path(path)
+    write_text_atomic(path, html_page(graph, crops, title, width))
+    return path
+
+
+def html_page(graph: nx.DiGraph, crops: dict | None = None, title: str = "association graph",
+              width: int = 1400) -> str:
+    """The interactive page: SVG picture, details panel, rejection filters, all inline.
 
     ``crops`` maps a tracklet id to ``(first_jpeg_bytes, last_jpeg_bytes)``.
     """
@@ -219,9 +232,7 @@ document.querySelectorAll('.filter').forEach(box => box.addEventListener('change
 }}));
 </script></body></html>
 """
-    path = Path(path)
-    write_text_atomic(path, page)
-    return path
+    return page
 
 
 def tracklet_crops(result, graph: nx.DiGraph, height: int = 96) -> dict:

@@ -4,8 +4,10 @@ The record holds the sotmot version, the resolved configuration (solver
 included), the re-ID model file and its SHA-256, the confidence calibration's
 SHA-256, the SHA-256 of ``seqinfo.ini`` and ``det/det.txt``, a fingerprint of
 the frame folder (file names and sizes, not their bytes: hashing every frame
-would cost more than tracking small sequences) and the time. ``track --resume`` skips a sequence only when its record matches the
-current run in everything but the time.
+would cost more than tracking small sequences), the time, and the SHA-256 of
+the results file it sits beside. ``track --resume`` skips a sequence only when
+its record matches the current run in everything but the time and the results
+file still has the recorded hash.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from sotmot.io import SeqInfo
 #: Record fields that never make a resume re-run: when it ran, how fast (threads, batch size), and
 #: paths whose file contents are compared by hash instead.
 IGNORED = ("time", "config.appearance.threads", "config.appearance.batch_size", "config.appearance.model",
-           "config.confirm.calibration", "reid_model.path", "confidence_calibration.path")
+           "config.confirm.calibration", "reid_model.path", "confidence_calibration.path", "results_sha256")
 
 
 def sotmot_version() -> str:
@@ -133,6 +135,10 @@ def why_rerun(results: str | Path, record: dict[str, Any]) -> str | None:
         return f"its run record {path.name} cannot be read ({exc})"
     changed = differences(old, json.loads(json.dumps(record, default=str)))
     if not changed:
+        if old.get("results_sha256") is None:
+            return f"its run record {path.name} holds no hash of {results.name}, so whether it is whole is unknown"
+        if old["results_sha256"] != file_sha256(results):
+            return f"{results.name} changed since it was written (emptied or cut?): its SHA-256 is not the record's"
         return None
     shown = ", ".join(changed[:4]) + (f" and {len(changed) - 4} more" if len(changed) > 4 else "")
     return f"made with a different {shown}"

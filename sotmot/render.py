@@ -11,7 +11,10 @@ pixels, frames 1-based.
 from __future__ import annotations
 
 import colorsys
+import os
+import re
 import shutil
+import tempfile
 from collections import deque
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -19,7 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.errors import InputError
-from sotmot.io import FrameReader, SeqInfo, write_text_atomic
+from sotmot.io import (FrameReader, SeqInfo, check_output_dir, refuse_overwriting, write_bytes_atomic,
+                       write_text_atomic)
 from sotmot.types import Tracks
 
 TRAIL = 12
@@ -149,21 +153,38 @@ def draw_errors(left: np.ndarray, plain: np.ndarray, frame: int, errors) -> np.n
 VIDEO_EXTENSIONS = {".mp4": "mp4v", ".avi": "MJPG"}
 
 
-def check_render_target(info: SeqInfo, out: Path) -> bool:
-    """Whether ``out`` is a video (else a folder); refuse targets that would destroy input or mislead.
+def check_render_target(info: SeqInfo, out: Path, inputs: Iterable[str | Path] = ()) -> bool:
+    """Whether ``out`` is a video (else a folder); refuse, before any work, targets that would destroy input.
+
+    Parameters
+    ----------
+    info
+        The sequence rendered.
+    out
+        The target: a ``.mp4``/``.avi`` file, or a folder for one JPEG per frame.
+    inputs
+        Further files the run reads (the results, their flags, a video), none
+        of which ``out`` may name.
 
     Raises
     ------
     InputError
-        ``out`` lies inside the sequence folder or its frame folder (it would
-        overwrite the frames), has an extension OpenCV cannot write here, or
-        is a folder where a video is asked for (or a file where a folder is).
+        ``out`` lies inside the sequence folder or its frame folder, or holds
+        the sequence folder; names one of ``inputs``; has an extension OpenCV
+        cannot write here; is a folder where a video is asked for (or a file
+        where a folder is); is an existing folder holding anything but the
+        ``NNNNNN.jpg`` frames of an earlier render; or lies where no folder can
+        be made (below a file, read-only).
     """
     target = out.resolve()
     for protected in (info.path.resolve(), info.frames_dir.resolve()):
         if target == protected or target.is_relative_to(protected):
             raise InputError(out, f"refusing to write into the sequence folder {protected}: the frames and "
                              f"detections there would be overwritten; choose --out elsewhere")
+        if protected.is_relative_to(target):
+            raise InputError(out, f"refusing to write into a folder that holds the sequence folder {protected}; "
+                             f"choose --out elsewhere")
+    refuse_overwriting([out], inputs, "choose another --out")
     suffix = out.suffix.lower()
     if suffix and suffix not in VIDEO_EXTENSIONS:
         raise InputError(out, f"cannot write {suffix!r}; supported: {', '.join(VIDEO_EXTENSIONS)} (video) or a "
@@ -173,46 +194,67 @@ def check_render_target(info: SeqInfo, out: Path) -> bool:
         raise InputError(out, "a folder is in the way of the video file")
     if not video and out.exists() and not out.is_dir():
         raise InputError(out, "a file is in the way of the frames folder")
+    if not video and out.is_dir():
+        other = sorted(p.name for p in out.iterdir() if not _FRAME_NAME.fullmatch(p.name) or not p.is_file())
+        if other:
+            raise InputError(out, f"the folder holds other files ({', '.join(other[:3])}"
+                             f"{', ...' if len(other) > 3 else ''}); render frames into a new or empty folder, "
+                             f"or one holding an earlier render's frames only")
+    check_output_dir(out.parent)
     return video
 
 
+#: The file names of rendered frames; a folder holding only these is an earlier render, written into again.
+_FRAME_NAME = re.compile(r"\d{6}\.jpg")
+
+
 def render(info: SeqInfo, tracks: Tracks, out: str | Path,
-           progress: Callable[[Iterable[int]], Iterable[int]] | None = None, errors=None) -> Path:
+           progress: Callable[[Iterable[int]], Iterable[int]] | None = None, errors=None,
+           inputs: Iterable[str | Path] = ()) -> Path:
     """Render every frame of the sequence with ``tracks`` into a video file or a folder of JPEGs.
 
     A path ending in ``.mp4`` or ``.avi`` is a video (OpenCV's writer); a path
-    without extension is a folder of ``NNNNNN.jpg``. Either appears only when
-    complete: frames go to a hidden ``.partial`` sibling that is renamed at
-    the end, and every write is checked (a full disk is an error, never a
-    short video). With ``errors`` (:func:`sotmot.evaluate.frame_errors`), the
-    ground truth is drawn beside the results with the errors marked.
+    without extension is a folder of ``NNNNNN.jpg``. A video, and a new
+    folder, appear only when complete: they are written under a hidden
+    temporary name beside the target and renamed at the end. An existing
+    folder (empty, or an earlier render) is written into frame by frame,
+    each frame replaced atomically; nothing else in it is touched. Every
+    write is checked (a full disk is an error, never a short video). With
+    ``errors`` (:func:`sotmot.evaluate.frame_errors`), the ground truth is
+    drawn beside the results with the errors marked.
 
     Raises
     ------
     InputError
-        A target :func:`check_render_target` refuses, or a write that failed.
+        A target :func:`check_render_target` refuses (``inputs`` are passed
+        to it), or a write that failed.
     """
     import cv2
 
     out = Path(out)
-    video = check_render_target(info, out)
+    video = check_render_target(info, out, inputs)
     reader = FrameReader(info, cache_size=1)
     per_frame: dict[int, list[int]] = {}
     for r, f in enumerate(tracks.frames.tolist()):
         per_frame.setdefault(f, []).append(r)
     frames = range(1, info.length + 1)
     trails: dict[int, deque] = {}
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.stem}.partial{out.suffix}")
+    into_existing = not video and out.is_dir()
+    # paths made by this run, and only those, are removed on failure
     if video:
+        fd, name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=f".partial{out.suffix}", dir=out.parent)
+        os.close(fd)
+        tmp = Path(name)
         size = (info.width * (2 if errors is not None else 1), info.height)
         writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*VIDEO_EXTENSIONS[out.suffix.lower()]),
                                  float(info.frame_rate), size)
         if not writer.isOpened():
+            tmp.unlink(missing_ok=True)
             raise InputError(out, "OpenCV cannot write a video here (try .avi, or a folder)")
+    elif into_existing:
+        tmp = out
     else:
-        shutil.rmtree(tmp, ignore_errors=True)
-        tmp.mkdir()
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".partial", dir=out.parent))
     try:
         for f in (progress(frames) if progress else frames):
             plain = reader(f)
@@ -221,8 +263,14 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
                 image = draw_errors(image, plain, f, errors)
             if video:
                 writer.write(image)
-            elif not cv2.imwrite(str(tmp / f"{f:06d}.jpg"), image):
-                raise InputError(tmp / f"{f:06d}.jpg", "could not be written (disk full or not writable?)")
+                continue
+            ok, data = cv2.imencode(".jpg", image)
+            if not ok:
+                raise InputError(tmp / f"{f:06d}.jpg", "OpenCV could not encode the frame")
+            try:
+                write_bytes_atomic(tmp / f"{f:06d}.jpg", data.tobytes())
+            except OSError as exc:
+                raise InputError(tmp / f"{f:06d}.jpg", f"could not be written: {exc.strerror}") from exc
         if video:
             writer.release()
             written = _video_frames(tmp)
@@ -232,17 +280,11 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
         if video:
             writer.release()
             tmp.unlink(missing_ok=True)
-        else:
+        elif not into_existing:
             shutil.rmtree(tmp, ignore_errors=True)
         raise
-    if video or not out.exists():
-        tmp.replace(out)
-    else:  # an earlier render: swap the folders, then remove the old one
-        old = out.with_name(f".{out.name}.old")
-        shutil.rmtree(old, ignore_errors=True)
-        out.replace(old)
-        tmp.replace(out)
-        shutil.rmtree(old, ignore_errors=True)
+    if not into_existing:
+        tmp.replace(out)  # a file over a file, or a new folder where there was none
     return out
 
 

@@ -64,6 +64,19 @@ def write_sequence(root: Path, det_lines: list[str], length: int = 5, frame_rate
     return seq
 
 
+def write_video(path: Path, n: int = 12, fps: float = 5.0) -> Path:
+    """A small MJPG ``.avi`` (120 x 80) of a dark block moving right 3 px a frame over grey."""
+    import cv2
+
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), fps, (120, 80))
+    for f in range(1, n + 1):
+        img = np.full((80, 120, 3), 120, np.uint8)
+        img[20:60, 10 + 3 * f:30 + 3 * f] = 30
+        writer.write(img)
+    writer.release()
+    return path
+
+
 class GeometryEmbedder:
     """A deterministic stand-in for a re-ID model: the feature is a function of the box size.
 

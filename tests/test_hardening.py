@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from conftest import GeometryEmbedder, write_sequence
+from conftest import GeometryEmbedder, write_sequence, write_video
 from sotmot.config import TrackerConfig, load_config
 from sotmot.errors import ConfigError, EvaluationError, InputError
 from sotmot.io import read_detections, read_seqinfo, results_path
@@ -281,17 +281,7 @@ def test_absurd_l_max_is_a_config_error():
 
 
 def _video(tmp_path, n=12, fps=5.0):
-    import cv2
-    import numpy as np
-
-    path = tmp_path / "street.avi"
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), fps, (120, 80))
-    for f in range(1, n + 1):
-        img = np.full((80, 120, 3), 120, np.uint8)
-        img[20:60, 10 + 3 * f:30 + 3 * f] = 30
-        writer.write(img)
-    writer.release()
-    return path
+    return write_video(tmp_path / "street.avi", n, fps)
 
 
 def test_track_a_video_with_its_detections_then_render_it(tmp_path, model_0288, capsys):
@@ -332,14 +322,14 @@ def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):
     from sotmot.io import mot
 
     seq = _walker_sequence(tmp_path)
-    real = mot.write_text_atomic
+    real = mot.write_bytes_atomic
 
-    def full_disk(path, text):
+    def full_disk(path, data):
         if str(path).endswith("SYN.txt"):
             raise OSError(28, "No space left on device")
-        real(path, text)
+        real(path, data)
 
-    monkeypatch.setattr(mot, "write_text_atomic", full_disk)
+    monkeypatch.setattr(mot, "write_bytes_atomic", full_disk)
     outcome = batch.track_one(str(seq), str(tmp_path / "out"), TrackerConfig(), "greedy", False,
                               embedder=GeometryEmbedder())
     assert outcome.status == "failed"

@@ -82,22 +82,31 @@ def test_render_refuses_to_write_into_the_sequence_and_odd_targets(tmp_path, cap
     assert "refusing" in capsys.readouterr().err
 
 
-def test_failed_frame_write_is_an_error_and_leaves_nothing(tmp_path, monkeypatch):
+def test_failed_frame_write_is_an_error_and_leaves_nothing_half_written(tmp_path, monkeypatch):
     import pytest
 
+    from sotmot import render as render_module
     from sotmot.errors import InputError
 
     seq = write_sequence(tmp_path, ["1,-1,5,5,10,20,1"], length=3, width=96, height=64)
     tracks = Tracks(frames=[1], ids=[7], boxes=[[20, 20, 30, 30]], scores=[1])
     render(read_seqinfo(seq), tracks, tmp_path / "frames")  # an earlier, complete render
-    calls = []
+    real, calls = render_module.write_bytes_atomic, []
 
-    def full_disk(path, image):
+    def full_disk(path, data):
         calls.append(path)
-        return len(calls) < 2
+        if len(calls) >= 2:
+            raise OSError(28, "No space left on device")
+        real(path, data)
 
-    monkeypatch.setattr(cv2, "imwrite", full_disk)
-    with pytest.raises(InputError, match="could not be written"):
-        render(read_seqinfo(seq), tracks, tmp_path / "frames")
+    monkeypatch.setattr(render_module, "write_bytes_atomic", full_disk)
+    for target in (tmp_path / "frames", tmp_path / "new"):
+        calls.clear()
+        with pytest.raises(InputError, match="could not be written"):
+            render(read_seqinfo(seq), tracks, target)
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
-    assert len(list((tmp_path / "frames").iterdir())) == 3  # the earlier render is untouched
+    assert not (tmp_path / "new").exists()  # a new folder appears only when complete
+    # an existing folder is written into frame by frame: every frame there is whole (old or new)
+    frames = sorted((tmp_path / "frames").iterdir())
+    assert [p.name for p in frames] == ["000001.jpg", "000002.jpg", "000003.jpg"]
+    assert all(cv2.imread(str(p)) is not None for p in frames)

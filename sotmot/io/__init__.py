@@ -13,14 +13,17 @@ from sotmot.io.mot import (
     read_ground_truth,
     read_results,
     read_seqinfo,
+    refuse_overwriting,
     results_path,
+    same_file,
     write_results,
     write_bytes_atomic,
+    write_files_atomic,
     write_text_atomic,
 )
 
 __all__ = [
     "FrameReader", "GroundTruth", "SeqInfo", "atomic_path", "check_output_dir", "format_results", "gt_style",
-    "is_plain_name", "read_detections", "read_ground_truth", "read_results", "read_seqinfo", "results_path",
-    "write_bytes_atomic", "write_results", "write_text_atomic",
+    "is_plain_name", "read_detections", "read_ground_truth", "read_results", "read_seqinfo", "refuse_overwriting",
+    "results_path", "same_file", "write_bytes_atomic", "write_files_atomic", "write_results", "write_text_atomic",
 ]

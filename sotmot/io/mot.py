@@ -13,8 +13,8 @@ import math
 import os
 import tempfile
 from collections import OrderedDict
-from collections.abc import Iterator
-from contextlib import contextmanager
+from collections.abc import Iterable, Iterator
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -29,6 +29,11 @@ GtStyle = Literal["MOT15", "MOT16"]
 _LINK_STUB_BYTES = 1024  # a checked-out symbolic link is a text file no longer than its target path
 #: A detection box wider or taller than this many image widths or heights is an input error.
 MAX_BOX_SCALE = 4.0
+#: The highest frame rate taken (``frameRate``, ``--fps``, a video container's): every stage counts time in
+#: frames from it (1-second batches, the 2-second interpolation bound), and a wrong one silently breaks them all.
+MAX_FRAME_RATE = 240.0
+#: Track and ground-truth ids are positive integers below this (TrackEval indexes arrays by them).
+MAX_ID = 2**31 - 1
 log = logging.getLogger(__name__)
 
 _SEQINFO_KEYS = {
@@ -145,6 +150,9 @@ def read_seqinfo(seq_dir: str | Path) -> SeqInfo:
                              line=_ini_line(path, key)) from None
         if kind in (int, float) and not (math.isfinite(value) and value > 0):
             raise InputError(path, f"{key}={raw!r} must be a positive number", line=_ini_line(path, key))
+        if key == "frameRate" and value > MAX_FRAME_RATE:
+            raise InputError(path, f"{key}={raw!r} is above {MAX_FRAME_RATE:g} frames per second; every stage "
+                             f"counts time in frames from it, so it must be the real rate", line=_ini_line(path, key))
         values[key] = value
     name = str(values["name"])
     if not is_plain_name(name):
@@ -164,12 +172,14 @@ def _ini_line(path: Path, needle: str) -> int | None:
 
 
 def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None,
-                what: str) -> tuple[np.ndarray, list[int]]:
+                what: str, ids: bool = False) -> tuple[np.ndarray, list[int]]:
     """Parse a comma-separated MOTChallenge text file into a float array.
 
     Returns the ``(N, max_cols)`` array (missing trailing columns filled with -1)
     and the 1-based line number of each row. Every row is validated: column
-    count, numbers, finiteness, positive width and height, frame range.
+    count, numbers, finiteness, positive width and height, frame range, and
+    with ``ids`` (results, ground truth) an id that is an integer in
+    ``1..MAX_ID``.
     """
     if not path.is_file():
         raise InputError(path, f"missing; expected the {what} file here")
@@ -200,6 +210,8 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
                 limit = f"1..{seq_length}" if seq_length is not None else ">= 1"
                 raise InputError(path, f"frame {int(frame)} is outside {limit} (seqLength in seqinfo.ini)",
                                  line=number)
+            if ids and not (values[1] == int(values[1]) and 1 <= values[1] <= MAX_ID):
+                raise InputError(path, f"id {fields[1]!r} must be an integer from 1 to {MAX_ID}", line=number)
             if values[4] <= 0 or values[5] <= 0:
                 raise InputError(path, f"box width and height must be positive, got w={fields[4]}, "
                                  f"h={fields[5]}", line=number)
@@ -313,11 +325,11 @@ def read_ground_truth(path: str | Path, seq_length: int | None = None) -> Ground
     path = Path(path)
     style = gt_style(path)
     if style == "MOT16":
-        arr, lines = _parse_rows(path, 9, 9, seq_length, "ground-truth")
+        arr, lines = _parse_rows(path, 9, 9, seq_length, "ground-truth", ids=True)
         classes = arr[:, 7].astype(np.int64)
         visibility = arr[:, 8]
     else:
-        arr, lines = _parse_rows(path, 7, 10, seq_length, "ground-truth")
+        arr, lines = _parse_rows(path, 7, 10, seq_length, "ground-truth", ids=True)
         classes = np.ones(len(arr), np.int64)
         visibility = np.ones(len(arr))
     # TrackEval asserts this with a traceback; say which line instead
@@ -329,7 +341,7 @@ def read_ground_truth(path: str | Path, seq_length: int | None = None) -> Ground
 def read_results(path: str | Path, seq_length: int | None = None) -> Tracks:
     """Read a MOTChallenge results file (``frame, id, x, y, w, h, score, -1, -1, -1``)."""
     path = Path(path)
-    arr, lines = _parse_rows(path, 7, 10, seq_length, "results")
+    arr, lines = _parse_rows(path, 7, 10, seq_length, "results", ids=True)
     ids = arr[:, 1].astype(np.int64)
     _check_one_box_per_id(path, arr[:, 0].astype(np.int64), ids, lines)
     return Tracks(arr[:, 0].astype(np.int64), ids, arr[:, 2:6], arr[:, 6])
@@ -405,6 +417,47 @@ def write_bytes_atomic(path: str | Path, data: bytes) -> None:
 def write_text_atomic(path: str | Path, text: str) -> None:
     """Write ``text`` (UTF-8) to ``path`` so that readers see the old file or the whole new one."""
     write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_files_atomic(files: dict[Path, bytes]) -> None:
+    """Write several files all or none: every one to a temporary file first, then each renamed into place.
+
+    A failure while writing (a full disk, a read-only folder) leaves every
+    target as it was and no temporary file behind; only the renames, which
+    need no space, come after the last byte is written.
+    """
+    with ExitStack() as stack:
+        staged = [(stack.enter_context(atomic_path(path)), path, data) for path, data in files.items()]
+        for tmp, _, data in staged:
+            with open(tmp, "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+        # leaving the stack renames each temporary file over its target, last entered first
+
+
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether two paths name one file (through links, ``..`` and case-folding file systems alike)."""
+    a, b = Path(a), Path(b)
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def refuse_overwriting(outputs: Iterable[str | Path], inputs: Iterable[str | Path | None], hint: str) -> None:
+    """Raise an :class:`InputError` when an output path would write over one of the run's input files.
+
+    A run never writes over a file it reads: a results file named like the
+    detections it was made from (``--out`` the folder of ``--det``, a sequence
+    named ``det`` written into its own ``det/``), a render over its video.
+    Paths compare after resolving links; ``None`` inputs are skipped.
+    """
+    inputs = [Path(p) for p in inputs if p is not None]
+    for out in map(Path, outputs):
+        for source in inputs:
+            if same_file(out, source) or out.resolve() == source.resolve():
+                raise InputError(out, f"would write over {source}, which this run reads; {hint}")
 
 
 def check_output_dir(path: str | Path) -> Path:
