@@ -23,7 +23,13 @@ has k detector boxes), to show what seeing whole trajectories adds.
 The peer rows are the best MOTA among the peers on the same detections and
 embeddings, quoted from the confidence issue (#11; boxmot 25.0.0 trackers with
 and without GSI, DeepSORT from scripts/bench_peers.py); they are not
-re-measured by this script.
+re-measured by this script; with ``--detector-model`` (private detections)
+they do not apply and ``scripts/bench_peers.py --detector-model`` measures
+the peers on the same boxes.
+
+With ``--detector-model`` every sequence is tracked from the built-in
+detector's boxes (detected once and cached; fps then excludes detection,
+which ``scripts/bench_speed.py`` times) instead of its public ``det.txt``.
 """
 
 from __future__ import annotations
@@ -36,7 +42,7 @@ import time
 from pathlib import Path
 
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import DEFAULT_DATA, before_confirmation, machine, sequences
+from sotmot.benchmarks import DEFAULT_DATA, before_confirmation, machine, model_detections, sequences
 from sotmot.calibrate import box_labels
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import METRICS, EvalReport, evaluate_files
@@ -68,6 +74,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="comparison rows: the online trackers' rule, a trajectory is kept once it has this "
                              "many detector boxes (no other confirmation; gaps bounded as in 'after'); "
                              "comma-separated, empty for none (default: %(default)s)")
+    parser.add_argument("--detector-model", metavar="PATH.xml",
+                        help="private detections: track the boxes of this person detector (run once per sequence, "
+                             "cached in --det-cache) instead of each sequence's public det/det.txt")
+    parser.add_argument("--det-cache", type=Path, default=Path(".cache/detections"),
+                        help="where the detector's boxes are kept between runs (default: %(default)s)")
     parser.add_argument("--loo", type=Path, help="report of scripts/fit_confidence.py: print its held-out rows")
     parser.add_argument("--json", type=Path, help="write results here")
     parser.add_argument("--results", type=Path, help="keep the results files here (default: a temp folder)")
@@ -89,8 +100,12 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         out = args.results or Path(tmp)
         for seq in seqs:
+            seq_config = config
+            if args.detector_model:  # detected once, outside the clock (bench_speed times detection)
+                detection = config.replace("detection", model=args.detector_model)
+                seq_config = config.replace("detection", file=str(model_detections(seq, detection, args.det_cache)))
             start = time.perf_counter()
-            prepared = prepare_sequence(seq, config, embedder, progress=sys.stderr.isatty())
+            prepared = prepare_sequence(seq, seq_config, embedder, progress=sys.stderr.isatty())
             seconds = time.perf_counter() - start  # the "after" pipeline: preparation plus its finish
             for label, cfg in configs.items():
                 lap = time.perf_counter()
@@ -142,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
         for label, rep in online_reports.items():
             if name in rep.sequences:
                 lines.append(f"{name + ' ' + label:<34}" + cells(rep.sequences[name]))
-        if name in BEST_PEER_MOTA:
+        if name in BEST_PEER_MOTA and not args.detector_model:  # quoted for public detections only
             peer, mota = BEST_PEER_MOTA[name]
             lines.append(f"{'  best peer MOTA: ' + peer:<34}" + " " * 24 + f"{mota:8.1f}")
     for group, title in (("full", "full-length combined"), ("clips", "clips combined")):
@@ -160,11 +175,15 @@ def main(argv: list[str] | None = None) -> int:
         b, a = interpolation[name]["before"], interpolation[name]["after"]
         lines.append(f"{name:<20}{b['boxes']:>8} ({b['TP']:>4} / {b['FP']:>4})"
                      f"{a['boxes']:>8} ({a['TP']:>4} / {a['FP']:>4})")
+    kind = (f"private detections (MOTChallenge's term): the boxes of {Path(args.detector_model).name}"
+            if args.detector_model else "public detections: each sequence's det/det.txt")
     print("\n".join(lines))
+    print(f"detections: {kind}")
     print(f"machine: {machine()}")
     if args.json:
         write_text_atomic(args.json, json.dumps({
             "machine": machine(), "merger": args.merger, "model": args.model, "config": config.to_dict(),
+            "detections": kind,
             "before": {k: r.to_dict() for k, r in reports["before"].items()},
             "after": {k: r.to_dict() for k, r in reports["after"].items()},
             "held_out": loo["methods"]["auto"]["held_out"] if loo else None,

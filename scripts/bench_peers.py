@@ -21,6 +21,10 @@ Trackers:
   camera). ``--shuffle-check`` adds rows with the embeddings permuted across
   the detections: if a tracker uses them, its scores drop.
 
+With ``--detector-model`` every tracker gets the built-in person detector's
+boxes instead (MOTChallenge's "private" detections), detected once per
+sequence and cached; the tables say which detections they used.
+
 Same input for everyone: ``det.txt`` cleaned by sotmot's preprocessing with
 the default configuration (no score threshold; per-frame NMS at 0.6, by IoM
 for DPM scores and by IoU for probability scores). Peers that need scores in
@@ -62,7 +66,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
+from sotmot.benchmarks import DEFAULT_DATA, machine, model_detections, sequences
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import evaluate_files
 from sotmot.io import results_path, write_results
@@ -154,6 +158,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--trackers", default=",".join([*SOTMOT, *PEERS]),
                         help="comma-separated subset (default: all): " + ", ".join([*SOTMOT, *PEERS]))
     parser.add_argument("--runs", type=int, default=3, help="timed runs per tracker and sequence; the median counts")
+    parser.add_argument("--detector-model", metavar="PATH.xml",
+                        help="private detections: every tracker gets the boxes of this person detector (run once per "
+                             "sequence, cached in --det-cache) instead of the sequence's public det/det.txt")
+    parser.add_argument("--det-cache", type=Path, default=Path(".cache/detections"),
+                        help="where the detector's boxes are kept between runs (default: %(default)s)")
     parser.add_argument("--shuffle-check", action="store_true",
                         help="also run each boxmot tracker with its embeddings permuted across the sequence's "
                              "detections (rows '... shuffled'): if they are used, scores must drop")
@@ -188,7 +197,11 @@ def main(argv: list[str] | None = None) -> int:
     reid: dict[str, float] = {}
     frames: dict[str, int] = {}
     for path in seqs:
-        seq = load(path, config, embedder)
+        seq_config = config
+        if args.detector_model:  # the same model detections for sotmot and every peer
+            detection = config.replace("detection", model=args.detector_model)
+            seq_config = config.replace("detection", file=str(model_detections(path, detection, args.det_cache)))
+        seq = load(path, seq_config, embedder)
         name = seq.info.name
         reid[name], frames[name] = seq.reid_seconds, seq.info.length
         print(f"{name}: {len(seq.detections)} detections after preprocessing, re-ID {seq.reid_seconds:.1f} s",
@@ -197,7 +210,7 @@ def main(argv: list[str] | None = None) -> int:
             made: dict[str, tuple[Tracks, float]] = {}
             for variant in dict.fromkeys(SOTMOT[t][0] for t in trackers if t in SOTMOT):
                 names = [t for t in trackers if t in SOTMOT and SOTMOT[t][0] == variant]
-                got = run_sotmot(seq, config, variant, [SOTMOT[t][1] for t in names], embedder)
+                got = run_sotmot(seq, seq_config, variant, [SOTMOT[t][1] for t in names], embedder)
                 made.update({t: got[SOTMOT[t][1]] for t in names})
             for peer in (t for t in trackers if t in PEERS):
                 if peer in BOXMOT_ROWS:
@@ -242,7 +255,9 @@ def main(argv: list[str] | None = None) -> int:
                     med[n] + reid_part[n] for n in names)
 
     rows = [*dict.fromkeys(n for t in trackers for n in table[t])]
-    lines = [f"Machine: {machine()}; median of {args.runs} runs; re-ID model {Path(args.model).name}.", ""]
+    kind = (f"private detections (MOTChallenge's term): {Path(args.detector_model).name}, every tracker the same boxes"
+            if args.detector_model else "public detections (each sequence's det/det.txt)")
+    lines = [f"Machine: {machine()}; median of {args.runs} runs; re-ID model {Path(args.model).name}; {kind}.", ""]
     for row in rows:
         lines += [f"**{row}**", "", "| tracker | " + " | ".join(COLUMNS) + " | loop fps | e2e fps |",
                   "|---|" + "---|" * (len(COLUMNS) + 2)]
@@ -277,6 +292,7 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "peers.md").write_text(text)
     (args.out / "peers.json").write_text(json.dumps({
         "machine": machine(), "runs": args.runs, "model": str(args.model), "table": table,
+        "detections": "private: " + str(args.detector_model) if args.detector_model else "public",
         "seconds": seconds, "reid_seconds": reid, "frames": frames,
         "preprocessing": "sotmot default: no score threshold, per-frame NMS 0.6 (IoM for DPM scores, IoU otherwise)",
         "peer_scores": "as given when all in [0, 1], else per-sequence rank / count",

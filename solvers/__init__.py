@@ -18,16 +18,7 @@ from typing import Callable
 
 from solvers.base import Association, Link, Solver
 from sotmot.errors import SolverError
-
-#: CLI name -> "module:function" of the solver.
-SOLVERS: dict[str, str] = {
-    "greedy": "solvers.greedy:solve",
-    "flow": "solvers.mincostflow:solve",
-    "flow-nx": "solvers.networkx_flow:solve",
-    "flow-staged": "solvers.mincostflow:solve_staged",
-    "lifted": "solvers.lifted:solve",
-}
-
+from sotmot.plugins import SOLVERS
 
 def get_solver(name: str) -> Solver:
     """The solver registered as ``name``.

@@ -130,8 +130,10 @@ def low_confidence_path(results: Path) -> Path:
     return results.with_name(results.stem + ".low.txt")
 
 
-def output_paths(out_dir: str | Path, name: str, config: TrackerConfig) -> list[Path]:
-    """Every file tracking sequence ``name`` writes into ``out_dir``, the results file ``<name>.txt`` last."""
+def output_paths(out_dir: str | Path, name: str, config: TrackerConfig, detected: bool = False) -> list[Path]:
+    """Every file tracking sequence ``name`` writes into ``out_dir``, the results file ``<name>.txt`` last;
+    ``detected``: the detections come from the model (and are written as ``<name>.det.txt``)."""
+    from sotmot.detection import detections_path
     from sotmot.io import results_path
     from sotmot.provenance import record_path
     from sotmot.render import flags_path
@@ -140,36 +142,45 @@ def output_paths(out_dir: str | Path, name: str, config: TrackerConfig) -> list[
     side = [flags_path(out), record_path(out)]
     if config.confirm.enabled and config.confirm.low_confidence == "file":
         side.append(low_confidence_path(out))
+    if detected:
+        side.append(detections_path(out))
     return side + [out]
 
 
 def sequence_inputs(info, config: TrackerConfig) -> list[Path | None]:
     """The files tracking ``info`` reads: no output may land on one of them (:func:`sotmot.io.refuse_overwriting`)."""
-    return [info.path / "seqinfo.ini", info.det_path, info.gt_path, config.appearance.model,
-            config.appearance.weights, config.confirm.calibration]
+    from sotmot.detection import detection_source
+
+    return [info.path / "seqinfo.ini", detection_source(config.detection, info)[1], info.det_path, info.gt_path,
+            config.appearance.model, config.appearance.weights, config.confirm.calibration,
+            config.detection.model]
 
 
 def resolve_paths(config: TrackerConfig) -> TrackerConfig:
-    """``config`` with the re-ID model (flag, config or ``SOTMOT_REID_MODEL``), fine-tuned weights and
-    calibration file as absolute paths.
+    """``config`` with the re-ID model (flag, config or ``SOTMOT_REID_MODEL``), the detector model (flag, config
+    or ``SOTMOT_DETECTOR_MODEL``), the detections file, fine-tuned weights and calibration file as absolute paths.
 
     Done once, by the process that starts the run: the run record then names
     (and hashes) the model however it was given, and workers on other
     machines read the same files rather than their own environment.
     """
     from sotmot.appearance.onnx_reid import ENV_VAR
+    from sotmot.detection import ENV_VAR as DETECTOR_ENV_VAR
 
     def absolute(path: str | None) -> str | None:
         return None if not path else str(Path(path).expanduser().resolve())
 
     config = config.replace("appearance", model=absolute(config.appearance.model or os.environ.get(ENV_VAR)),
                             weights=absolute(config.appearance.weights))
+    config = config.replace("detection", file=absolute(config.detection.file),
+                            model=absolute(config.detection.model or os.environ.get(DETECTOR_ENV_VAR)))
     return config.replace("confirm", calibration=absolute(config.confirm.calibration))
 
 
 def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
               progress=False, embedder=None) -> Outcome:
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
+    from sotmot.detection import detection_source, detections_path, format_detections
     from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
     from sotmot.pipeline import track_sequence
     from sotmot.provenance import record_path, run_record, why_rerun, write_record
@@ -177,7 +188,8 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
 
     try:
         info = read_seqinfo(seq_dir)
-        outputs = output_paths(out_dir, info.name, config)
+        detected = detection_source(config.detection, info)[0] == "model"
+        outputs = output_paths(out_dir, info.name, config, detected)
         refuse_overwriting(outputs, sequence_inputs(info, config), "choose another --out")
         out = outputs[-1]
         record = run_record(info, config, merger)
@@ -197,6 +209,10 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
             if low_confidence_path(out) in outputs:
                 write_results(low_confidence_path(out), result.dropped)
                 written.append(low_confidence_path(out))
+            if result.detected is not None:  # what the model found, to repeat the run or feed the peers
+                found = result.detected
+                write_text_atomic(detections_path(out), format_detections(found.frames, found.boxes, found.scores))
+                written.append(detections_path(out))
             write_flags(out, result.tracks)
             written.append(flags_path(out))
             write_record(out, record)

@@ -57,6 +57,7 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
     fine-tuned weights. ``embedder_box`` is a list that receives the embedder
     when one is first needed, so several calls share it.
     """
+    from sotmot.detection import detection_source
     from sotmot.pipeline import embed_detections, preprocess
 
     info = read_seqinfo(seq)
@@ -66,8 +67,9 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
     # the runtime and fine-tuned weights, when not the defaults (so keys of default runs stay as they were)
     runtime = [v for v in (config.appearance.backend if config.appearance.backend != "onnx" else None,
                            config.appearance.weights) if v]
+    detections = [config.detection.file] if config.detection.file else []  # default runs keep their keys
     key = hashlib.sha256(json.dumps([info.name, model.name, model.stat().st_size if model.is_file() else 0,
-                                     cleaning, config.appearance.flip, *runtime],
+                                     cleaning, config.appearance.flip, *runtime, *detections],
                                     sort_keys=True, default=str).encode()).hexdigest()[:16]
     path = cache / f"{info.name}-{key}.npy"
     if path.is_file():
@@ -76,13 +78,41 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
         from sotmot.appearance import make_embedder
 
         embedder_box.append(make_embedder(config.appearance))  # built once, for the first sequence not cached
-    dets = preprocess(read_detections(info.det_path, info.length), config.preprocess)
+    dets = preprocess(read_detections(detection_source(config.detection, info)[1] or info.det_path, info.length),
+                      config.preprocess)
     features = embed_detections(info, dets, embedder_box[0], progress=sys.stderr.isatty())
     cache.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:
             np.save(fh, features)
     return features
+
+
+def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
+    """The detector's boxes of ``seq`` (``[detection]`` of ``config``) as a ``det.txt`` in ``cache``, made once.
+
+    The file is what ``sotmot track`` writes as ``<name>.det.txt``: fed back
+    as ``[detection] file`` it gives the very run the detector would (tested),
+    so benchmarks detect each sequence once and hand sotmot and the peers the
+    same boxes. The cache key holds the sequence, the detector file's SHA-256
+    and the detector settings that change boxes.
+    """
+    from sotmot.detection import format_detections, make_detector, resolve_detector_path
+    from sotmot.pipeline import detect_sequence
+    from sotmot.provenance import file_sha256
+
+    info = read_seqinfo(seq)
+    detection = config.detection
+    settings = [info.name, str(info.frames_dir.resolve()), file_sha256(resolve_detector_path(detection.model)),
+                detection.backend, detection.min_score, detection.input_height, detection.input_width]
+    key = hashlib.sha256(json.dumps(settings).encode()).hexdigest()[:16]
+    path = cache / f"{info.name}-{key}.det.txt"
+    if not path.is_file():
+        found, _ = detect_sequence(info, make_detector(detection), progress=sys.stderr.isatty())
+        cache.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as tmp:
+            tmp.write_text(format_detections(found.frames, found.boxes, found.scores), encoding="utf-8")
+    return path
 
 
 def add_fit_arguments(parser: argparse.ArgumentParser, cache: Path) -> None:

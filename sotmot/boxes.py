@@ -42,6 +42,12 @@ def centers(boxes: np.ndarray) -> np.ndarray:
     return b[:, :2] + 0.5 * b[:, 2:]
 
 
+def clip_xyxy(corners: np.ndarray, width: float, height: float) -> np.ndarray:
+    """``(N, 4)`` corners ``x1, y1, x2, y2`` (pixels, floats) clipped to a ``width`` x ``height`` image."""
+    c = np.asarray(corners, dtype=np.float64).reshape(-1, 4)
+    return np.clip(c, 0.0, [width, height, width, height])
+
+
 def pixel_bounds(boxes: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Integer pixel bounds ``x1, y1, x2, y2`` (``(N,)`` each, ``x2``/``y2`` exclusive) of ``(N, 4)``
     ``x, y, w, h`` boxes clipped to a ``width`` x ``height`` image: the one rule every crop uses.

@@ -21,9 +21,16 @@ examples:
   sotmot track SEQ --out results --config my.toml   # every threshold, see docs/configuration.md
   sotmot track DATA/* --out results --workers 2 --resume   # 2 processes, skip finished sequences
   sotmot track /shared/DATA/* --out /shared/results --cluster dask://scheduler:8786
+  sotmot track street.mp4 --out results \
+      --detector-model ../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml \
+      --reid-model ../shared/models/person-reidentification-retail-0288.onnx   # a plain video: the detector finds people
   sotmot track street.mp4 --det street_det.txt --out results   # a video and its detections
+  sotmot track ../shared/data/MOT16-09 --detections model --out results   # the detector instead of det/det.txt
 
-The re-ID model path may also come from the environment variable SOTMOT_REID_MODEL.
+The re-ID model path may also come from the environment variable SOTMOT_REID_MODEL, the
+detector's from SOTMOT_DETECTOR_MODEL. A sequence folder with det/det.txt is tracked from that
+file; a plain video (or --detections model) from the detector's boxes, written beside the
+results as <name>.det.txt (MOTChallenge det format) so that the run can be repeated with --det.
 Results are written as DIR/<name>.txt (MOTChallenge format: frame, id, x, y, w, h,
 score, -1, -1, -1; boxes in pixels, frames 1-based), each file atomically; <name> is
 the name in seqinfo.ini and must be a plain file name (no path separators). Beside it:
@@ -95,6 +102,13 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                         "flip = false): half the re-ID work, pair AUC within 0.001 on PETS09-S2L1 and MOT16-09")
     p.add_argument("--device", choices=["cpu", "cuda"], help="where the re-ID model runs (default: cpu)")
     p.add_argument("--weights", metavar="FILE.pt", help="fine-tuned weights from train-appearance (torch backend)")
+    p.add_argument("--detections", choices=["auto", "file", "model"],
+                   help="where the boxes come from ([detection] source): file = the sequence's det/det.txt (or "
+                        "--det), model = the person detector (--detector-model) run on every frame, auto = the "
+                        "file when there is one, else the model (default)")
+    p.add_argument("--detector-model", metavar="PATH.xml",
+                   help="person detector, an OpenVINO IR .xml with its .bin beside it, e.g. Intel's "
+                        "person-detection-0202 (overrides the config and SOTMOT_DETECTOR_MODEL)")
     p.add_argument("--score-threshold", type=float, metavar="S",
                    help="drop detections scoring below S (default: keep all)")
     p.add_argument("--nms", choices=["auto", "iou", "iom", "none"],
@@ -136,6 +150,10 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("appearance", device=args.device)
     if args.weights:
         config = config.replace("appearance", backend="torch", weights=args.weights)
+    if args.detections:
+        config = config.replace("detection", source=args.detections)
+    if args.detector_model:
+        config = config.replace("detection", model=args.detector_model)
     if args.score_threshold is not None:
         config = config.replace("preprocess", score_threshold=args.score_threshold)
     if args.nms:
@@ -187,19 +205,22 @@ def cmd_track(args: argparse.Namespace) -> int:
     from sotmot.io.video import is_video
 
     videos = [p for p in args.seq_dirs if is_video(p)]
-    if videos and args.det is None:
-        raise SotmotError(f"{videos[0]}: a video needs its detections: --det det.txt (MOTChallenge layout, frames "
-                          f"counted from 1)")
-    if args.det is not None and not videos:
-        raise SotmotError("--det is for a video input; a sequence folder has det/det.txt")
+    if args.det is not None and len(args.seq_dirs) > 1:
+        raise SotmotError("--det belongs to one video or sequence; track several in separate runs")
+    if args.det is not None and args.detections == "model":
+        raise SotmotError("--det gives the detections, --detections model asks the detector for them: choose one")
     if videos and args.cluster:
         raise SotmotError("video input is decoded on this machine; use --workers, not --cluster")
     if videos and args.eval:
         raise SotmotError(f"{videos[0]}: --eval needs ground truth (a sequence folder with gt/gt.txt); a video has "
                           f"none")
     config = _build_config(args)
+    if args.det is not None and not videos:
+        config = config.replace("detection", file=str(args.det))
     for video in videos:  # its sequence is decoded into a temporary folder: check against the user's files now
-        refuse_overwriting(output_paths(args.out, video.stem, config), [video, args.det], "choose another --out")
+        detected = args.det is None and config.detection.source != "file"
+        refuse_overwriting(output_paths(args.out, video.stem, config, detected), [video, args.det],
+                           "choose another --out")
     if not videos:
         return _track(args, config, args.seq_dirs)
     with tempfile.TemporaryDirectory(prefix="sotmot-video-") as work:
@@ -208,6 +229,7 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
     from sotmot.batch import output_paths, sequence_inputs, track_many
+    from sotmot.detection import detection_source
     from sotmot.io import read_seqinfo, refuse_overwriting
 
     infos = [read_seqinfo(s) for s in seq_dirs]  # fail early on a bad folder, before any work
@@ -215,7 +237,8 @@ def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
     if len(set(names)) != len(names):
         raise SotmotError(f"two sequences share a name: {names}")
     for info in infos:
-        refuse_overwriting(output_paths(args.out, info.name, config), sequence_inputs(info, config),
+        detected = detection_source(config.detection, info)[0] == "model"
+        refuse_overwriting(output_paths(args.out, info.name, config, detected), sequence_inputs(info, config),
                            "choose another --out")
         if args.eval and not info.gt_path.is_file():
             raise SotmotError(f"{info.gt_path}: --eval needs the ground truth of {info.name}, and there is none; "
@@ -416,7 +439,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Track one or more MOTChallenge sequence folders.",
                        epilog=EPILOG_TRACK, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR",
-                   help="folder with seqinfo.ini, det/det.txt and img1/, or a video file (.mp4, .avi, ...) with --det")
+                   help="folder with seqinfo.ini, img1/ and (usually) det/det.txt, or a video file (.mp4, .avi, ...)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="where <name>.txt results go")
     p.add_argument("--solver", "--merger", dest="solver", choices=sorted(SOLVERS),
                    help="long-term association solver ([association] solver): greedy (the paper's greedy merge, "
@@ -426,8 +449,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "--merger is the older name")
     _add_tracker_options(p)
     p.add_argument("--det", type=Path, metavar="DET.txt",
-                   help="with a video file as SEQ_DIR: its detections (MOTChallenge layout: frame, id, x, y, w, h, "
-                        "score; frames counted from 1 at the video's first frame)")
+                   help="the detections of the one video or sequence tracked (MOTChallenge layout: frame, id, x, y, "
+                        "w, h, score; frames counted from 1 at the video's first frame), instead of its det/det.txt "
+                        "or the detector; e.g. the <name>.det.txt a model run wrote")
     p.add_argument("--fps", type=_frame_rate, metavar="N",
                    help="with a video: its frame rate, when the container's is missing or wrong")
     p.add_argument("--eval", action="store_true", help="score the results with TrackEval afterwards")

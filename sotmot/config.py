@@ -6,7 +6,7 @@ Where our re-ID model needs another value than the paper's, the default says
 so and points at ``docs/calibration.md``, which derives it from data.
 
 A configuration file (TOML or JSON) holds one table per stage
-(``preprocess``, ``appearance``, ``sot``, ``tracklets``, ``association``,
+(``detection``, ``preprocess``, ``appearance``, ``sot``, ``tracklets``, ``association``,
 ``postprocess``, ``confirm``)::
 
     [preprocess]
@@ -30,11 +30,68 @@ from pathlib import Path
 from typing import Any, Literal
 
 from sotmot.errors import ConfigError
+from sotmot.plugins import BACKENDS, DETECTORS, SOLVERS
 
 
 def _check(cond: bool, section: str, message: str) -> None:
     if not cond:
         raise ConfigError(f"[{section}] {message}")
+
+
+@dataclass(frozen=True)
+class DetectionConfig:
+    """Where the detections come from: a detector's file, or the built-in person detector run on the frames.
+
+    Attributes
+    ----------
+    source
+        ``"file"``: the sequence's ``det/det.txt`` (or ``file``); ``"model"``:
+        the person detector ``model`` run on every frame; ``"auto"``: the file
+        when the sequence has one, the model otherwise (a plain video).
+    file
+        A detections file (MOTChallenge ``det.txt`` layout) used instead of
+        the sequence's ``det/det.txt``, e.g. the ``<name>.det.txt`` an earlier
+        model run wrote; for a run of one sequence.
+    model
+        The detector: an OpenVINO IR ``.xml`` (its ``.bin`` beside it) of an
+        SSD-style person detector such as Intel's person-detection-0202.
+        Never bundled or downloaded; also read from the environment variable
+        ``SOTMOT_DETECTOR_MODEL``.
+    backend
+        The runtime that runs ``model`` (``sotmot.plugins.DETECTORS``).
+    min_score
+        Boxes the detector scores below this never leave it. Low on purpose:
+        confirmation (``[confirm]``) decides which boxes are kept.
+    input_height, input_width
+        The network's input size in pixels (multiples of 32); 0 keeps the
+        frame's aspect ratio at the area of 512 x 672 (448 x 768 for 16:9,
+        512 x 672 for 4:3).
+    threads
+        CPU threads of the detector (0: the runtime's choice).
+    """
+
+    source: Literal["auto", "file", "model"] = "auto"
+    file: str | None = None
+    model: str | None = None
+    backend: str = "openvino"
+    min_score: float = 0.3
+    input_height: int = 0
+    input_width: int = 0
+    threads: int = 0
+
+    def __post_init__(self) -> None:
+        _check(self.source in ("auto", "file", "model"), "detection",
+               f"source must be one of auto, file, model; got {self.source!r}")
+        _check(self.backend in DETECTORS, "detection",
+               f"backend must be one of {', '.join(sorted(DETECTORS))}; got {self.backend!r}")
+        _check(0.0 <= self.min_score <= 1.0, "detection", "min_score must be in [0, 1]")
+        for name in ("input_height", "input_width"):
+            value = getattr(self, name)
+            _check(value == 0 or (32 <= value <= 4096 and value % 32 == 0), "detection",
+                   f"{name} must be 0 (automatic) or a multiple of 32 from 32 to 4096")
+        _check((self.input_height == 0) == (self.input_width == 0), "detection",
+               "input_height and input_width are given together, or both 0")
+        _check(0 <= self.threads <= 1024, "detection", "threads must be between 0 and 1024")
 
 
 @dataclass(frozen=True)
@@ -119,8 +176,6 @@ class AppearanceConfig:
     def __post_init__(self) -> None:
         _check(self.weights is None or self.backend == "torch", "appearance",
                "weights (a fine-tuned checkpoint) need backend = 'torch'")
-        from sotmot.appearance import BACKENDS  # the registry of backends is the list of valid names
-
         _check(self.backend in BACKENDS, "appearance",
                f"backend must be one of {', '.join(sorted(BACKENDS))}; got {self.backend!r}")
         _check(self.device in ("cpu", "cuda"), "appearance", f"device must be 'cpu' or 'cuda'; got {self.device!r}")
@@ -402,8 +457,6 @@ class AssociationConfig:
                "association", "lifted_coefficients must be four finite numbers (c0, c1, c2, c3)")
         _check(0 < self.lifted_time_limit <= 3600, "association", "lifted_time_limit must be in (0, 3600] seconds")
         _check(1 <= self.lifted_workers <= 64, "association", "lifted_workers must be between 1 and 64")
-        from solvers import SOLVERS  # the registry of solvers is the list of valid names
-
         _check(self.solver in SOLVERS, "association",
                f"solver must be one of {', '.join(sorted(SOLVERS))}; got {self.solver!r}")
 
@@ -486,6 +539,7 @@ class ConfirmConfig:
 class TrackerConfig:
     """The whole tracker: one section per stage."""
 
+    detection: DetectionConfig = field(default_factory=DetectionConfig)
     preprocess: PreprocessConfig = field(default_factory=PreprocessConfig)
     appearance: AppearanceConfig = field(default_factory=AppearanceConfig)
     sot: SotConfig = field(default_factory=SotConfig)
@@ -507,6 +561,7 @@ class TrackerConfig:
 
 
 SECTIONS: dict[str, type] = {
+    "detection": DetectionConfig,
     "preprocess": PreprocessConfig,
     "appearance": AppearanceConfig,
     "sot": SotConfig,

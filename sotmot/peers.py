@@ -177,9 +177,11 @@ def as_tracks(rows: list[tuple[int, np.ndarray, np.ndarray, np.ndarray]], boxes_
 
 
 def load(path: Path, config: TrackerConfig, embedder) -> SeqInput:
-    """A sequence's :class:`SeqInput`: detections cleaned by ``config``, embedded (and timed) by ``embedder``."""
+    """A sequence's :class:`SeqInput`: detections (``det/det.txt``, or ``[detection] file``) cleaned by ``config``,
+    embedded (and timed) by ``embedder``."""
     info = read_seqinfo(path)
-    dets = preprocess(read_detections(info.det_path, info.length), config.preprocess)
+    det_file = Path(config.detection.file) if config.detection.file else info.det_path
+    dets = preprocess(read_detections(det_file, info.length), config.preprocess)
     start = time.perf_counter()
     features = embed_detections(info, dets, embedder)
     return SeqInput(path, info, dets, features, peer_scores(dets.scores), time.perf_counter() - start)

@@ -1,6 +1,6 @@
 """The tracker's stages wired together; each stage is also callable on its own.
 
-    read -> preprocess (score threshold, NMS) -> embed -> tracklets
+    detect (a model) or read (a det.txt) -> preprocess (score threshold, NMS) -> embed -> tracklets
          -> long-term association (a solver from ``solvers.SOLVERS``)
          -> post-processing -> confirmation (``sotmot.confidence``) -> results
 
@@ -32,6 +32,7 @@ from sotmot.confidence import (
 )
 from sotmot.config import PreprocessConfig, TrackerConfig
 from sotmot.constraints import merge_group
+from sotmot.detection import Detector, detection_source, make_detector
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
 from sotmot.postprocess import BoxScorer, Expanded, output_ids, to_tracks
 from sotmot.tracklets import build_tracklets
@@ -97,11 +98,14 @@ def nms_per_frame(detections: Detections, kind: str, threshold: float) -> np.nda
 
 def preprocess(detections: Detections, config: PreprocessConfig) -> Detections:
     """Score threshold, then per-frame NMS (paper Sec. 6.1). Keeps the canonical order."""
-    keep = np.ones(len(detections), dtype=bool)
-    if config.score_threshold is not None:
-        keep &= detections.scores >= config.score_threshold
-    dets = detections.subset(np.flatnonzero(keep))
-    return dets.subset(nms_per_frame(dets, resolve_nms(config, detections), config.nms_threshold))
+    return detections.subset(preprocess_indices(detections, config))
+
+
+def preprocess_indices(detections: Detections, config: PreprocessConfig) -> np.ndarray:
+    """Indices (ascending) into ``detections`` of the boxes :func:`preprocess` keeps."""
+    kept = np.flatnonzero(detections.scores >= config.score_threshold) if config.score_threshold is not None \
+        else np.arange(len(detections))
+    return kept[nms_per_frame(detections.subset(kept), resolve_nms(config, detections), config.nms_threshold)]
 
 
 def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, embedder: Embedder,
@@ -160,63 +164,106 @@ PREFETCH_FRAMES = 8
 
 def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
                      progress: "bool | Progress" = False, timings: dict[str, float] | None = None) -> np.ndarray:
-    """Appearance features ``(N, D)`` of every detection.
+    """Appearance features ``(N, D)`` of every detection (see :func:`frame_pass` for how frames are read)."""
+    features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
+    per_frame = detections.by_frame()
+    passed = frame_pass(info, sorted(per_frame), lambda frame, image: detections.boxes[per_frame[frame]],
+                        embedder, f"{info.name}: appearance", progress, timings)
+    for frame, _, feats in passed:
+        features[per_frame[frame]] = feats
+    return features
 
-    The next frames (:data:`PREFETCH_FRAMES`) are decoded (and, for the
-    crop-based backends, their boxes cropped) in a background thread while
-    the re-ID model embeds earlier ones (both release the GIL), so decoding
-    overlaps inference. The crop-based backends (onnx, openvino) get the
-    crops of several frames in one call that fills about one forward pass
-    (``batch_size`` rows; with the flip a crop is two rows): a frame holds a
-    few boxes, and small batches waste the runtime's time
-    (docs/benchmarks.md); other embedders are called once per frame. ``timings``, when given, receives
-    ``"decode"``: the seconds spent reading (and cropping) frames, overlapped
-    with the embedding, so part of, not added to, the stage's wall time.
+
+def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.ndarray], object],
+               embedder: Embedder | None, desc: str, progress: "bool | Progress" = False,
+               timings: dict[str, float] | None = None) -> list[tuple[int, object, np.ndarray]]:
+    """Read each of ``frames`` once, find its boxes and embed them: ``[(frame, found, features), ...]``.
+
+    ``boxes_of(frame, image)`` gives the frame's boxes: an ``(N, 4)`` array,
+    or ``(boxes, scores)`` from a detector (whose call is timed as
+    ``"detect"``); ``embedder`` None skips the embedding (features
+    ``(N, 0)``). The next frames (:data:`PREFETCH_FRAMES`) are decoded,
+    searched and (for the crop-based backends, onnx and openvino) cropped in a
+    background thread while the re-ID model embeds earlier ones (each
+    releases the GIL), so reading overlaps inference. The crop-based backends
+    get the crops of several frames in one call that fills about one forward
+    pass (``batch_size`` rows; with the flip a crop is two rows): a frame
+    holds a few boxes, and small batches waste the runtime's time
+    (docs/benchmarks.md); other embedders are called once per frame.
+    ``timings``, when given, receives ``"decode"``: the seconds spent reading
+    (and cropping) frames, overlapped with the embedding, so part of, not
+    added to, the stage's wall time.
     """
     from concurrent.futures import ThreadPoolExecutor
 
     from sotmot.appearance.onnx_reid import CropEmbedder, crop_boxes
 
-    features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
     frame_reader = FrameReader(info, cache_size=1)  # called from the one decoding thread only
-    decoding = [0.0]
-    per_frame = detections.by_frame()
-    frames = sorted(per_frame)
+    spent = {"decode": 0.0, "detect": 0.0}
     batched = isinstance(embedder, CropEmbedder)
     per_call = max(1, embedder.batch_size // (2 if embedder.flip else 1)) if batched else 1  # crops: one forward pass
+    out: list[tuple[int, object, np.ndarray]] = []
 
-    def reader(frame: int) -> np.ndarray:
+    def reader(frame: int) -> tuple[np.ndarray, object, np.ndarray]:
         start = time.perf_counter()
         image = frame_reader(frame)
+        spent["decode"] += time.perf_counter() - start
+        start = time.perf_counter()
+        found = boxes_of(frame, image)
+        boxes = found[0] if isinstance(found, tuple) else found
+        spent["detect" if isinstance(found, tuple) else "decode"] += time.perf_counter() - start
+        start = time.perf_counter()
         if batched:
-            image = crop_boxes(image, detections.boxes[per_frame[frame]])
-        decoding[0] += time.perf_counter() - start
-        return image
+            image = crop_boxes(image, boxes)
+        spent["decode"] += time.perf_counter() - start
+        return boxes, found, image
 
-    pending: list[tuple[np.ndarray, np.ndarray]] = []  # (rows, crops) not embedded yet
+    pending: list[tuple[int, np.ndarray]] = []  # (index into out, crops) not embedded yet
 
     def flush() -> None:
-        rows = np.concatenate([r for r, _ in pending])
-        features[rows] = embedder.embed_crops(np.concatenate([c for _, c in pending]))
+        sizes = [len(c) for _, c in pending]
+        if sum(sizes):
+            feats = embedder.embed_crops(np.concatenate([c for _, c in pending]))
+            for (k, _), part in zip(pending, np.split(feats, np.cumsum(sizes)[:-1])):
+                out[k] = (out[k][0], out[k][1], part)
         pending.clear()
 
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-decode") as pool:
         # a few frames ahead: one call of the model consumes several frames' crops at once
         upcoming = deque(pool.submit(reader, f) for f in frames[:PREFETCH_FRAMES])
-        for k, frame in enumerate(as_progress(progress)(frames, f"{info.name}: appearance", len(frames))):
-            item = upcoming.popleft().result()
+        for k, frame in enumerate(as_progress(progress)(frames, desc, len(frames))):
+            boxes, found, item = upcoming.popleft().result()
             if k + PREFETCH_FRAMES < len(frames):
                 upcoming.append(pool.submit(reader, frames[k + PREFETCH_FRAMES]))
-            idx = per_frame[frame]
-            if not batched:
-                features[idx] = embedder.embed(item, detections.boxes[idx])
+            out.append((frame, found, np.zeros((len(boxes), embedder.dim if embedder else 0), np.float32)))
+            if embedder is None:
                 continue
-            pending.append((np.asarray(idx), item))
-            if sum(len(r) for r, _ in pending) >= per_call or k + 1 == len(frames):
+            if not batched:
+                out[-1] = (frame, found, embedder.embed(item, boxes))
+                continue
+            pending.append((len(out) - 1, item))
+            if sum(len(c) for _, c in pending) >= per_call or k + 1 == len(frames):
                 flush()
     if timings is not None:
-        timings["decode"] = timings.get("decode", 0.0) + decoding[0]
-    return features
+        for stage, seconds in spent.items():
+            if seconds:
+                timings[stage] = timings.get(stage, 0.0) + seconds
+    return out
+
+
+def detect_sequence(info: SeqInfo, detector, embedder: Embedder | None = None, progress: "bool | Progress" = False,
+                    timings: dict[str, float] | None = None) -> tuple[Detections, np.ndarray]:
+    """Run ``detector`` on every frame: the detections in canonical order and, with ``embedder``, their features
+    from the same decoded frames (``(N, D)``; ``(N, 0)`` without)."""
+    passed = frame_pass(info, list(range(1, info.length + 1)), lambda frame, image: detector.detect(image),
+                        embedder, f"{info.name}: detection", progress, timings)
+    dim = embedder.dim if embedder is not None else 0
+    frames = np.concatenate([np.full(len(found[0]), frame, np.int64) for frame, found, _ in passed] or [[]])
+    raw = Detections(frames, np.concatenate([found[0] for _, found, _ in passed] or [np.zeros((0, 4))]),
+                     np.concatenate([found[1] for _, found, _ in passed] or [[]]))
+    features = np.concatenate([f for *_, f in passed] or [np.zeros((0, dim), np.float32)]).reshape(-1, dim)
+    order = raw.canonical_order()
+    return raw.subset(order), features[order]
 
 
 @dataclass
@@ -245,6 +292,9 @@ class TrackResult:
         ``(N,)`` confidence in [0, 1] of each of ``detections`` (``[preprocess] confidence``).
     dropped
         The boxes the confirmation stage dropped (same ids as ``tracks``).
+    detected
+        The detector's boxes before preprocessing when the detections came
+        from the model (``[detection] source``), else None.
     """
 
     info: SeqInfo
@@ -257,6 +307,7 @@ class TrackResult:
     timings: dict[str, float] = field(default_factory=dict)
     confidence: np.ndarray = field(default_factory=lambda: np.zeros(0))
     dropped: Tracks = field(default_factory=Tracks.empty)
+    detected: Detections | None = None
 
 
 def associate(tracklets: list[Tracklet], merger: str | None, config: TrackerConfig
@@ -283,6 +334,7 @@ class Prepared:
     sot_steps: int = 0
     confidence: np.ndarray = field(default_factory=lambda: np.zeros(0))
     confidence_method: str = "raw"
+    detected: Detections | None = None
 
 
 class _Clock:
@@ -298,21 +350,36 @@ class _Clock:
 
 def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
                      embedder: Embedder | None = None, progress: "bool | Progress" = False,
-                     features: np.ndarray | None = None) -> Prepared:
-    """Read, preprocess, embed and build tracklets: the stages no solver choice can change.
+                     features: np.ndarray | None = None, detector: Detector | None = None) -> Prepared:
+    """Detect or read, preprocess, embed and build tracklets: the stages no solver choice can change.
 
     Parameters are those of :func:`track_sequence`.
     """
     timings: dict[str, float] = {}
     clock = _Clock(timings)
     info = read_seqinfo(seq_dir)
-    raw = read_detections(info.det_path, info.length, (info.width, info.height))
-    clock.lap("read")
-    dets = preprocess(raw, config.preprocess)
+    sot = config.sot.variant != "none"
+    source, det_file = detection_source(config.detection, info)
+    detected = raw_features = None
+    if source == "model":  # one pass over the frames: detection, and re-ID of what it found
+        embed_now = features is None and not sot
+        if embed_now:
+            embedder = embedder_for(config.appearance, embedder)
+        detector = detector if detector is not None else make_detector(config.detection)
+        raw, raw_features = detect_sequence(info, detector, embedder if embed_now else None, progress, timings)
+        detected = raw
+        log.info("%s: the detector found %d boxes", info.name, len(raw))
+        clock.lap("appearance" if embed_now else "detect")
+    else:
+        raw = read_detections(det_file, info.length, (info.width, info.height))
+        clock.lap("read")
+    kept = preprocess_indices(raw, config.preprocess)
+    dets = raw.subset(kept)
     log.info("%s: %d detections, %d after preprocessing", info.name, len(raw), len(dets))
     clock.lap("preprocess")
-    sot = config.sot.variant != "none"
-    if features is None and not sot:  # with SOT, the SOT step computes them from the frames it decodes
+    if features is None and not sot and raw_features is not None:
+        features = raw_features[kept]
+    elif features is None and not sot:  # with SOT, the SOT step computes them from the frames it decodes
         embedder = embedder_for(config.appearance, embedder)
         features = embed_detections(info, dets, embedder, progress, timings)
     elif features is not None and len(features) != len(dets):
@@ -338,7 +405,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
                                 must_link=links if config.sot.must_link else None)
     clock.lap("tracklets")
     confidence = detection_confidence(dets.scores, knots)  # the SOT step's boxes too
-    return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method)
+    return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected)
 
 
 def box_scorer(prepared: Prepared, model: BoxModel, confidence: np.ndarray | None = None) -> BoxScorer:
@@ -395,7 +462,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
              prepared.info.name, len(prepared.tracklets), len(trajectories), tracks.n_tracks, len(tracks),
              len(dropped), merger or config.association.solver)
     return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
-                       association, trajectories, tracks, timings, prepared.confidence, dropped)
+                       association, trajectories, tracks, timings, prepared.confidence, dropped, prepared.detected)
 
 
 def extend_trajectories(prepared: Prepared, trajectories: list[Tracklet], tracks: Tracks, config: TrackerConfig,
@@ -421,7 +488,7 @@ def extend_trajectories(prepared: Prepared, trajectories: list[Tracklet], tracks
 
 def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(), merger: str | None = None,
                    embedder: Embedder | None = None, progress: "bool | Progress" = False,
-                   features: np.ndarray | None = None) -> TrackResult:
+                   features: np.ndarray | None = None, detector: Detector | None = None) -> TrackResult:
     """Track one MOTChallenge sequence folder.
 
     Parameters
@@ -441,7 +508,10 @@ def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
     features
         Precomputed features of the preprocessed detections (skips embedding;
         used by benchmarks that try several settings on the same detections).
+    detector
+        Person detector, when the detections come from the model (``[detection]
+        source``); built from ``config.detection`` when needed and omitted.
     """
     get_solver(merger or config.association.solver)  # an unknown name fails before any work is done
-    return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features), config, merger,
-                           embedder, progress)
+    return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features, detector), config,
+                           merger, embedder, progress)

@@ -1,8 +1,9 @@
 """How a results file was made: the run record written beside it as ``<name>.run.json``.
 
 The record holds the sotmot version, the resolved configuration (solver
-included), the re-ID model file and its SHA-256, the confidence calibration's
-SHA-256, the SHA-256 of ``seqinfo.ini`` and ``det/det.txt``, a fingerprint of
+included), the re-ID model file and its SHA-256, the detector model's (when
+the detections came from it), the confidence calibration's SHA-256, the
+SHA-256 of ``seqinfo.ini`` and of the detections file used, a fingerprint of
 the frame folder (file names and sizes, not their bytes: hashing every frame
 would cost more than tracking small sequences), the time, and the SHA-256 of
 the results file it sits beside. ``track --resume`` skips a sequence only when
@@ -25,7 +26,9 @@ from sotmot.io import SeqInfo
 #: Record fields that never make a resume re-run: when it ran, how fast (threads, batch size), and
 #: paths whose file contents are compared by hash instead.
 IGNORED = ("time", "config.appearance.threads", "config.appearance.batch_size", "config.appearance.model",
-           "config.confirm.calibration", "reid_model.path", "confidence_calibration.path", "results_sha256")
+           "config.confirm.calibration", "reid_model.path", "confidence_calibration.path", "results_sha256",
+           "config.detection.model", "config.detection.file", "config.detection.threads", "detector_model.path",
+           "inputs.detections.path")
 
 
 def sotmot_version() -> str:
@@ -76,9 +79,13 @@ def run_record(info: SeqInfo, config: TrackerConfig, merger: str) -> dict[str, A
     """The record of tracking ``info`` with ``config`` and the solver ``merger``, as of now."""
     from importlib import resources
 
+    from sotmot.detection import detection_source
+
     model = config.appearance.model
     calibration = config.confirm.calibration
     packaged = resources.files("sotmot").joinpath("data", "confidence.json")
+    source, det_file = detection_source(config.detection, info)
+    detector = config.detection.model if source == "model" else None
     return {
         "sotmot": sotmot_version(),
         "sequence": info.name,
@@ -88,8 +95,10 @@ def run_record(info: SeqInfo, config: TrackerConfig, merger: str) -> dict[str, A
         "confidence_calibration": {"path": calibration or "packaged",
                                    "sha256": file_sha256(calibration or str(packaged))},
         "inputs": {"seqinfo.ini": file_sha256(info.path / "seqinfo.ini"),
-                   "det/det.txt": file_sha256(info.det_path),
+                   "detections": {"source": source, "path": None if det_file is None else str(det_file),
+                                  "sha256": None if det_file is None else file_sha256(det_file)},
                    "frames (names, sizes)": frames_fingerprint(info)},
+        "detector_model": {"path": detector, "sha256": file_sha256(detector) if detector else None},
         "time": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
 

@@ -69,9 +69,12 @@ class Detections:
         A canonical order makes every later stage independent of the order of
         lines in the input file.
         """
+        return self.subset(self.canonical_order())
+
+    def canonical_order(self) -> np.ndarray:
+        """The permutation :meth:`sorted` applies: by frame, then descending score, then box."""
         b = self.boxes
-        order = np.lexsort((b[:, 3], b[:, 2], b[:, 1], b[:, 0], -self.scores, self.frames))
-        return self.subset(order)
+        return np.lexsort((b[:, 3], b[:, 2], b[:, 1], b[:, 0], -self.scores, self.frames))
 
     def by_frame(self) -> dict[int, np.ndarray]:
         """Map each frame number that has boxes to the indices of its boxes (ascending)."""

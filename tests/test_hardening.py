@@ -162,7 +162,7 @@ def test_results_carry_a_run_record_and_resume_reruns_only_when_it_differs(tmp_p
     assert first.status == "done"
     record = json.loads((out / "SYN.run.json").read_text())
     assert record["solver"] == "greedy" and record["config"]["association"]["l_max"] == 60
-    assert len(record["inputs"]["det/det.txt"]) == 64 and record["sotmot"]
+    assert len(record["inputs"]["detections"]["sha256"]) == 64 and record["sotmot"]
     assert track_one(str(seq), str(out), config, "greedy", True, embedder=GeometryEmbedder()).status == "skipped"
     changed = track_one(str(seq), str(out), config.replace("association", l_max=45), "greedy", True,
                         embedder=GeometryEmbedder())
@@ -175,7 +175,7 @@ def test_results_carry_a_run_record_and_resume_reruns_only_when_it_differs(tmp_p
     assert again.status == "done" and "has no run record" in again.message
     (seq / "det" / "det.txt").write_text((seq / "det" / "det.txt").read_text() + "9,-1,30,20,20,40,0.9\n")
     edited = track_one(str(seq), str(out), config, "greedy", True, embedder=GeometryEmbedder())
-    assert "inputs.det/det.txt" in edited.message
+    assert "inputs.detections.sha256" in edited.message
 
 
 def test_out_that_is_a_file_fails_before_any_work(tmp_path):
@@ -284,7 +284,7 @@ def _video(tmp_path, n=12, fps=5.0):
     return write_video(tmp_path / "street.avi", n, fps)
 
 
-def test_track_a_video_with_its_detections_then_render_it(tmp_path, model_0288, capsys):
+def test_track_a_video_with_its_detections_then_render_it(tmp_path, model_0288, capsys, monkeypatch):
     from sotmot.cli import main
     from sotmot.io import read_results
 
@@ -299,8 +299,9 @@ def test_track_a_video_with_its_detections_then_render_it(tmp_path, model_0288, 
     assert main(["render", str(video), str(out / "street.txt"), "--out", str(tmp_path / "r.avi"), "-q"]) == 0
     assert (tmp_path / "r.avi").is_file()
     capsys.readouterr()
-    assert main(["track", str(video), "--out", str(out), "-q"]) == 2
-    assert "a video needs its detections: --det" in capsys.readouterr().err
+    monkeypatch.delenv("SOTMOT_DETECTOR_MODEL", raising=False)
+    assert main(["track", str(video), "--out", str(out), "--reid-model", str(model_0288), "-q"]) == 2
+    assert "no person detector given: pass --detector-model" in capsys.readouterr().err
 
 
 def test_video_detections_are_checked_against_the_user_file(tmp_path):

@@ -24,6 +24,7 @@ import numpy as np
 
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ConfigError, ModelError
+from sotmot.plugins import BACKENDS, EXTRAS
 
 log = logging.getLogger(__name__)
 
@@ -129,16 +130,6 @@ def _affinity_from_cosine(cos: np.ndarray) -> np.ndarray:
     """``1 - ||a - b|| / 2`` for unit vectors, from their cosine: ``||a - b||^2 = 2 - 2 cos``."""
     cos = np.clip(cos, -1.0, 1.0)
     return 1.0 - np.sqrt(np.maximum(2.0 - 2.0 * cos, 0.0)) / 2.0
-
-
-#: Appearance backends by config name: "module:factory", the factory taking an AppearanceConfig.
-BACKENDS: dict[str, str] = {
-    "onnx": "sotmot.appearance.onnx_reid:OnnxReidEmbedder",
-    "torch": "sotmot.appearance.torch_reid:TorchReidEmbedder",
-    "openvino": "sotmot.appearance.openvino_reid:OpenVinoReidEmbedder",
-}
-#: The extra that installs what each optional backend imports.
-EXTRAS: dict[str, str] = {"torch": "'sotmot[torch]' (torch==2.13.0 and onnx)", "openvino": "'sotmot[openvino]'"}
 
 
 def embedder_for(config: AppearanceConfig, embedder: Embedder | None = None) -> Embedder:

@@ -19,6 +19,7 @@ from sotmot.appearance import flip_average
 from sotmot.boxes import pixel_bounds
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
+from sotmot.io.mot import resolve_model_file
 
 log = logging.getLogger(__name__)
 
@@ -29,16 +30,8 @@ CROP_WIDTH = 128
 
 def resolve_model_path(model: str | None) -> Path:
     """The model path from the config, else from ``SOTMOT_REID_MODEL``; it must exist."""
-    value = model or os.environ.get(ENV_VAR)
-    if not value:
-        raise ModelError(
-            "no person re-ID model given: pass --reid-model PATH (or set [appearance] model in the "
-            f"config, or the environment variable {ENV_VAR}), e.g. "
-            "../shared/models/person-reidentification-retail-0288.onnx")
-    path = Path(value).expanduser()
-    if not path.is_file():
-        raise ModelError(f"re-ID model not found: {path} (from --reid-model, the config or {ENV_VAR})")
-    return path
+    return resolve_model_file(model, ENV_VAR, "person re-ID model", "--reid-model", "[appearance] model",
+                              "../shared/models/person-reidentification-retail-0288.onnx")
 
 
 def check_model_io(path: Path, inputs: list[tuple[str, list]], outputs: list[tuple[str, list]]) -> tuple[str, object]:

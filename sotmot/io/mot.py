@@ -445,6 +445,24 @@ def same_file(a: str | Path, b: str | Path) -> bool:
         return False
 
 
+def resolve_model_file(given: str | None, env_var: str, what: str, flag: str, section: str, example: str) -> Path:
+    """A model file from the user: ``given`` (flag or config), else the environment variable ``env_var``.
+
+    Models are never bundled or downloaded, so a missing one is a
+    :class:`~sotmot.errors.ModelError` that says every way to give it.
+    """
+    from sotmot.errors import ModelError
+
+    value = given or os.environ.get(env_var)
+    if not value:
+        raise ModelError(f"no {what} given: pass {flag} PATH (or set {section} in the config, or the environment "
+                         f"variable {env_var}), e.g. {example}")
+    path = Path(value).expanduser()
+    if not path.is_file():
+        raise ModelError(f"{what} not found: {path} (from {flag}, the config or {env_var})")
+    return path
+
+
 def refuse_overwriting(outputs: Iterable[str | Path], inputs: Iterable[str | Path | None], hint: str) -> None:
     """Raise an :class:`InputError` when an output path would write over one of the run's input files.
 

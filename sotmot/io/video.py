@@ -1,6 +1,6 @@
-"""Video input: a video file and a detector's output become a MOTChallenge sequence folder.
+"""Video input: a video file (and a detector's output, if the user has one) become a MOTChallenge sequence folder.
 
-Most users have a video and a ``det.txt`` rather than a MOTChallenge folder.
+Most users have a video, perhaps with a ``det.txt``, rather than a MOTChallenge folder.
 :func:`sequence_from_video` decodes the video once with OpenCV into a folder
 of JPEG frames beside a ``seqinfo.ini`` (name from the file name, frame rate
 from the container or ``fps``, size from the first frame) and a copy of the
@@ -44,8 +44,8 @@ def sequence_from_video(video: str | Path, work: str | Path, det: str | Path | N
         A folder for the sequence (a temporary one, usually).
     det
         The detections (MOTChallenge ``det.txt`` layout, frames counted from 1
-        at the video's first frame); None writes an empty ``det.txt`` (enough
-        to render results).
+        at the video's first frame); None writes no ``det.txt``: the detector
+        (``[detection] source = "auto"``) finds the people; render needs none.
     fps
         Frame rate; None takes the container's.
 
@@ -100,7 +100,7 @@ def _fill_sequence(seq: Path, video: Path, capture, rate: float, announced: int,
     import cv2
 
     (seq / "img1").mkdir()
-    (seq / "det").mkdir()
+    (seq / "det").mkdir()  # det/det.txt only with ``det``
     count, size = 0, None
     frames = iter(int, 1)  # 0, 0, ... until the video ends
     for _ in (progress(frames) if progress else frames):
@@ -120,9 +120,7 @@ def _fill_sequence(seq: Path, video: Path, capture, rate: float, announced: int,
     (seq / "seqinfo.ini").write_text(
         f"[Sequence]\nname={seq.name}\nimDir=img1\nframeRate={rate:g}\nseqLength={count}\n"
         f"imWidth={size[0]}\nimHeight={size[1]}\nimExt=.jpg\n", encoding="utf-8")
-    if det is None:
-        (seq / "det" / "det.txt").write_text("", encoding="utf-8")
-    else:
+    if det is not None:  # without, the folder has no det/det.txt: the detector finds the people
         from sotmot.io.mot import read_detections
 
         read_detections(det, count, size)  # errors name the user's file and line, not the copy

@@ -1,0 +1,111 @@
+"""Detection: where the boxes come from, behind one protocol.
+
+A detector turns one frame into person boxes::
+
+    detector.detect(frame) -> (boxes (N, 4) float64 x, y, w, h pixels, scores (N,) float64 in [0, 1])
+
+where ``frame`` is a BGR ``uint8`` image ``(H, W, 3)``. A ``det.txt`` is one
+source of detections, a model run on the frames another (``[detection]
+source``). Detectors are registered in :data:`sotmot.plugins.DETECTORS` and
+imported only when used, so ``import sotmot`` does not load OpenVINO.
+
+Boxes leave a detector rounded to what a MOTChallenge ``det.txt`` holds (2
+decimals, scores 5), so the ``<name>.det.txt`` written beside the results,
+fed back as the detections file, gives the very same run.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from sotmot.config import DetectionConfig
+from sotmot.errors import ConfigError
+from sotmot.io.mot import resolve_model_file
+from sotmot.plugins import DETECTORS, EXTRAS
+
+#: The environment variable that may name the detector model.
+ENV_VAR = "SOTMOT_DETECTOR_MODEL"
+
+
+class Detector(Protocol):
+    """What the tracker needs from a person detector."""
+
+    def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Boxes ``(N, 4)`` ``x, y, w, h`` pixels and scores ``(N,)`` of the people in one BGR frame."""
+        ...
+
+
+def resolve_detector_path(model: str | None) -> Path:
+    """The detector model from the config (or ``--detector-model``), else from ``SOTMOT_DETECTOR_MODEL``.
+
+    Raises
+    ------
+    ModelError
+        None given, or the file is missing.
+    """
+    return resolve_model_file(model, ENV_VAR, "person detector", "--detector-model", "[detection] model",
+                              "../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml")
+
+
+def make_detector(config: DetectionConfig) -> Detector:
+    """Build the detector that ``config.backend`` names.
+
+    Raises
+    ------
+    ConfigError
+        An unknown backend, or its runtime is not installed (the message says
+        which extra installs it).
+    ModelError
+        The model is missing, unreadable, or not of the expected layout.
+    """
+    target = DETECTORS.get(config.backend)
+    if target is None:
+        raise ConfigError(f"unknown detector backend {config.backend!r}; valid: {', '.join(sorted(DETECTORS))}")
+    module, name = target.split(":")
+    try:
+        loaded = importlib.import_module(module)
+    except ImportError as exc:
+        raise ConfigError(f"detector backend {config.backend!r} needs {exc.name!r}: pip install "
+                          f"{EXTRAS.get(config.backend, repr(exc.name))}") from exc
+    return getattr(loaded, name)(config)
+
+
+def detection_source(config: DetectionConfig, info) -> tuple[str, Path | None]:
+    """``("file", path)`` or ``("model", None)``: where the detections of sequence ``info`` come from.
+
+    ``[detection] source = "auto"`` takes the detections file (``file``, else
+    the sequence's ``det/det.txt``) when there is one, the model otherwise.
+    """
+    path = Path(config.file) if config.file else info.det_path
+    if config.source == "file" or (config.source == "auto" and path.is_file()):
+        return "file", path
+    return "model", None
+
+
+def rounded(boxes: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes and scores as a ``det.txt`` written by :func:`format_detections` holds them (the same floats)."""
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    scores = np.asarray(scores, dtype=np.float64).reshape(-1)
+    return (np.char.mod("%.2f", boxes).astype(np.float64).reshape(-1, 4),
+            np.char.mod("%.5f", scores).astype(np.float64).reshape(-1))
+
+
+def format_detections(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray) -> str:
+    """MOTChallenge ``det.txt`` text: ``frame, -1, x, y, w, h, score, -1, -1, -1`` a line, in the given order."""
+    return "".join(f"{f},-1,{x:.2f},{y:.2f},{w:.2f},{h:.2f},{s:.5f},-1,-1,-1\n"
+                   for f, (x, y, w, h), s in zip(np.asarray(frames).tolist(), np.asarray(boxes).tolist(),
+                                                 np.asarray(scores).tolist()))
+
+
+def detections_path(results: str | Path) -> Path:
+    """``<name>.det.txt`` beside ``<name>.txt``: the detections a model run used."""
+    results = Path(results)
+    return results.with_name(results.stem + ".det.txt")
+
+
+__all__ = ["DETECTORS", "ENV_VAR", "Detector", "detection_source", "detections_path", "format_detections", "make_detector",
+           "resolve_detector_path", "rounded"]
