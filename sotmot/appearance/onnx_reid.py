@@ -10,7 +10,6 @@ environment variable ``SOTMOT_REID_MODEL``.
 from __future__ import annotations
 
 import logging
-import os
 from pathlib import Path
 
 import numpy as np
