@@ -42,7 +42,7 @@ import time
 from pathlib import Path
 
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import DEFAULT_DATA, before_confirmation, machine, model_detections, sequences
+from sotmot.benchmarks import DEFAULT_DATA, before_confirmation, machine, private_config, sequences
 from sotmot.calibrate import box_labels
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import METRICS, EvalReport, evaluate_files
@@ -102,8 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         for seq in seqs:
             seq_config = config
             if args.detector_model:  # detected once, outside the clock (bench_speed times detection)
-                detection = config.replace("detection", model=args.detector_model)
-                seq_config = config.replace("detection", file=str(model_detections(seq, detection, args.det_cache)))
+                seq_config = private_config(config, seq, args.detector_model, args.det_cache)
             start = time.perf_counter()
             prepared = prepare_sequence(seq, seq_config, embedder, progress=sys.stderr.isatty())
             seconds = time.perf_counter() - start  # the "after" pipeline: preparation plus its finish

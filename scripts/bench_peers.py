@@ -66,7 +66,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import DEFAULT_DATA, machine, model_detections, sequences
+from sotmot.benchmarks import DEFAULT_DATA, machine, private_config, sequences
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import evaluate_files
 from sotmot.io import results_path, write_results
@@ -199,8 +199,7 @@ def main(argv: list[str] | None = None) -> int:
     for path in seqs:
         seq_config = config
         if args.detector_model:  # the same model detections for sotmot and every peer
-            detection = config.replace("detection", model=args.detector_model)
-            seq_config = config.replace("detection", file=str(model_detections(path, detection, args.det_cache)))
+            seq_config = private_config(config, path, args.detector_model, args.det_cache)
         seq = load(path, seq_config, embedder)
         name = seq.info.name
         reid[name], frames[name] = seq.reid_seconds, seq.info.length

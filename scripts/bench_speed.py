@@ -22,6 +22,12 @@ seconds of sotmot's appearance stage (the same re-ID work, which every
 appearance tracker needs), so the table shows which side the frames go
 faster on.
 
+With ``--detector-model`` the run is end to end with detection (private
+detections): one pass over the frames decodes each, detects in the
+background thread and embeds what was found, so ``appearance`` is then the
+wall time of that pass and ``detect`` (like ``decode``) the seconds of
+detection inside it.
+
 ``det/s`` is detections embedded per second of the appearance stage (MOT
 only, frame decoding included: it overlaps the embedding in a background
 thread; with ``--sot`` the stage also embeds candidates and it is not shown).
@@ -35,13 +41,14 @@ import sys
 import time
 from pathlib import Path
 
-from sotmot.appearance import BACKENDS, make_embedder
+from sotmot.appearance import make_embedder
+from sotmot.plugins import BACKENDS
 from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
 from sotmot.config import TrackerConfig
 from sotmot.pipeline import track_sequence
 
-STAGES = ("read", "preprocess", "appearance", "decode", "sot", "tracklets", "association", "postprocess", "confirm",
-          "extend")
+STAGES = ("read", "detect", "preprocess", "appearance", "decode", "sot", "tracklets", "association", "postprocess",
+          "confirm", "extend")
 
 
 def time_peers(peers: list[str], seq: Path, result, config: TrackerConfig) -> dict[str, dict[str, float]]:
@@ -80,12 +87,21 @@ def main(argv: list[str] | None = None) -> int:
                         help="trackers timed end to end beside sotmot (MOT only): their loop on sotmot's detections "
                              "and features plus the seconds of sotmot's appearance stage, the same re-ID work for "
                              "them; '' for none; needs bash scripts/bootstrap.sh --bench (default: %(default)s)")
+    parser.add_argument("--detector-model", metavar="PATH.xml",
+                        help="end to end with detection: the built-in detector runs on every frame (private "
+                             "detections) instead of reading det/det.txt")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
     peers = [p.strip() for p in args.peers.split(",") if p.strip()] if args.sot == "none" else []
     config = TrackerConfig().replace("appearance", model=args.model, backend=args.appearance, device=args.device,
                                      flip=not args.no_flip)
     config = config.replace("sot", variant=args.sot)
+    detector = None
+    if args.detector_model:
+        from sotmot.detection import make_detector
+
+        config = config.replace("detection", source="model", model=args.detector_model)
+        detector = make_detector(config.detection)  # loaded once, outside the clock, like the re-ID model
     embedder = make_embedder(config.appearance)
     rows = {}
     seqs = sequences(args.data)
@@ -93,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
         seqs = [s for s in seqs if s.name in args.sequences.split(",")]
     for seq in seqs:
         start = time.perf_counter()
-        result = track_sequence(seq, config, merger=args.merger, embedder=embedder)
+        result = track_sequence(seq, config, merger=args.merger, embedder=embedder, detector=detector)
         total = time.perf_counter() - start
         n_dets = int((~result.detections.from_sot).sum())
         rows[result.info.name] = {"frames": result.info.length, "seconds": total, "detections": n_dets,
@@ -116,12 +132,13 @@ def main(argv: list[str] | None = None) -> int:
             lines.append(f"{name:<17}{r['fps']:9.1f}" + "".join(
                 f"{r['peers'][p]['fps']:>12.1f} ({r['peers'][p]['loop_fps']:7.0f})" for p in timed))
         print("\n".join(lines))
-    print(f"machine: {machine()}; sot: {args.sot}; merger: {args.merger}; appearance: {args.appearance} "
-          f"on {args.device}, flip {'off' if args.no_flip else 'on'}")
+    detections = f"model {Path(args.detector_model).name}" if args.detector_model else "det/det.txt (public)"
+    print(f"machine: {machine()}; detections: {detections}; sot: {args.sot}; merger: {args.merger}; appearance: "
+          f"{args.appearance} on {args.device}, flip {'off' if args.no_flip else 'on'}")
     if args.json:
         args.json.write_text(json.dumps({"machine": machine(), "sot": args.sot, "merger": args.merger,
                                          "appearance": args.appearance, "device": args.device,
-                                         "flip": not args.no_flip,
+                                         "flip": not args.no_flip, "detections": detections,
                                          "rows": rows}, indent=2) + "\n")
     return 0
 

@@ -115,6 +115,20 @@ def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
     return path
 
 
+def private_config(config: TrackerConfig, seq: Path, detector_model: str, cache: Path) -> TrackerConfig:
+    """``config`` for tracking ``seq`` from a detector's boxes (MOTChallenge's private detections): the boxes
+    from :func:`model_detections`, and, with ``auto`` confidence, the detector's family when it is a known
+    one, as ``sotmot track --detections model`` would take it."""
+    from sotmot.detection import known_family
+
+    detection = config.replace("detection", source="model", model=detector_model)
+    family = known_family(detection.detection, read_seqinfo(seq))
+    out = config.replace("detection", file=str(model_detections(seq, detection, cache)))
+    if family and config.preprocess.confidence == "auto":
+        out = out.replace("preprocess", confidence=family)
+    return out
+
+
 def add_fit_arguments(parser: argparse.ArgumentParser, cache: Path) -> None:
     """The arguments every leave-one-sequence-out fit script takes: the model, the data and which of its sequences,
     a configuration, the feature cache (default ``cache``) and a JSON report."""

@@ -64,17 +64,21 @@ def box_labels(tracks: Tracks, info: SeqInfo, workdir: Path) -> np.ndarray:
     return np.array([status.get((int(f), int(i)), -1) for f, i in zip(tracks.frames, tracks.ids)], dtype=np.int64)
 
 
-def detection_labels(seq_dir: str | Path, config: TrackerConfig, workdir: Path) -> tuple[str, np.ndarray, np.ndarray]:
-    """Family, scores and labels of a sequence's preprocessed detections (frames are not needed).
+def detection_labels(seq_dir: str | Path, config: TrackerConfig, workdir: Path,
+                     family: str | None = None) -> tuple[str, np.ndarray, np.ndarray]:
+    """Family (``family``, else guessed from the scores), scores and labels of a sequence's preprocessed
+    detections (frames are not needed).
 
     Each detection is written as a track of its own, so the CLEAR matching
     labels every box independently.
     """
+    from sotmot.detection import detection_source
+
     info = read_seqinfo(seq_dir)
-    raw = read_detections(info.det_path, info.length)
+    raw = read_detections(detection_source(config.detection, info)[1] or info.det_path, info.length)
     dets = preprocess(raw, config.preprocess)
     tracks = Tracks(dets.frames, np.arange(1, len(dets) + 1), dets.boxes, dets.scores)
-    return detector_family(raw.scores), dets.scores, box_labels(tracks, info, workdir)
+    return family or detector_family(raw.scores), dets.scores, box_labels(tracks, info, workdir)
 
 
 @dataclass
@@ -88,7 +92,7 @@ class Labelled:
     trajectories
         The solver's merged trajectories.
     family
-        The detector family its scores look like.
+        The detector family: the one given, or the one its scores look like.
     raw_scores
         Every detector score in ``det.txt`` (the quantile map's reference).
     labels
@@ -107,13 +111,14 @@ class Labelled:
 
 
 def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerConfig, merger: str,
-                   workdir: Path) -> Labelled:
-    """Associate, post-process without confirmation, and label every output box."""
+                   workdir: Path, family: str | None = None) -> Labelled:
+    """Associate, post-process without confirmation, and label every output box; the detector ``family``, else
+    guessed from the scores."""
     _, trajectories = associate(prepared.tracklets, merger, config)
     tracks = to_tracks(trajectories, prepared.detections, config.postprocess, None, prepared.info.frame_rate)
     labels = box_labels(tracks, prepared.info, workdir)
     keyed = {(int(f), int(i)): int(v) for f, i, v in zip(tracks.frames, tracks.ids, labels) if v >= 0}
-    return Labelled(prepared, trajectories, detector_family(raw_scores), np.asarray(raw_scores), keyed)
+    return Labelled(prepared, trajectories, family or detector_family(raw_scores), np.asarray(raw_scores), keyed)
 
 
 def fit_families(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]]) -> dict[str, tuple[tuple, tuple]]:
@@ -137,7 +142,7 @@ def sequence_confidence(seq: Labelled, method: str, calibration: Calibration) ->
     the sequence's family (as when it is the only sequence of its family and
     is held out), as it does when tracking.
     """
-    used, knots = confidence_knots(method, seq.raw_scores, calibration)
+    used, knots = confidence_knots(method, seq.raw_scores, calibration, seq.family)
     return used, detection_confidence(seq.prepared.detections.scores, knots)
 
 
@@ -213,10 +218,15 @@ class Fit:
     threshold_scores: dict[str, dict[float, float]]
 
 
+#: The box models :func:`fit` makes by default: model kind -> the ``[preprocess] confidence`` method it serves.
+PUBLIC_KINDS = (("calibrated", "auto"), ("quantile", "quantile"))
+
+
 def fit(train: Sequence[Labelled], extra_families: dict[str, list[tuple[np.ndarray, np.ndarray]]],
         detection_samples: dict[str, tuple[str, np.ndarray, np.ndarray]], thresholds: Sequence[float],
-        config: TrackerConfig, base: EvalReport, l2: float = 1000.0) -> Fit:
-    """Fit family maps, both box models and their thresholds on ``train``.
+        config: TrackerConfig, base: EvalReport, l2: float = 1000.0,
+        kinds: Sequence[tuple[str, str]] = PUBLIC_KINDS) -> Fit:
+    """Fit family maps, the box models of ``kinds`` and their thresholds on ``train``.
 
     Parameters
     ----------
@@ -235,6 +245,10 @@ def fit(train: Sequence[Labelled], extra_families: dict[str, list[tuple[np.ndarr
     l2
         L2 penalty of the logistic models (boxes of one trajectory are far
         from independent samples: a strong penalty keeps the weights small).
+    kinds
+        ``(model kind, method)`` pairs: a box model for each, fitted on the
+        training sequences whose ``method`` resolves to that kind (the
+        built-in detector's runs: ``(("pd0202", "auto"),)``).
     """
     samples: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {f: list(v) for f, v in extra_families.items()}
     for seq in train:
@@ -243,7 +257,7 @@ def fit(train: Sequence[Labelled], extra_families: dict[str, list[tuple[np.ndarr
     families = fit_families({f: v for f, v in samples.items() if f in FAMILIES})
     draft = Calibration(families, {}, {}, {})
     models, chosen, scores_by_kind = {}, {}, {}
-    for kind, method in (("calibrated", "auto"), ("quantile", "quantile")):
+    for kind, method in kinds:
         confidences, xs, ys = {}, [], []
         for seq in train:
             used, confidences[seq.name] = sequence_confidence(seq, method, draft)

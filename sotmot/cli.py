@@ -92,7 +92,7 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                         "[postprocess] tables; unknown keys are errors")
     p.add_argument("--reid-model", metavar="PATH",
                    help="ONNX person re-ID model (overrides the config and SOTMOT_REID_MODEL)")
-    from sotmot.appearance import BACKENDS
+    from sotmot.plugins import BACKENDS
 
     p.add_argument("--appearance", choices=sorted(BACKENDS),
                    help="run the re-ID model with onnxruntime (default), openvino (same features, about twice as "
@@ -113,10 +113,11 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                    help="drop detections scoring below S (default: keep all)")
     p.add_argument("--nms", choices=["auto", "iou", "iom", "none"],
                    help="NMS overlap: auto = IoM for non-probability scores such as DPM's, else IoU (default: auto)")
-    p.add_argument("--confidence", choices=["auto", "raw", "quantile", "dpm", "acf", "frcnn"],
+    p.add_argument("--confidence", choices=["auto", "raw", "quantile", "dpm", "acf", "frcnn", "pd0202"],
                    help="how detector scores become confidences in [0, 1]: a stored map per detector family "
-                        "(dpm, acf, frcnn), the score's rank in the sequence (quantile), scores as they are (raw), "
-                        "or auto = the family guessed from the score range (default: auto)")
+                        "(dpm, acf, frcnn; pd0202 the built-in detector), the score's rank in the sequence "
+                        "(quantile), scores as they are (raw), or auto = pd0202 for the built-in detector's boxes, "
+                        "else the family guessed from the score range (default: auto)")
     p.add_argument("--unconfirmed", choices=["drop", "file", "keep"],
                    help="boxes more likely false than true after association: drop them (default), write them "
                         "to DIR/<name>.low.txt, or keep them (confirmation off); see docs/calibration.md")
@@ -177,19 +178,16 @@ def _build_config(args: argparse.Namespace):
     return config
 
 
-def _video_sequences(args: argparse.Namespace, work: Path, det: Path | None) -> list[Path]:
-    """``args.seq_dirs`` with any video file turned into a sequence folder under ``work``."""
+def _video_sequences(args: argparse.Namespace, work: Path) -> list[Path]:
+    """``args.seq_dirs`` with any video file turned into a sequence folder (frames only) under ``work``."""
     from sotmot.io.video import is_video, sequence_from_video
     from sotmot.pipeline import progress_bar
 
     paths = args.seq_dirs if hasattr(args, "seq_dirs") else [args.seq_dir]
-    videos = [p for p in paths if is_video(p)]
-    if len(videos) > 1 and det is not None:
-        raise SotmotError("--det belongs to one video; track several videos in separate runs")
     out = []
     for p in paths:
         if is_video(p):
-            out.append(sequence_from_video(p, work, det, getattr(args, "fps", None),
+            out.append(sequence_from_video(p, work, None, getattr(args, "fps", None),
                                            progress=lambda it, p=p: progress_bar(it, f"{p.name}: decode",
                                                                                  _progress(args))))
         else:
@@ -215,7 +213,9 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise SotmotError(f"{videos[0]}: --eval needs ground truth (a sequence folder with gt/gt.txt); a video has "
                           f"none")
     config = _build_config(args)
-    if args.det is not None and not videos:
+    if args.det is not None:  # read where it lies: its errors name it, its run record (if any) says its detector
+        if not args.det.is_file():
+            raise SotmotError(f"{args.det}: detections file not found (--det)")
         config = config.replace("detection", file=str(args.det))
     for video in videos:  # its sequence is decoded into a temporary folder: check against the user's files now
         detected = args.det is None and config.detection.source != "file"
@@ -224,7 +224,7 @@ def cmd_track(args: argparse.Namespace) -> int:
     if not videos:
         return _track(args, config, args.seq_dirs)
     with tempfile.TemporaryDirectory(prefix="sotmot-video-") as work:
-        return _track(args, config, _video_sequences(args, Path(work), args.det))
+        return _track(args, config, _video_sequences(args, Path(work)))
 
 
 def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
@@ -322,7 +322,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     if args.gt:
         raise SotmotError("--gt needs a sequence folder with gt/gt.txt, not a video")
     with tempfile.TemporaryDirectory(prefix="sotmot-video-") as work:
-        return _render(args, _video_sequences(args, Path(work), None)[0])
+        return _render(args, _video_sequences(args, Path(work))[0])
 
 
 def _render(args: argparse.Namespace, seq_dir: Path) -> int:
@@ -422,7 +422,7 @@ example:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from solvers import SOLVERS
+    from sotmot.plugins import SOLVERS
 
     parser = argparse.ArgumentParser(
         prog="sotmot",

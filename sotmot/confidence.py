@@ -50,8 +50,12 @@ from sotmot.errors import ConfigError
 from sotmot.postprocess import Expanded
 from sotmot.types import Tracklet
 
-#: Detector families with a stored calibration, and the names ``[preprocess] confidence`` accepts.
-FAMILIES = ("dpm", "acf", "frcnn")
+#: Detector families with a stored calibration, and the names ``[preprocess] confidence`` accepts. ``pd0202`` is
+#: the built-in detector (Intel's person-detection-0202): never guessed from scores, known from the detector run.
+FAMILIES = ("dpm", "acf", "frcnn", "pd0202")
+#: Families whose confirmation model and threshold are their own (fitted on that detector's runs only); the
+#: public detectors' families share the ``"calibrated"`` model.
+OWN_MODELS = ("pd0202",)
 METHODS = ("auto", "raw", "quantile") + FAMILIES
 
 #: Names of the features :func:`box_features` computes, in column order.
@@ -192,9 +196,11 @@ def model_kind(method: str) -> str:
     """Which box model serves detections whose confidence came from ``method`` (a resolved method).
 
     Quantile confidences are ranks, not probabilities, so they get a model of
-    their own (``"quantile"``); family maps and raw probabilities share
-    ``"calibrated"``.
+    their own (``"quantile"``); the families of :data:`OWN_MODELS` have theirs
+    too; the other family maps and raw probabilities share ``"calibrated"``.
     """
+    if method in OWN_MODELS:
+        return method
     return "quantile" if method == "quantile" else "calibrated"
 
 
@@ -236,7 +242,8 @@ class Calibration:
             thresholds = {k: float(v) for k, v in data["thresholds"].items()}
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise ConfigError(f"{source}: not a sotmot confidence calibration ({exc!r})") from exc
-        missing = sorted({"calibrated", "quantile"} - set(models) | {"calibrated", "quantile"} - set(thresholds))
+        needed = {"calibrated", "quantile"} | {f for f in OWN_MODELS if f in families}  # a map needs its model
+        missing = sorted(needed - set(models) | needed - set(thresholds))
         if missing:
             raise ConfigError(f"{source}: no box model or threshold for {', '.join(missing)}")
         return cls(families, models, thresholds, dict(data.get("provenance", {})))
@@ -281,21 +288,21 @@ def quantile_map(reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return values, (first + last) / (2.0 * len(ref))
 
 
-def confidence_knots(method: str, reference: np.ndarray,
-                     calibration: Calibration | None = None) -> tuple[str, tuple[np.ndarray, np.ndarray] | None]:
+def confidence_knots(method: str, reference: np.ndarray, calibration: Calibration | None = None,
+                     family: str | None = None) -> tuple[str, tuple[np.ndarray, np.ndarray] | None]:
     """Resolve ``method`` for a sequence: the method actually used and its knots (None for ``"raw"``).
 
     ``reference`` are the sequence's detector scores (the quantile map and
-    ``"auto"`` look at them). ``"auto"`` takes the family map of
-    :func:`detector_family`, or the quantile map when ``calibration`` has none
-    for that family.
+    ``"auto"`` look at them). ``"auto"`` takes the map of ``family`` when the
+    detector is known (the built-in one), else of :func:`detector_family`, or
+    the quantile map when ``calibration`` has none for that family.
     """
     if method not in METHODS:
         raise ConfigError(f"[preprocess] confidence must be one of {', '.join(METHODS)}; got {method!r}")
     if method not in ("raw", "quantile"):
         calibration = calibration or load_calibration()
     if method == "auto":
-        method = detector_family(reference)
+        method = family or detector_family(reference)
         if method not in calibration.families:  # a family the calibration never saw: rank the scores
             method = "quantile"
     if method == "raw":

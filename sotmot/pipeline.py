@@ -32,7 +32,7 @@ from sotmot.confidence import (
 )
 from sotmot.config import PreprocessConfig, TrackerConfig
 from sotmot.constraints import merge_group
-from sotmot.detection import Detector, detection_source, make_detector
+from sotmot.detection import Detector, detection_source, known_family, make_detector
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
 from sotmot.postprocess import BoxScorer, Expanded, output_ids, to_tracks
 from sotmot.tracklets import build_tracklets
@@ -261,7 +261,7 @@ def detect_sequence(info: SeqInfo, detector, embedder: Embedder | None = None, p
     frames = np.concatenate([np.full(len(found[0]), frame, np.int64) for frame, found, _ in passed] or [[]])
     raw = Detections(frames, np.concatenate([found[0] for _, found, _ in passed] or [np.zeros((0, 4))]),
                      np.concatenate([found[1] for _, found, _ in passed] or [[]]))
-    features = np.concatenate([f for *_, f in passed] or [np.zeros((0, dim), np.float32)]).reshape(-1, dim)
+    features = np.concatenate([f for *_, f in passed] or [np.zeros((0, dim), np.float32)]).reshape(len(raw), dim)
     order = raw.canonical_order()
     return raw.subset(order), features[order]
 
@@ -366,7 +366,10 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         if embed_now:
             embedder = embedder_for(config.appearance, embedder)
         detector = detector if detector is not None else make_detector(config.detection)
-        raw, raw_features = detect_sequence(info, detector, embedder if embed_now else None, progress, timings)
+        # embedding too, the pass is the appearance stage with detection inside it (timed as "detect", like
+        # "decode"); detection alone, the pass is the "detect" stage
+        raw, raw_features = detect_sequence(info, detector, embedder if embed_now else None, progress,
+                                            timings if embed_now else None)
         detected = raw
         log.info("%s: the detector found %d boxes", info.name, len(raw))
         clock.lap("appearance" if embed_now else "detect")
@@ -387,7 +390,8 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     clock.lap("appearance")
     links, steps = np.zeros((0, 2), np.int64), 0
     method, knots = confidence_knots(config.preprocess.confidence, raw.scores,
-                                     load_calibration(config.confirm.calibration))
+                                     load_calibration(config.confirm.calibration),
+                                     known_family(config.detection, info))
     log.info("%s: detection confidence by %r", info.name, method)
     if sot:
         embedder = embedder_for(config.appearance, embedder)

@@ -176,3 +176,23 @@ def test_auto_falls_back_to_quantiles_for_a_family_the_calibration_lacks():
     assert confidence_knots("auto", acf_like, partial)[0] == "quantile"
     with pytest.raises(ConfigError, match="no stored calibration for detector family 'acf'"):
         confidence_knots("acf", acf_like, partial)
+
+
+def test_the_built_in_detector_has_its_own_map_model_and_threshold_and_needs_all_three():
+    """The packaged calibration holds person-detection-0202's family (scripts/fit_detector_confidence.py) beside
+    the public families, with its own box model: public runs keep theirs."""
+    import json
+    from importlib import resources
+
+    from sotmot.confidence import Calibration, load_calibration, model_kind
+
+    packaged = load_calibration()
+    assert "pd0202" in packaged.families and model_kind("pd0202") == "pd0202"
+    assert {"calibrated", "quantile", "pd0202"} <= set(packaged.box_models) <= set(packaged.thresholds)
+    assert model_kind("frcnn") == model_kind("dpm") == "calibrated"
+    assert confidence_knots("auto", np.array([0.5, 0.9]), packaged, "pd0202")[0] == "pd0202"
+    assert confidence_knots("auto", np.array([0.5, 0.9]), packaged)[0] == "frcnn"  # scores alone: guessed
+    data = json.loads(resources.files("sotmot").joinpath("data", "confidence.json").read_text())
+    del data["box_models"]["pd0202"]
+    with pytest.raises(ConfigError, match="no box model or threshold for pd0202"):
+        Calibration.from_dict(data)

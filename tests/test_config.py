@@ -51,3 +51,18 @@ def test_replace_validates():
     assert c.association.l_max == 10
     with pytest.raises(ConfigError):
         TrackerConfig().replace("association", bogus=1)
+
+
+def test_importing_the_config_imports_no_plug_in_and_no_numeric_library():
+    """The name tables live in the leaf sotmot.plugins: validating a solver, backend or detector name imports none
+    of them (issue #23's cycle: config imported the solver and backend registries, which imported config)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, sotmot.config as c; c.TrackerConfig(); "
+            "print(sorted(m.split('.')[0] if not m.startswith('sotmot') else m for m in sys.modules))")
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    for heavy in ("numpy", "solvers", "sotmot.appearance", "sotmot.detection", "onnxruntime", "openvino", "torch",
+                  "ortools", "cv2", "scipy", "networkx"):
+        assert f"'{heavy}'" not in loaded, f"importing sotmot.config imported {heavy}"
+    assert "'sotmot.plugins'" in loaded

@@ -165,3 +165,59 @@ def test_auto_takes_the_file_when_there_is_one_else_the_model(tmp_path):
     assert detection_source(DetectionConfig(file=str(other)), seq) == ("model", None)
     other.write_text("")
     assert detection_source(DetectionConfig(file=str(other)), seq) == ("file", other)
+
+
+class _CornerDetector:
+    """Finds one box in the top-left corner of every even frame, none in odd ones."""
+
+    def detect(self, frame):
+        from sotmot.detection import rounded
+
+        index = int(frame[0, 0, 0])
+        if index % 2:
+            return np.zeros((0, 4)), np.zeros(0)
+        return rounded([[1.234, 2.0, 10.0, 20.0]], [0.876543])
+
+
+def test_detect_sequence_gathers_every_frame_in_canonical_order_with_or_without_features(tmp_path):
+    import cv2
+
+    from conftest import GeometryEmbedder, write_sequence
+    from sotmot.io import read_seqinfo
+    from sotmot.pipeline import detect_sequence
+
+    seq = write_sequence(tmp_path, [], length=6, images=True)
+    for f in range(1, 7):  # each frame says its own number in the corner pixel
+        cv2.imwrite(str(seq / "img1" / f"{f:06d}.png"), np.full((48, 64, 3), f, np.uint8))
+    (seq / "seqinfo.ini").write_text((seq / "seqinfo.ini").read_text().replace(".jpg", ".png"))
+    info = read_seqinfo(seq)
+    found, features = detect_sequence(info, _CornerDetector())
+    assert found.frames.tolist() == [2, 4, 6] and features.shape == (3, 0)
+    assert found.boxes[0].tolist() == [1.23, 2.0, 10.0, 20.0] and found.scores[0] == 0.87654
+    found, features = detect_sequence(info, _CornerDetector(), GeometryEmbedder())
+    assert features.shape == (3, GeometryEmbedder.dim)
+    assert np.allclose(features, GeometryEmbedder().embed(None, found.boxes))
+
+
+def test_the_built_in_detectors_family_is_known_from_the_run_not_guessed(tmp_path):
+    import json
+
+    from conftest import write_sequence
+    from sotmot.detection import known_family
+    from sotmot.io import read_seqinfo
+
+    info = read_seqinfo(write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False))
+    ours = "/models/person-detection-0202.FP16-INT8.xml"
+    assert known_family(DetectionConfig(source="model", model=ours), info) == "pd0202"
+    assert known_family(DetectionConfig(source="model", model="/models/other-ssd.xml"), info) is None
+    assert known_family(DetectionConfig(), info) is None  # a public det.txt: guessed from its scores
+    replay = tmp_path / "out" / "SYN.det.txt"
+    replay.parent.mkdir()
+    replay.write_text("1,-1,10,10,5,8,0.9\n")
+    assert known_family(DetectionConfig(file=str(replay)), info) is None  # no run record beside it
+    record = {"inputs": {"detections": {"source": "model"}}, "detector_model": {"path": ours}}
+    (tmp_path / "out" / "SYN.run.json").write_text(json.dumps(record))
+    assert known_family(DetectionConfig(file=str(replay)), info) == "pd0202"
+    record["inputs"]["detections"]["source"] = "file"
+    (tmp_path / "out" / "SYN.run.json").write_text(json.dumps(record))
+    assert known_family(DetectionConfig(file=str(replay)), info) is None

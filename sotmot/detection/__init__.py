@@ -17,6 +17,8 @@ fed back as the detections file, gives the very same run.
 from __future__ import annotations
 
 import importlib
+import json
+import os
 from pathlib import Path
 from typing import Protocol
 
@@ -86,6 +88,37 @@ def detection_source(config: DetectionConfig, info) -> tuple[str, Path | None]:
     return "model", None
 
 
+#: Confidence families of known detector models, by the start of the model file's name (``sotmot.confidence``).
+KNOWN_FAMILIES = {"person-detection-0202": "pd0202"}
+
+
+def known_family(config: DetectionConfig, info) -> str | None:
+    """The confidence family of sequence ``info``'s detections when the detector that made them is known.
+
+    Detections from the model are of its family (:data:`KNOWN_FAMILIES`); a
+    detections file is of the model's family when it is a ``<name>.det.txt``
+    that ``sotmot track`` wrote, with the run record beside it naming the
+    detector, so that replaying it (``--det``) repeats the run. None: the
+    family is guessed from the scores.
+    """
+    source, path = detection_source(config, info)
+    model = None
+    if source == "model":
+        model = config.model or os.environ.get(ENV_VAR)
+    elif path is not None and path.name.endswith(".det.txt"):
+        record = path.with_name(path.name.removesuffix(".det.txt") + ".run.json")
+        try:
+            made = json.loads(record.read_text(encoding="utf-8"))
+            if made["inputs"]["detections"]["source"] == "model":
+                model = made["detector_model"]["path"]
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+    if not model:
+        return None
+    name = Path(model).name
+    return next((family for start, family in KNOWN_FAMILIES.items() if name.startswith(start)), None)
+
+
 def rounded(boxes: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Boxes and scores as a ``det.txt`` written by :func:`format_detections` holds them (the same floats)."""
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
@@ -107,5 +140,5 @@ def detections_path(results: str | Path) -> Path:
     return results.with_name(results.stem + ".det.txt")
 
 
-__all__ = ["DETECTORS", "ENV_VAR", "Detector", "detection_source", "detections_path", "format_detections", "make_detector",
+__all__ = ["DETECTORS", "ENV_VAR", "KNOWN_FAMILIES", "Detector", "detection_source", "detections_path", "known_family", "format_detections", "make_detector",
            "resolve_detector_path", "rounded"]
