@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.benchmarks import DEFAULT_DATA, before_confirmation, cached_features
+from sotmot.benchmarks import DEFAULT_DATA, add_confirmation_fit_arguments, before_confirmation, cached_features
 from sotmot.calibrate import (
     Labelled,
     detection_labels,
@@ -81,18 +81,15 @@ def main(argv: list[str] | None = None) -> int:
                              "detector-family maps (default: DATA/MOT16-labels/*)")
     parser.add_argument("--model", required=True, help="ONNX re-ID model")
     parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
-    parser.add_argument("--merger", default="greedy", help="long-term association solver (default: %(default)s)")
     parser.add_argument("--methods", default="auto,quantile",
                         help="[preprocess] confidence methods to compare held out, comma-separated "
                              "(default: %(default)s)")
-    parser.add_argument("--thresholds", default="0.2,0.25,0.3,0.35,0.4,0.45,0.5,0.55,0.6",
-                        help="candidate confirmation thresholds; 0 (keep all) is always tried (default: %(default)s)")
-    parser.add_argument("--l2", type=float, default=1000.0, help="L2 penalty of the box model (default: %(default)s)")
     parser.add_argument("--cache", type=Path, default=ROOT / ".cache" / "features",
                         help="feature cache folder (default: %(default)s)")
     parser.add_argument("--json", type=Path, help="write every number here")
     parser.add_argument("--write", type=Path, help="write the calibration fitted on all sequences here "
                                                    "(sotmot/data/confidence.json is the packaged default)")
+    add_confirmation_fit_arguments(parser)
     args = parser.parse_args(argv)
 
     start = time.perf_counter()

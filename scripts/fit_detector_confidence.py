@@ -35,9 +35,16 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.benchmarks import DEFAULT_DATA, cached_features, machine, model_detections
-from sotmot.calibrate import Labelled, detection_labels, fit, held_out_tracks, label_sequence, score, \
-    unconfirmed_tracks
+from sotmot.benchmarks import DEFAULT_DATA, add_confirmation_fit_arguments, cached_features, machine, model_detections
+from sotmot.calibrate import (
+    Labelled,
+    detection_labels,
+    fit,
+    held_out_tracks,
+    label_sequence,
+    score,
+    unconfirmed_tracks,
+)
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import METRICS
 from sotmot.io import read_detections, read_seqinfo, write_text_atomic
@@ -77,17 +84,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--min-length", type=int, default=100, help="full-length: at least this many frames")
     parser.add_argument("--model", required=True, help="ONNX re-ID model")
     parser.add_argument("--detector-model", required=True, help="the detector (OpenVINO IR .xml)")
-    parser.add_argument("--merger", default="greedy", help="long-term association solver (default: %(default)s)")
     parser.add_argument("--min-scores", default="0.3,0.4,0.5",
                         help="candidate entry scores; the first is what the cached detections keep "
                              "(default: %(default)s)")
-    parser.add_argument("--thresholds", default="0.2,0.25,0.3,0.35,0.4,0.45,0.5,0.55,0.6",
-                        help="candidate confirmation thresholds; 0 (keep all) is always tried (default: %(default)s)")
-    parser.add_argument("--l2", type=float, default=1000.0, help="L2 penalty of the box model (default: %(default)s)")
     parser.add_argument("--cache", type=Path, default=ROOT / ".cache" / "features")
     parser.add_argument("--det-cache", type=Path, default=ROOT / ".cache" / "detections")
     parser.add_argument("--json", type=Path, help="write every number here")
     parser.add_argument("--write", type=Path, help="add the family fitted on every video to this calibration file")
+    add_confirmation_fit_arguments(parser)
     args = parser.parse_args(argv)
 
     start = time.perf_counter()
