@@ -11,12 +11,19 @@ matches the current run; otherwise the outcome says why it ran again.
 
 On a Dask cluster (``cluster="dask://HOST:PORT"``, the scheduler of an
 existing ``distributed`` cluster) the paths must name the same files on the
-workers as here (a shared filesystem); they are made absolute before the
-jobs are sent. Each worker process loads the appearance model once.
+workers as here (a shared filesystem). The client resolves the whole run
+before sending it: every sequence, ``--out``, and every model and
+calibration path, however it was given (flag, config or environment
+variable, :func:`resolve_paths`), made absolute; the workers read no
+environment of their own. Each worker process loads the appearance model
+once. A worker lost mid-sequence costs that sequence's run on another worker
+(Dask reschedules the task): every file is written atomically, so nothing
+half-written is left, and the results are those of a serial run.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import logging
 import os
@@ -372,14 +379,28 @@ def dask_address(cluster: str) -> str:
 
 
 def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool) -> Outcome:
-    """One sequence on a Dask worker, with that worker process's appearance model."""
+    """One sequence on a Dask worker, with that worker process's appearance model.
+
+    Every path in ``config`` was made absolute by the client (:func:`resolve_paths`), so the worker reads
+    no environment of its own; a failure names the worker, since a path the client sees may be missing there.
+    """
     embedder = None
+    outcome = None
     if not (resume and _resumable(seq_dir, out_dir, config, merger)):
         try:
             embedder = _worker_embedder(config.appearance)
         except SotmotError as exc:
-            return Outcome(seq_dir, "failed", None, f"{seq_dir}: {exc}")
-    return track_one(seq_dir, out_dir, config, merger, resume, embedder=embedder)
+            outcome = Outcome(seq_dir, "failed", None, f"{seq_dir}: {exc}")
+    outcome = outcome or track_one(seq_dir, out_dir, config, merger, resume, embedder=embedder)
+    if outcome.status != "failed":
+        return outcome
+    try:
+        from distributed import get_worker
+
+        where = get_worker().address
+    except (ImportError, ValueError):
+        where = "unknown"
+    return dataclasses.replace(outcome, message=f"{outcome.message} (on Dask worker {where})")
 
 
 def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: TrackerConfig, merger: str,

@@ -459,9 +459,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="track N sequences at once in separate processes (default: 1; never more than the "
                         "sequences or the CPUs; the workers end with this process)")
     p.add_argument("--cluster", metavar="dask://HOST:PORT",
-                   help="run the sequences on an existing Dask cluster (its scheduler's address); the "
-                        "workers must see the same paths (shared filesystem) and have sotmot installed "
-                        "(pip install -e '.[dask]')")
+                   help="run the sequences on an existing Dask cluster (its scheduler's address), one task a "
+                        "sequence; the workers must see the same paths (shared filesystem) and have sotmot "
+                        "installed (pip install -e '.[dask]'). Every path, the models' from the environment "
+                        "too, is resolved here before the tasks are sent; a lost worker's sequence runs again "
+                        "on another")
     p.add_argument("--resume", action="store_true",
                    help="skip sequences whose results exist from the same run settings (model, config, inputs, "
                         "all hashed in <name>.run.json) and are unchanged since (their hash is recorded too)")
