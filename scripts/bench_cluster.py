@@ -41,6 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="processes and cluster workers (default: %(default)s)")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--json", type=Path, help="write the numbers here")
+    parser.add_argument("--results", type=Path, help="keep the three ways' results here (default: a temp folder)")
     args = parser.parse_args(argv)
     try:
         import distributed
@@ -56,7 +57,9 @@ def main(argv: list[str] | None = None) -> int:
     names = [read_seqinfo(s).name for s in seqs]
     config = TrackerConfig().replace("appearance", model=args.model)
     seconds: dict[str, float] = {}
-    with tempfile.TemporaryDirectory(prefix="sotmot-cluster-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="sotmot-cluster-") as scratch:
+        tmp = args.results or scratch
+
         def timed(way: str, **kwargs) -> list:
             start = time.perf_counter()
             outcomes = track_many(seqs, Path(tmp) / way, config, **kwargs)
