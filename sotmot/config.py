@@ -63,9 +63,9 @@ class DetectionConfig:
         Boxes the detector scores below this never leave it. Low on purpose:
         confirmation (``[confirm]``) decides which boxes are kept. 0.4 for
         person-detection-0202, fitted leave-one-video-out with its confirmation
-        model (``scripts/fit_detector_confidence.py``: 0.4 in three folds of
-        four, and on every video; mean HOTA 65.5 / 65.9 / 64.2 at 0.3 / 0.4 /
-        0.5).
+        model (``scripts/fit_detector_confidence.py``: 0.4 in two folds of
+        three, and on all three videos: mean HOTA 65.5 / 65.9 / 64.2 at 0.3 /
+        0.4 / 0.5).
     input_height, input_width
         The network's input size in pixels (multiples of 32); 0 keeps the
         frame's aspect ratio at the area of 512 x 672 (448 x 768 for 16:9,
