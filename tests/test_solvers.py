@@ -224,6 +224,10 @@ def test_infeasible_and_featureless_input_leaves_every_tracklet_alone(solver):
     assert get_solver(solver)(far, CFG).groups == ((1,), (2,))
     blank = (tk(1, [1, 2], BOX, feature=(0.0, 0.0)), tk(2, [3, 4], BOX))  # a zero feature: below every gate
     assert get_solver(solver)(blank, CFG).groups == ((1,), (2,))
+
+
+def test_a_tracklet_with_a_nan_feature_never_reaches_a_solver():
+    """Refused where it is made (once; it was checked inside the per-solver battery, where no solver is involved)."""
     with pytest.raises(ValueError, match="NaN or infinite"):
         tk(3, [1, 2], BOX, feature=(np.nan, 1.0))
 
