@@ -79,6 +79,13 @@ def logit(p: np.ndarray) -> np.ndarray:
     return np.log(p / (1.0 - p))
 
 
+def scores_are_probabilities(scores: np.ndarray) -> bool:
+    """Whether detection scores all lie in [0, 1] (the public DPM and ACF detections' do not): the one test
+    behind NMS ``auto`` (IoU for probabilities, IoM otherwise) and the ``frcnn`` family guess."""
+    scores = np.asarray(scores)
+    return not len(scores) or bool(scores.min() >= 0.0 and scores.max() <= 1.0)
+
+
 def detector_family(scores: np.ndarray) -> str:
     """The detector family that a sequence's scores look like (``"auto"`` confidence).
 
@@ -88,10 +95,9 @@ def detector_family(scores: np.ndarray) -> str:
     -1 to 5). A guess from the range only: name the family in the config when
     it is known.
     """
-    scores = np.asarray(scores, dtype=np.float64)
-    if not len(scores) or (scores.min() >= 0.0 and scores.max() <= 1.0):
+    if scores_are_probabilities(scores):
         return "frcnn"
-    return "acf" if scores.max() > 10.0 else "dpm"
+    return "acf" if np.max(scores) > 10.0 else "dpm"
 
 
 def isotonic(x: np.ndarray, y: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.boxes import xywh_to_xyxy, xyxy_to_xywh
+from sotmot.confidence import scores_are_probabilities
 from sotmot.config import TrackerConfig
 from sotmot.io import FrameReader, read_detections, read_seqinfo
-from sotmot.pipeline import embed_detections, preprocess, scores_are_probabilities
+from sotmot.pipeline import embed_detections, preprocess
 from sotmot.types import Detections, Tracks
 
 #: boxmot trackers: display name -> (boxmot name, options that turn its camera-motion compensation off, or None

@@ -29,6 +29,7 @@ from sotmot.confidence import (
     detection_confidence,
     load_calibration,
     model_kind,
+    scores_are_probabilities,
 )
 from sotmot.config import PreprocessConfig, TrackerConfig
 from sotmot.constraints import merge_group
@@ -67,12 +68,6 @@ def as_progress(progress: "bool | Progress") -> Progress:
     if callable(progress):
         return progress
     return bars() if progress else (lambda items, desc, total=None: items)
-
-
-def scores_are_probabilities(scores: np.ndarray) -> bool:
-    """Whether detection scores all lie in [0, 1] (the public DPM detections' do not)."""
-    scores = np.asarray(scores)
-    return not len(scores) or bool(scores.min() >= 0.0 and scores.max() <= 1.0)
 
 
 def resolve_nms(config: PreprocessConfig, detections: Detections) -> str:
