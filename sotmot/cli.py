@@ -416,7 +416,7 @@ network's own cost (entry cost per trajectory + (1 - affinity) per link; lower i
 network only); the solver's time in seconds.
 
 example:
-  sotmot compare ../shared/data/PETS09-S2L1 --mergers greedy,flow,lifted \\
+  sotmot compare ../shared/data/PETS09-S2L1 --solvers greedy,flow,lifted \\
       --reid-model ../shared/models/person-reidentification-retail-0288.onnx --json compare.json
 """
 
@@ -481,7 +481,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Compare long-term association solvers on identical tracklets.",
                        epilog=EPILOG_COMPARE, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequence folders with gt/gt.txt")
-    p.add_argument("--solvers", "--mergers", dest="mergers", default="greedy,flow",
+    p.add_argument("--solvers", "--mergers", dest="mergers", default="greedy,flow", metavar="SOLVERS",
                    help="comma-separated solver names (default: %(default)s; --mergers is the older name)")
     _add_tracker_options(p)
     p.add_argument("--json", type=Path, metavar="FILE", help="also write the table as JSON")
