@@ -283,7 +283,10 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
         elif not into_existing:
             shutil.rmtree(tmp, ignore_errors=True)
         raise
-    if not into_existing:
+    if not into_existing:  # mkstemp and mkdtemp make private paths; the result is an ordinary file or folder
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, (0o666 if video else 0o777) & ~mask)
         tmp.replace(out)  # a file over a file, or a new folder where there was none
     return out
 
