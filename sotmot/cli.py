@@ -264,6 +264,23 @@ def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
     return 0
 
 
+def _check_json(path: Path | None, seq_dirs: list[Path], results_dir: Path | None = None) -> None:
+    """Refuse, before the work, a ``--json`` that is a folder or one of the files the command reads."""
+    if not path:
+        return
+    from sotmot.io import read_seqinfo, refuse_overwriting, results_path
+
+    if path.is_dir():
+        raise SotmotError(f"{path}: --json must name a file, but this is a folder")
+    inputs = []
+    for seq in seq_dirs:
+        info = read_seqinfo(seq)
+        inputs += [info.path / "seqinfo.ini", info.det_path, info.gt_path]
+        if results_dir is not None:
+            inputs.append(results_path(results_dir, info.name))
+    refuse_overwriting([path], inputs, "choose another --json")
+
+
 def _write_json(path: Path | None, data: dict, what: str) -> None:
     """Write ``data`` as JSON to ``path`` (atomically) when a path was given, and say so."""
     if path:
@@ -281,6 +298,7 @@ def _write_json(path: Path | None, data: dict, what: str) -> None:
 def cmd_eval(args: argparse.Namespace) -> int:
     from sotmot.evaluate import evaluate, format_table
 
+    _check_json(args.json, args.seq_dirs, args.results_dir)
     report = evaluate(args.results_dir, args.seq_dirs)
     print(format_table(report))
     print("TrackEval rules: " + ", ".join(f"{name} {rules}" for name, rules in report.benchmark.items())
@@ -302,6 +320,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     for m in mergers:
         get_solver(m)  # unknown names fail here, listing the valid ones
     config = _build_config(args)
+    _check_json(args.json, args.seq_dirs)
     result = compare(args.seq_dirs, mergers, config, progress=_progress(args))
     print(format_comparison(result))
     _write_json(args.json, result.to_dict(), "comparison")

@@ -380,3 +380,21 @@ def test_eval_without_ground_truth_is_refused_before_tracking(tmp_path, capsys, 
     assert main(["track", str(video), "--det", str(det), "--out", str(tmp_path / "out"), "--eval", "-q"]) == 2
     err = capsys.readouterr().err
     assert "a video has none" in err and "sotmot-video-" not in err
+
+
+def test_json_reports_never_land_on_an_input_and_are_checked_before_the_work(tmp_path, capsys, monkeypatch):
+    from sotmot import compare, evaluate
+
+    seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False, gt_lines=["1,1,10,10,5,8,1,1,1"])
+    results = tmp_path / "res"
+    results.mkdir()
+    (results / "SYN.txt").write_text("1,1,10,10,5,8,1,-1,-1,-1\n")
+    before = (seq / "gt" / "gt.txt").read_text()
+    monkeypatch.setattr(evaluate, "evaluate", lambda *a, **k: pytest.fail("scored before checking --json"))
+    monkeypatch.setattr(compare, "compare", lambda *a, **k: pytest.fail("compared before checking --json"))
+    for target in (seq / "gt" / "gt.txt", results / "SYN.txt"):
+        assert main(["eval", str(results), str(seq), "--json", str(target)]) == 2
+        assert "which this run reads" in capsys.readouterr().err
+    assert main(["compare", str(seq), "--json", str(seq / "det" / "det.txt"), "-q"]) == 2
+    assert "which this run reads" in capsys.readouterr().err
+    assert (seq / "gt" / "gt.txt").read_text() == before
