@@ -103,9 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     base = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
     embedder = make_embedder(base.appearance)
     rows = [r for r in args.rows.split(",") if r]
-    seqs = sequences(args.data)
-    if args.sequences:
-        seqs = [s for s in seqs if s.name in args.sequences.split(",")]
+    seqs = sequences(args.data, args.sequences)
     results: dict[str, dict[str, dict]] = {}
     pairs: dict[str, list] = {r: [] for r in rows}
     with tempfile.TemporaryDirectory() as tmp:

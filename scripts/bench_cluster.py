@@ -48,9 +48,7 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError as exc:
         print(f"bench_cluster needs the dask extra ({exc}): pip install -e '.[dask]'", file=sys.stderr)
         return 2
-    seqs = sequences(args.data)
-    if args.sequences:
-        seqs = [s for s in seqs if s.name in args.sequences.split(",")]
+    seqs = sequences(args.data, args.sequences)
     if not seqs:
         print(f"no sequences with frames under {args.data}", file=sys.stderr)
         return 1

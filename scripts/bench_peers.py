@@ -185,9 +185,7 @@ def main(argv: list[str] | None = None) -> int:
     config = TrackerConfig().replace("appearance", model=args.model)
     embedder = make_embedder(config.appearance)
     from ortools.graph.python import min_cost_flow  # noqa: F401  (imported before any clock starts)
-    seqs = sequences(args.data)
-    if args.sequences:
-        seqs = [s for s in seqs if s.name in args.sequences.split(",")]
+    seqs = sequences(args.data, args.sequences)
     if not seqs:
         print(f"no sequences with frames under {args.data}", file=sys.stderr)
         return 1

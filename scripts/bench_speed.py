@@ -104,9 +104,7 @@ def main(argv: list[str] | None = None) -> int:
         detector = make_detector(config.detection)  # loaded once, outside the clock, like the re-ID model
     embedder = make_embedder(config.appearance)
     rows = {}
-    seqs = sequences(args.data)
-    if args.sequences:
-        seqs = [s for s in seqs if s.name in args.sequences.split(",")]
+    seqs = sequences(args.data, args.sequences)
     for seq in seqs:
         start = time.perf_counter()
         result = track_sequence(seq, config, merger=args.merger, embedder=embedder, detector=detector)

@@ -37,9 +37,11 @@ def machine() -> str:
             f"Python {platform.python_version()}")
 
 
-def sequences(data: Path) -> list[Path]:
-    """Sequence folders with frames under ``data`` (the label-only MOT16-labels folders are skipped)."""
-    return sorted(p for p in data.iterdir() if (p / "seqinfo.ini").is_file() and (p / "img1").exists())
+def sequences(data: Path, only: str = "") -> list[Path]:
+    """Sequence folders with frames under ``data`` (the label-only MOT16-labels folders are skipped); ``only``, a
+    comma-separated list of folder names (a script's ``--sequences``), keeps those alone."""
+    found = sorted(p for p in data.iterdir() if (p / "seqinfo.ini").is_file() and (p / "img1").exists())
+    return [p for p in found if p.name in only.split(",")] if only else found
 
 
 def before_confirmation(config: TrackerConfig) -> TrackerConfig:
