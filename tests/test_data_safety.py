@@ -199,7 +199,7 @@ def _alive(pid: int) -> bool:
 
 # 7. SIGTERM during track VIDEO left the decoded frames ---------------------------------------------------------
 
-def test_sigterm_cleans_the_temporary_frames_of_awrite_video(tmp_path, monkeypatch, capsys):
+def test_sigterm_cleans_the_temporary_frames_of_a_video(tmp_path, monkeypatch, capsys):
     import tempfile
 
     from sotmot import cli
