@@ -386,6 +386,7 @@ def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
     """
     embedder = None
     outcome = None
+    config = _worker_threads(config)
     if not (resume and _resumable(seq_dir, out_dir, config, merger)):
         try:
             embedder = _worker_embedder(config.appearance)
@@ -401,6 +402,23 @@ def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
     except (ImportError, ValueError):
         where = "unknown"
     return dataclasses.replace(outcome, message=f"{outcome.message} (on Dask worker {where})")
+
+
+def _worker_threads(config: TrackerConfig) -> TrackerConfig:
+    """``config`` with the models' threads (where the config leaves them to the runtime, 0) set to this Dask
+    worker's thread count: a worker started with ``--nthreads 1`` beside others on one machine must not run
+    a model on every core, as ``--workers N`` gives each process ``cpu_count // N``. Threads change no result."""
+    try:
+        from distributed import get_worker
+
+        share = max(1, int(get_worker().state.nthreads))
+    except (ImportError, ValueError, AttributeError):
+        return config
+    if config.appearance.threads == 0:
+        config = config.replace("appearance", threads=share)
+    if config.detection.threads == 0:
+        config = config.replace("detection", threads=share)
+    return config
 
 
 def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: TrackerConfig, merger: str,
