@@ -22,7 +22,7 @@ from typing import Literal
 
 import numpy as np
 
-from sotmot.errors import InputError
+from sotmot.errors import InputError, ModelError
 from sotmot.types import Detections, Tracks
 
 GtStyle = Literal["MOT15", "MOT16"]
@@ -427,8 +427,8 @@ def write_files_atomic(files: dict[Path, bytes]) -> None:
     need no space, come after the last byte is written.
     """
     with ExitStack() as stack:
-        staged = [(stack.enter_context(atomic_path(path)), path, data) for path, data in files.items()]
-        for tmp, _, data in staged:
+        staged = [(stack.enter_context(atomic_path(path)), data) for path, data in files.items()]
+        for tmp, data in staged:
             with open(tmp, "wb") as fh:
                 fh.write(data)
                 fh.flush()
@@ -451,8 +451,6 @@ def resolve_model_file(given: str | None, env_var: str, what: str, flag: str, se
     Models are never bundled or downloaded, so a missing one is a
     :class:`~sotmot.errors.ModelError` that says every way to give it.
     """
-    from sotmot.errors import ModelError
-
     value = given or os.environ.get(env_var)
     if not value:
         raise ModelError(f"no {what} given: pass {flag} PATH (or set {section} in the config, or the environment "
