@@ -371,6 +371,10 @@ def cmd_train(args: argparse.Namespace) -> int:
     from sotmot.pipeline import progress_bar
     from sotmot.train import TrainConfig, train
 
+    from sotmot.io import refuse_overwriting
+
+    refuse_overwriting([args.out], [args.init, *(Path(s) / "gt" / "gt.txt" for s in args.seq_dirs)],
+                       "choose another --out")
     config = TrainConfig(epochs=args.epochs, margin=args.margin, lr=args.lr, train_last=args.train_last,
                          seed=args.seed)
     appearance = AppearanceConfig(model=args.init, backend="torch", device=args.device)

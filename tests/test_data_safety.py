@@ -398,3 +398,12 @@ def test_json_reports_never_land_on_an_input_and_are_checked_before_the_work(tmp
     assert main(["compare", str(seq), "--json", str(seq / "det" / "det.txt"), "-q"]) == 2
     assert "which this run reads" in capsys.readouterr().err
     assert (seq / "gt" / "gt.txt").read_text() == before
+
+
+def test_train_appearance_never_writes_its_checkpoint_over_the_model_it_starts_from(tmp_path, capsys):
+    model = tmp_path / "model.onnx"
+    model.write_bytes(b"the user's model")
+    seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False, gt_lines=["1,1,10,10,5,8,1,1,1"])
+    assert main(["train-appearance", str(seq), "--init", str(model), "--out", str(model), "-q"]) == 2
+    assert "which this run reads" in capsys.readouterr().err
+    assert model.read_bytes() == b"the user's model"
