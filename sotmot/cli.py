@@ -87,9 +87,11 @@ def _progress(args: argparse.Namespace) -> bool:
 
 
 def _add_tracker_options(p: argparse.ArgumentParser) -> None:
+    from sotmot.config import SECTIONS  # light: the config imports no plug-in
+
     p.add_argument("--config", type=Path, metavar="FILE",
-                   help="TOML or JSON file with [preprocess], [appearance], [tracklets], [association], "
-                        "[postprocess] tables; unknown keys are errors")
+                   help="TOML or JSON file with " + ", ".join(f"[{name}]" for name in SECTIONS)
+                        + " tables (docs/configuration.md); unknown keys are errors")
     p.add_argument("--reid-model", metavar="PATH",
                    help="ONNX person re-ID model (overrides the config and SOTMOT_REID_MODEL)")
     from sotmot.plugins import BACKENDS
