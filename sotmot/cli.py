@@ -21,11 +21,11 @@ examples:
   sotmot track SEQ --out results --config my.toml   # every threshold, see docs/configuration.md
   sotmot track DATA/* --out results --workers 2 --resume   # 2 processes, skip finished sequences
   sotmot track /shared/DATA/* --out /shared/results --cluster dask://scheduler:8786
-  sotmot track street.mp4 --out results \
-      --detector-model ../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml \
-      --reid-model ../shared/models/person-reidentification-retail-0288.onnx   # a plain video: the detector finds people
+  sotmot track street.mp4 --out results \\
+      --detector-model ../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml \\
+      --reid-model ../shared/models/person-reidentification-retail-0288.onnx   # a plain video
   sotmot track street.mp4 --det street_det.txt --out results   # a video and its detections
-  sotmot track ../shared/data/MOT16-09 --detections model --out results   # the detector instead of det/det.txt
+  sotmot track ../shared/data/MOT16-09 --detections model --out results   # the detector, not det/det.txt
 
 The re-ID model path may also come from the environment variable SOTMOT_REID_MODEL, the
 detector's from SOTMOT_DETECTOR_MODEL. A sequence folder with det/det.txt is tracked from that
