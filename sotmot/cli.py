@@ -219,6 +219,9 @@ def cmd_track(args: argparse.Namespace) -> int:
         if not args.det.is_file():
             raise SotmotError(f"{args.det}: detections file not found (--det)")
         config = config.replace("detection", file=str(args.det))
+    if videos and config.detection.source == "file" and config.detection.file is None:
+        raise SotmotError(f"{videos[0]}: a video has no det.txt: give its detections with --det FILE, or let the "
+                          f"detector find the people (--detections auto or model)")
     for video in videos:  # its sequence is decoded into a temporary folder: check against the user's files now
         detected = args.det is None and config.detection.source != "file"
         refuse_overwriting(output_paths(args.out, video.stem, config, detected), [video, args.det],

@@ -221,3 +221,13 @@ def test_the_built_in_detectors_family_is_known_from_the_run_not_guessed(tmp_pat
     record["inputs"]["detections"]["source"] = "file"
     (tmp_path / "out" / "SYN.run.json").write_text(json.dumps(record))
     assert known_family(DetectionConfig(file=str(replay)), info) is None
+
+
+def test_a_video_asked_to_read_a_det_file_it_does_not_have_says_so_before_decoding(tmp_path, capsys):
+    from conftest import write_video
+    from sotmot.cli import main
+
+    video = write_video(tmp_path / "street.avi")
+    assert main(["track", str(video), "--detections", "file", "--out", str(tmp_path / "out"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "a video has no det.txt: give its detections with --det FILE" in err and "sotmot-video-" not in err
