@@ -154,6 +154,13 @@ def output_paths(out_dir: str | Path, name: str, config: TrackerConfig, detected
     return side + [out]
 
 
+def sequence_outputs(out_dir: str | Path, info, config: TrackerConfig) -> list[Path]:
+    """:func:`output_paths` of tracking sequence ``info`` with ``config`` (``<name>.det.txt`` when the model detects)."""
+    from sotmot.detection import detection_source
+
+    return output_paths(out_dir, info.name, config, detection_source(config.detection, info)[0] == "model")
+
+
 def sequence_inputs(info, config: TrackerConfig) -> list[Path | None]:
     """The files tracking ``info`` reads: no output may land on one of them (:func:`sotmot.io.refuse_overwriting`)."""
     from sotmot.detection import detection_source
@@ -173,21 +180,22 @@ def resolve_paths(config: TrackerConfig) -> TrackerConfig:
     """
     from sotmot.appearance.onnx_reid import ENV_VAR
     from sotmot.detection import ENV_VAR as DETECTOR_ENV_VAR
+    from sotmot.io.mot import model_given
 
     def absolute(path: str | None) -> str | None:
         return None if not path else str(Path(path).expanduser().resolve())
 
-    config = config.replace("appearance", model=absolute(config.appearance.model or os.environ.get(ENV_VAR)),
+    config = config.replace("appearance", model=absolute(model_given(config.appearance.model, ENV_VAR)),
                             weights=absolute(config.appearance.weights))
     config = config.replace("detection", file=absolute(config.detection.file),
-                            model=absolute(config.detection.model or os.environ.get(DETECTOR_ENV_VAR)))
+                            model=absolute(model_given(config.detection.model, DETECTOR_ENV_VAR)))
     return config.replace("confirm", calibration=absolute(config.confirm.calibration))
 
 
 def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
               progress=False, embedder=None) -> Outcome:
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
-    from sotmot.detection import detection_source, detections_path, format_detections
+    from sotmot.detection import detections_path, format_detections
     from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
     from sotmot.pipeline import track_sequence
     from sotmot.provenance import record_path, run_record, why_rerun, write_record
@@ -195,8 +203,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
 
     try:
         info = read_seqinfo(seq_dir)
-        detected = detection_source(config.detection, info)[0] == "model"
-        outputs = output_paths(out_dir, info.name, config, detected)
+        outputs = sequence_outputs(out_dir, info, config)
         refuse_overwriting(outputs, sequence_inputs(info, config), "choose another --out")
         out = outputs[-1]
         record = run_record(info, config, merger)

@@ -233,8 +233,7 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 
 def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
-    from sotmot.batch import output_paths, sequence_inputs, track_many
-    from sotmot.detection import detection_source
+    from sotmot.batch import sequence_inputs, sequence_outputs, track_many
     from sotmot.io import read_seqinfo, refuse_overwriting
 
     infos = [read_seqinfo(s) for s in seq_dirs]  # fail early on a bad folder, before any work
@@ -242,8 +241,7 @@ def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
     if len(set(names)) != len(names):
         raise SotmotError(f"two sequences share a name: {names}")
     for info in infos:
-        detected = detection_source(config.detection, info)[0] == "model"
-        refuse_overwriting(output_paths(args.out, info.name, config, detected), sequence_inputs(info, config),
+        refuse_overwriting(sequence_outputs(args.out, info, config), sequence_inputs(info, config),
                            "choose another --out")
         if args.eval and not info.gt_path.is_file():
             raise SotmotError(f"{info.gt_path}: --eval needs the ground truth of {info.name}, and there is none; "
@@ -287,12 +285,11 @@ def _check_json(path: Path | None, seq_dirs: list[Path], results_dir: Path | Non
 
 
 def _write_json(path: Path | None, data: dict, what: str) -> None:
-    """Write ``data`` as JSON to ``path`` (atomically) when a path was given, and say so."""
+    """Write ``data`` as JSON to ``path`` (atomically) when a path was given (checked by :func:`_check_json` before
+    the work), and say so."""
     if path:
         from sotmot.io import write_text_atomic
 
-        if path.is_dir():
-            raise SotmotError(f"{path}: --json must name a file, but this is a folder")
         try:
             write_text_atomic(path, json.dumps(data, indent=2) + "\n")
         except OSError as exc:
@@ -342,20 +339,19 @@ def cmd_render(args: argparse.Namespace) -> int:
     inputs = [args.seq_dir, args.results, flags_path(args.results)]
     refuse_overwriting([args.out], inputs, "choose another --out")  # before a video is decoded
     if not is_video(args.seq_dir):
-        return _render(args, args.seq_dir)
+        return _render(args, args.seq_dir, inputs)
     if args.gt:
         raise SotmotError("--gt needs a sequence folder with gt/gt.txt, not a video")
     with tempfile.TemporaryDirectory(prefix="sotmot-video-") as work:
-        return _render(args, _video_sequences(args, Path(work))[0])
+        return _render(args, _video_sequences(args, Path(work))[0], inputs)
 
 
-def _render(args: argparse.Namespace, seq_dir: Path) -> int:
+def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
     from sotmot.io import read_results, read_seqinfo
     from sotmot.pipeline import progress_bar
-    from sotmot.render import check_render_target, flags_path, read_flags, render
+    from sotmot.render import check_render_target, read_flags, render
 
     info = read_seqinfo(seq_dir)
-    inputs = [args.seq_dir, args.results, flags_path(args.results)]
     check_render_target(info, args.out, inputs)  # before reading and matching anything
     tracks = read_flags(args.results, read_results(args.results, info.length))
     errors = None

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import importlib
 import json
-import os
 from pathlib import Path
 from typing import Protocol
 
@@ -26,11 +25,13 @@ import numpy as np
 
 from sotmot.config import DetectionConfig
 from sotmot.errors import ConfigError
-from sotmot.io.mot import resolve_model_file
+from sotmot.io.mot import model_given, resolve_model_file
 from sotmot.plugins import DETECTORS, EXTRAS
 
 #: The environment variable that may name the detector model.
 ENV_VAR = "SOTMOT_DETECTOR_MODEL"
+#: How a ``det.txt`` written by sotmot holds boxes and scores; :func:`rounded` gives exactly these values.
+BOX_FORMAT, SCORE_FORMAT = "%.2f", "%.5f"
 
 
 class Detector(Protocol):
@@ -104,7 +105,7 @@ def known_family(config: DetectionConfig, info) -> str | None:
     source, path = detection_source(config, info)
     model = None
     if source == "model":
-        model = config.model or os.environ.get(ENV_VAR)
+        model = model_given(config.model, ENV_VAR)
     elif path is not None and path.name.endswith(".det.txt"):
         record = path.with_name(path.name.removesuffix(".det.txt") + ".run.json")
         try:
@@ -123,15 +124,15 @@ def rounded(boxes: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarr
     """Boxes and scores as a ``det.txt`` written by :func:`format_detections` holds them (the same floats)."""
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     scores = np.asarray(scores, dtype=np.float64).reshape(-1)
-    return (np.char.mod("%.2f", boxes).astype(np.float64).reshape(-1, 4),
-            np.char.mod("%.5f", scores).astype(np.float64).reshape(-1))
+    return (np.char.mod(BOX_FORMAT, boxes).astype(np.float64).reshape(-1, 4),
+            np.char.mod(SCORE_FORMAT, scores).astype(np.float64).reshape(-1))
 
 
 def format_detections(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray) -> str:
     """MOTChallenge ``det.txt`` text: ``frame, -1, x, y, w, h, score, -1, -1, -1`` a line, in the given order."""
-    return "".join(f"{f},-1,{x:.2f},{y:.2f},{w:.2f},{h:.2f},{s:.5f},-1,-1,-1\n"
-                   for f, (x, y, w, h), s in zip(np.asarray(frames).tolist(), np.asarray(boxes).tolist(),
-                                                 np.asarray(scores).tolist()))
+    line = f"%d,-1,{BOX_FORMAT},{BOX_FORMAT},{BOX_FORMAT},{BOX_FORMAT},{SCORE_FORMAT},-1,-1,-1\n"
+    return "".join(line % (f, *box, s) for f, box, s in zip(np.asarray(frames).tolist(), np.asarray(boxes).tolist(),
+                                                           np.asarray(scores).tolist()))
 
 
 def detections_path(results: str | Path) -> Path:
@@ -140,5 +141,5 @@ def detections_path(results: str | Path) -> Path:
     return results.with_name(results.stem + ".det.txt")
 
 
-__all__ = ["DETECTORS", "ENV_VAR", "KNOWN_FAMILIES", "Detector", "detection_source", "detections_path", "known_family", "format_detections", "make_detector",
-           "resolve_detector_path", "rounded"]
+__all__ = ["BOX_FORMAT", "DETECTORS", "ENV_VAR", "KNOWN_FAMILIES", "SCORE_FORMAT", "Detector", "detection_source",
+           "detections_path", "format_detections", "known_family", "make_detector", "resolve_detector_path", "rounded"]

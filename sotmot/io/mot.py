@@ -445,13 +445,18 @@ def same_file(a: str | Path, b: str | Path) -> bool:
         return False
 
 
+def model_given(given: str | None, env_var: str) -> str | None:
+    """The model path the user gave: ``given`` (a flag or the config), else the environment variable ``env_var``."""
+    return given or os.environ.get(env_var) or None
+
+
 def resolve_model_file(given: str | None, env_var: str, what: str, flag: str, section: str, example: str) -> Path:
     """A model file from the user: ``given`` (flag or config), else the environment variable ``env_var``.
 
     Models are never bundled or downloaded, so a missing one is a
     :class:`~sotmot.errors.ModelError` that says every way to give it.
     """
-    value = given or os.environ.get(env_var)
+    value = model_given(given, env_var)
     if not value:
         raise ModelError(f"no {what} given: pass {flag} PATH (or set {section} in the config, or the environment "
                          f"variable {env_var}), e.g. {example}")
