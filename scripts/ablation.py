@@ -33,12 +33,15 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
+from common import DEFAULT_DATA
+from sotmot.benchmarks import machine, sequences
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import evaluate_files
 from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_path, write_results
-from sotmot.pipeline import embed_detections, finish_sequence, preprocess, prepare_sequence
+from sotmot.passes import embed_detections
+from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.preprocess import preprocess
 
 ENDS = None  # "+ends" rows: the end extension as configured (the default's, or --config's)
 ROWS = {

@@ -29,7 +29,7 @@ import numpy as np
 from sotmot.appearance import affinity_rows, make_embedder, roc_auc
 from sotmot.config import AppearanceConfig, AssociationConfig, TrackletConfig
 from sotmot.io import FrameReader, read_ground_truth, read_seqinfo
-from sotmot.pipeline import progress_bar
+from sotmot.progress import progress_bar
 
 
 def sample_pairs(ids: np.ndarray, frames: np.ndarray, n: int, rng: np.random.Generator
@@ -80,7 +80,7 @@ def analyse(seq_dir: Path, models: list[Path], n_pairs: int, seed: int, progress
             backend, _, noflip = variant.partition(":")
             embedder = make_embedder(AppearanceConfig(model=str(model), backend=backend, flip=noflip != "noflip"))
         else:
-            from sotmot.appearance.torch_reid import TorchReidEmbedder
+            from sotmot.appearance.torch import TorchReidEmbedder
 
             embedder = TorchReidEmbedder(AppearanceConfig(model=str(model), backend="torch", weights=str(weights)))
         reader = FrameReader(info, cache_size=1)

@@ -42,8 +42,9 @@ import time
 from pathlib import Path
 
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import DEFAULT_DATA, before_confirmation, machine, private_config, sequences
-from sotmot.calibrate import box_labels
+from common import DEFAULT_DATA
+from sotmot.benchmarks import before_confirmation, machine, private_config, sequences
+from sotmot.fitting.confidence import box_labels
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import METRICS, EvalReport, evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
@@ -68,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
     parser.add_argument("--model", required=True, help="ONNX re-ID model")
-    parser.add_argument("--merger", default="greedy", help="long-term association solver (default: %(default)s)")
+    parser.add_argument("--solver", "--merger", dest="solver", default="greedy", help="long-term association solver (default: %(default)s)")
     parser.add_argument("--config", type=Path, help="tracker configuration file for 'after' (default: the defaults)")
     parser.add_argument("--min-hits", default="3,5,10",
                         help="comparison rows: the online trackers' rule, a trajectory is kept once it has this "
@@ -108,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
             seconds = time.perf_counter() - start  # the "after" pipeline: preparation plus its finish
             for label, cfg in configs.items():
                 lap = time.perf_counter()
-                result = finish_sequence(prepared, cfg, args.merger, embedder)
+                result = finish_sequence(prepared, cfg.replace("association", solver=args.solver), embedder)
                 if label == "after":
                     seconds += time.perf_counter() - lap
                 path = results_path(out / label, result.info.name)
@@ -181,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"machine: {machine()}")
     if args.json:
         write_text_atomic(args.json, json.dumps({
-            "machine": machine(), "merger": args.merger, "model": args.model, "config": config.to_dict(),
+            "machine": machine(), "solver": args.solver, "model": args.model, "config": config.to_dict(),
             "detections": kind,
             "before": {k: r.to_dict() for k, r in reports["before"].items()},
             "after": {k: r.to_dict() for k, r in reports["after"].items()},

@@ -26,8 +26,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from sotmot.batch import track_many
-from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
+from sotmot.runs import track_many
+from common import DEFAULT_DATA
+from sotmot.benchmarks import machine, sequences
 from sotmot.config import TrackerConfig
 from sotmot.io import read_seqinfo, write_text_atomic
 

@@ -24,7 +24,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from sotmot.benchmarks import DEFAULT_DATA, machine
+from common import DEFAULT_DATA
+from sotmot.benchmarks import machine
 
 LIMIT_MB = 2048
 

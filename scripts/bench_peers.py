@@ -66,7 +66,8 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import DEFAULT_DATA, machine, private_config, sequences
+from common import DEFAULT_DATA
+from sotmot.benchmarks import machine, private_config, sequences
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import evaluate_files
 from sotmot.io import results_path, write_results
@@ -98,7 +99,7 @@ def run_sotmot(seq: SeqInput, config: TrackerConfig, variant: str, solvers: list
     out = {}
     for solver in solvers:
         start = time.perf_counter()
-        result = finish_sequence(prepared, cfg, solver, embedder)
+        result = finish_sequence(prepared, cfg.replace("association", solver=solver), embedder)
         out[solver] = (result.tracks, shared + time.perf_counter() - start)
     return out
 

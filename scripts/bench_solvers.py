@@ -16,7 +16,7 @@ With ``--tile N`` it instead repeats each whole sequence 1, 2, 5 and N times
 one after the other in time, to see how a solver grows on long sequences.
 
     python scripts/bench_solvers.py --json bench_solvers.json
-    python scripts/bench_solvers.py --sequences MOT16-04 --tile 10 --mergers greedy,flow --repeat 1
+    python scripts/bench_solvers.py --sequences MOT16-04 --tile 10 --solvers greedy,flow --repeat 1
 """
 
 from __future__ import annotations
@@ -32,12 +32,12 @@ from pathlib import Path
 
 import numpy as np
 
-from solvers import get_solver
+from sotmot.association import get_solver
 from sotmot.appearance import normalize
 from sotmot.benchmarks import machine
 from sotmot.config import TrackerConfig
 from sotmot.io import read_detections, read_seqinfo
-from sotmot.pipeline import preprocess
+from sotmot.preprocess import preprocess
 from sotmot.tracklets import build_tracklets
 from sotmot.types import Detections
 
@@ -85,7 +85,7 @@ def peak_mb(solver, tracklets, config) -> float:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--labels", type=Path, default=DEFAULT_LABELS, help="MOT16-labels folder (default: %(default)s)")
-    parser.add_argument("--mergers", default="greedy,flow", help="solvers to time (default: %(default)s)")
+    parser.add_argument("--solvers", "--mergers", dest="solvers", default="greedy,flow", help="solvers to time (default: %(default)s)")
     parser.add_argument("--sequences", default="", help="comma-separated subset, e.g. MOT16-04")
     parser.add_argument("--repeat", type=int, default=3, help="timing runs per point (best is kept)")
     parser.add_argument("--tile", type=int, default=0,
@@ -93,14 +93,14 @@ def main(argv: list[str] | None = None) -> int:
                              "after the other in time (e.g. --sequences MOT16-04 --tile 10: ~10k frames)")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    mergers = args.mergers.split(",")
+    solvers_asked = args.solvers.split(",")
     config = TrackerConfig()
     seqs = sorted(p for p in args.labels.iterdir() if (p / "seqinfo.ini").is_file())
     if args.sequences:
         seqs = [p for p in seqs if p.name in args.sequences.split(",")]
     rows = []
     head = f"{'sequence':<10}{'frames':>7}{'dets':>7}{'tracklets':>10}" + "".join(
-        f"{m + ' s':>10}{m + ' MB':>10}{m + ' traj':>11}" for m in mergers)
+        f"{m + ' s':>10}{m + ' MB':>10}{m + ' traj':>11}" for m in solvers_asked)
     print(head)
     print("-" * len(head))
     for seq in seqs:
@@ -116,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
             row = {"sequence": info.name, "fraction": fraction, "frames": last, "detections": len(dets),
                    "tracklets": len(tracklets)}
             cells = ""
-            for m in mergers:
+            for m in solvers_asked:
                 solver = get_solver(m)
                 seconds, groups = timed(solver, tracklets, config.association, args.repeat)
                 mb = peak_mb(solver, tracklets, config.association)
@@ -125,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(row)
             print(f"{info.name:<10}{last:7d}{len(dets):7d}{len(tracklets):10d}{cells}", flush=True)
     fits = {}
-    for m in mergers:
+    for m in solvers_asked:
         n = np.array([r["tracklets"] for r in rows], float)
         t = np.array([r[m]["seconds"] for r in rows], float)
         ok = (n > 0) & (t > 0)

@@ -43,7 +43,8 @@ from pathlib import Path
 
 from sotmot.appearance import make_embedder
 from sotmot.plugins import BACKENDS
-from sotmot.benchmarks import DEFAULT_DATA, machine, sequences
+from common import DEFAULT_DATA
+from sotmot.benchmarks import machine, sequences
 from sotmot.config import TrackerConfig
 from sotmot.pipeline import track_sequence
 
@@ -77,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
     parser.add_argument("--model", required=True)
     parser.add_argument("--sot", default="none", choices=["none", "template", "deep"])
-    parser.add_argument("--merger", default="greedy")
+    parser.add_argument("--solver", "--merger", dest="solver", default="greedy", help="long-term association solver (default: %(default)s)")
     parser.add_argument("--appearance", default="onnx", choices=sorted(BACKENDS),
                         help="appearance backend (default: %(default)s)")
     parser.add_argument("--no-flip", action="store_true", help="embed each crop once, without its mirror image")
@@ -107,7 +108,8 @@ def main(argv: list[str] | None = None) -> int:
     seqs = sequences(args.data, args.sequences)
     for seq in seqs:
         start = time.perf_counter()
-        result = track_sequence(seq, config, merger=args.merger, embedder=embedder, detector=detector)
+        result = track_sequence(seq, config.replace("association", solver=args.solver), embedder=embedder,
+                                detector=detector)
         total = time.perf_counter() - start
         n_dets = int((~result.detections.from_sot).sum())
         rows[result.info.name] = {"frames": result.info.length, "seconds": total, "detections": n_dets,
@@ -131,10 +133,10 @@ def main(argv: list[str] | None = None) -> int:
                 f"{r['peers'][p]['fps']:>12.1f} ({r['peers'][p]['loop_fps']:7.0f})" for p in timed))
         print("\n".join(lines))
     detections = f"model {Path(args.detector_model).name}" if args.detector_model else "det/det.txt (public)"
-    print(f"machine: {machine()}; detections: {detections}; sot: {args.sot}; merger: {args.merger}; appearance: "
+    print(f"machine: {machine()}; detections: {detections}; sot: {args.sot}; solver: {args.solver}; appearance: "
           f"{args.appearance} on {args.device}, flip {'off' if args.no_flip else 'on'}")
     if args.json:
-        args.json.write_text(json.dumps({"machine": machine(), "sot": args.sot, "merger": args.merger,
+        args.json.write_text(json.dumps({"machine": machine(), "sot": args.sot, "solver": args.solver,
                                          "appearance": args.appearance, "device": args.device,
                                          "flip": not args.no_flip, "detections": detections,
                                          "rows": rows}, indent=2) + "\n")

@@ -32,8 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.benchmarks import DEFAULT_DATA, add_confirmation_fit_arguments, before_confirmation, cached_features
-from sotmot.calibrate import (
+from common import DEFAULT_DATA, add_confirmation_fit_arguments
+from sotmot.benchmarks import before_confirmation, cached_features
+from sotmot.fitting.confidence import (
     Labelled,
     detection_labels,
     fit,
@@ -117,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
             features = cached_features(seq_dir, config, args.cache, embedder_box)
             prepared = prepare_sequence(seq_dir, config, features=features)
             raw = read_detections(prepared.info.det_path, prepared.info.length)
-            seqs.append(label_sequence(prepared, raw.scores, config, args.merger, work))
+            seqs.append(label_sequence(prepared, raw.scores, config.replace("association", solver=args.solver), work))
             detection_samples[prepared.info.name] = detection_labels(seq_dir, config, work)
             print(f"{prepared.info.name}: {len(prepared.detections)} detections, {len(seqs[-1].trajectories)} "
                   f"trajectories, family {seqs[-1].family}", file=sys.stderr)
@@ -130,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     before = score(seqs, lambda s: unconfirmed_tracks(s, old))
     base = score(seqs, lambda s: unconfirmed_tracks(s, config))
     report: dict = {"sequences": [s.name for s in seqs], "labels_only": [str(p) for p in label_dirs],
-                    "merger": args.merger, "thresholds": thresholds, "before": before.to_dict(),
+                    "solver": args.solver, "thresholds": thresholds, "before": before.to_dict(),
                     "interpolation_bound_only": base.to_dict(), "methods": {}, "folds": {}}
     print(table("before (no confirmation, every gap interpolated)",
                 list(before.sequences.items()) + [("COMBINED", before.combined)]))
@@ -162,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
         print(table(f"held out, confidence={method}", rows + [("COMBINED", after.combined)]))
     final = fit(seqs, extra, detection_samples, thresholds, config, base, args.l2)
     final.calibration.provenance.update({
-        "script": "scripts/fit_confidence.py", "model": Path(args.model).name, "merger": args.merger,
+        "script": "scripts/fit_confidence.py", "model": Path(args.model).name, "solver": args.solver,
         "labels_only": [p.name for p in label_dirs], "l2": args.l2,
         "interpolate_max_seconds": config.postprocess.interpolate_max_seconds,
     })

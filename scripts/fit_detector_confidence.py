@@ -35,8 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.benchmarks import DEFAULT_DATA, add_confirmation_fit_arguments, cached_features, machine, model_detections
-from sotmot.calibrate import (
+from common import DEFAULT_DATA, add_confirmation_fit_arguments
+from sotmot.benchmarks import cached_features, machine, model_detections
+from sotmot.fitting.confidence import (
     Labelled,
     detection_labels,
     fit,
@@ -48,7 +49,8 @@ from sotmot.calibrate import (
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import METRICS
 from sotmot.io import read_detections, read_seqinfo, write_text_atomic
-from sotmot.pipeline import prepare_sequence, preprocess_indices
+from sotmot.pipeline import prepare_sequence
+from sotmot.preprocess import preprocess_indices
 
 ROOT = Path(__file__).resolve().parents[1]
 FAMILY = "pd0202"
@@ -121,7 +123,8 @@ def main(argv: list[str] | None = None) -> int:
                     cfg = base_config.replace("detection", file=str(found)).replace("preprocess", score_threshold=s)
                     kept = preprocess_indices(raw, cfg.preprocess)
                     prepared = prepare_sequence(seq, cfg, features=features[kept])
-                    labelled[s][info.name] = label_sequence(prepared, raw.scores, cfg, args.merger, work, FAMILY)
+                    labelled[s][info.name] = label_sequence(prepared, raw.scores, cfg.replace("association", solver=args.solver), work,
+                                                                 FAMILY)
                     samples[s][info.name] = detection_labels(seq, cfg, work, FAMILY)
                 video_of[info.name] = video
                 print(f"{info.name} [{video}]: {len(raw)} detector boxes", file=sys.stderr, flush=True)
@@ -184,7 +187,7 @@ def main(argv: list[str] | None = None) -> int:
         data["thresholds"][FAMILY] = final.thresholds[FAMILY]
         data["provenance"][FAMILY] = {
             "script": "scripts/fit_detector_confidence.py", "detector": Path(args.detector_model).name,
-            "model": Path(args.model).name, "merger": args.merger, "sequences": names, "entry_score": best,
+            "model": Path(args.model).name, "solver": args.solver, "sequences": names, "entry_score": best,
             "threshold_scores": final.provenance["threshold_scores"][FAMILY]}
         write_text_atomic(args.write, json.dumps(data, indent=1) + "\n")
         print(f"family {FAMILY} written to {args.write}")

@@ -15,7 +15,7 @@ objective and solver time of each.
 The lifted solver's learned costs (``lifted_costs = "learned"``, the default)
 are fitted the same way: each sequence's tracklets get ground-truth identities
 (the CLEAR matching), their pairs within the lifted horizon are the samples
-(:func:`sotmot.calibrate.lifted_pair_samples`), and the row ``lifted learned``
+(:func:`sotmot.fitting.confidence.lifted_pair_samples`), and the row ``lifted learned``
 runs each sequence with the coefficients fitted on the *other* sequences'
 pairs (no HOTA is looked at). The coefficients fitted on all sequences are
 printed: they are the default ``lifted_coefficients``. The threshold rows run
@@ -35,10 +35,11 @@ from pathlib import Path
 
 import numpy as np
 
-from solvers.lifted import lifted_objective
+from sotmot.association.objective import lifted_objective
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import add_fit_arguments, cached_features, fit_setup, machine
-from sotmot.calibrate import fit_lifted_costs, lifted_pair_samples, tracklet_identities
+from common import add_fit_arguments, fit_setup
+from sotmot.benchmarks import cached_features, machine
+from sotmot.fitting.confidence import fit_lifted_costs, lifted_pair_samples, tracklet_identities
 from sotmot.evaluate import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
@@ -83,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
             for name, (solver, cfg) in runs.items():
                 if name == "lifted learned":  # held out: the coefficients fitted without this sequence
                     cfg = cfg.replace("association", lifted_costs="learned", lifted_coefficients=learned[seq])
-                run = finish_sequence(prepared, cfg, solver, embedder_box[0])
+                run = finish_sequence(prepared, cfg.replace("association", solver=solver), embedder_box[0])
                 path = results_path(Path(tmp) / name, seq)
                 write_results(path, run.tracks)
                 files[name].append((path, prepared.info.gt_path, prepared.info.length, seq))

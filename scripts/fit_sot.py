@@ -4,7 +4,7 @@
 Each labelled sequence of at least ``--min-length`` frames under ``--data`` is
 tracked once with the configuration (appearance cached under ``--cache``),
 then its confirmed trajectories' ends are extended once with the loosest gates
-of the grid (``sotmot.extend.extend_ends`` with a trace of every added box and
+of the grid (``sotmot.sot.extend.extend_ends`` with a trace of every added box and
 its re-ID affinity). Every grid point -- ``extend_min_confidence`` (the
 trajectory's mean confirmation confidence), ``extend_min_affinity`` and
 ``extend_seconds`` -- is then the same run cut where its gates would have
@@ -31,13 +31,12 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import add_fit_arguments, cached_features, fit_setup, machine
+from common import add_fit_arguments, fit_setup
+from sotmot.benchmarks import cached_features, machine
 from sotmot.evaluate import evaluate_files
-from sotmot.extend import end_steps, extend_ends, with_added
+from sotmot.sot.extend import extend_ends, gated, with_added
 from sotmot.io import FrameReader, results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
-from sotmot.postprocess import output_ids
-from sotmot.types import Tracks
 
 ROOT = Path(__file__).resolve().parents[1]
 SHOWN = ("HOTA", "MOTA", "IDF1", "FP", "FN", "IDSW")
@@ -45,21 +44,6 @@ SHOWN = ("HOTA", "MOTA", "IDF1", "FP", "FN", "IDSW")
 
 def floats(text: str) -> list[float]:
     return [float(v) for v in text.split(",") if v.strip()]
-
-
-def cut(tracks: Tracks, trace: list[dict], frame_rate: float, min_confidence: float, min_affinity: float,
-        seconds: float) -> Tracks:
-    """``tracks`` with the traced end boxes that the gates ``(min_confidence, min_affinity, seconds)`` keep."""
-    steps = end_steps(seconds, frame_rate)
-    stopped, kept = set(), []
-    for box in trace:  # in the order they were added: each end's boxes one step after another
-        end = (box["track"], box["direction"])
-        if end in stopped or box["track_confidence"] < min_confidence or box["affinity"] < min_affinity \
-                or box["step"] > steps:
-            stopped.add(end)
-            continue
-        kept.append(box)
-    return with_added(tracks, [(b["frame"], b["track"], b["box"]) for b in kept])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -83,8 +67,7 @@ def main(argv: list[str] | None = None) -> int:
                                                                                 embedder_box))
         run = finish_sequence(prepared, config.replace("sot", extend_seconds=0.0))
         info = prepared.info
-        ids = output_ids(run.trajectories, config.postprocess, info.frame_rate)
-        identity = {i: t.feature for t, i in zip(run.trajectories, ids) if i is not None}
+        identity = run.identities()
         if not embedder_box:
             embedder_box.append(make_embedder(config.appearance))
         trace: list[dict] = []
@@ -100,7 +83,13 @@ def main(argv: list[str] | None = None) -> int:
         for index, (run, gates) in enumerate(runs.items()):
             for name in names:
                 info, tracks, trace = traced[name]
-                out = tracks if gates is None else cut(tracks, trace, info.frame_rate, *gates)
+                if gates is None:
+                    out = tracks
+                else:
+                    c, a, s = gates
+                    strict = config.replace("sot", extend_min_confidence=c, extend_min_affinity=a, extend_seconds=s)
+                    out = with_added(tracks, [(b["frame"], b["track"], b["box"])
+                                              for b in gated(trace, info.frame_rate, strict.sot)])
                 path = results_path(Path(tmp) / f"run{index}", name)
                 write_results(path, out)
                 files[run].append((path, info.gt_path, info.length, name))

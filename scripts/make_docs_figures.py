@@ -17,11 +17,12 @@ import cv2
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import DEFAULT_DATA, before_confirmation
+from common import DEFAULT_DATA
+from sotmot.benchmarks import before_confirmation
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import evaluate_files
-from sotmot.explain import inspection_graph
-from sotmot.graph_view import draw_png
+from sotmot.inspect.explain import inspection_graph
+from sotmot.inspect.graph_view import draw_png
 from sotmot.io import (
     FrameReader,
     read_detections,
@@ -31,8 +32,9 @@ from sotmot.io import (
     write_results,
     write_text_atomic,
 )
-from sotmot.pipeline import finish_sequence, prepare_sequence, preprocess, resolve_nms
-from sotmot.render import draw_frame
+from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.preprocess import preprocess, resolve_nms
+from sotmot.inspect.render import draw_frame
 from sotmot.types import Tracks
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -119,8 +121,8 @@ def main(argv: list[str] | None = None) -> int:
              f"IoU gate {base.tracklets.min_iou}); tracklets with <= {base.tracklets.l_min} detector box are "
              f"dropped. Result: {len(prepared.tracklets)} tracklets from {len(prepared.detections)} boxes.", ""]
     runs = {}
-    for merger in ("greedy", "flow"):
-        runs[merger] = finish_sequence(prepared, base, merger, embedder)
+    for solver in ("greedy", "flow"):
+        runs[solver] = finish_sequence(prepared, base.replace("association", solver=solver), embedder)
     graph = inspection_graph(runs["greedy"], base)
     graph_fig = draw_png(graph, FIG / "graph_mot16_05.png")
     rejected = {}
@@ -141,11 +143,11 @@ def main(argv: list[str] | None = None) -> int:
 
     with tempfile.TemporaryDirectory() as tmp:
         rows = []
-        for merger, run in runs.items():
-            path = results_path(Path(tmp) / merger, info.name)
+        for solver, run in runs.items():
+            path = results_path(Path(tmp) / solver, info.name)
             write_results(path, run.tracks)
             score = evaluate_files([(path, info.gt_path, info.length, info.name)]).sequences[info.name]
-            rows.append(f"| {merger} | {len(run.association.groups)} | {score['HOTA']:.1f} | {score['MOTA']:.1f} | "
+            rows.append(f"| {solver} | {len(run.association.groups)} | {score['HOTA']:.1f} | {score['MOTA']:.1f} | "
                         f"{score['IDF1']:.1f} | {score['IDSW']:.0f} |")
     text += ["## 5. Greedy merge or min-cost flow", "",
              "The greedy merge repeatedly joins the most similar allowed pair; the flow solver picks all "
@@ -166,7 +168,7 @@ def main(argv: list[str] | None = None) -> int:
     pets = args.data / "PETS09-S2L1"
     if pets.is_dir():
         p = prepare_sequence(pets, base, embedder)
-        r = finish_sequence(p, base, "greedy", embedder)
+        r = finish_sequence(p, base, embedder)
         g = inspection_graph(r, base, (100, 140))
         draw_png(g, FIG / "graph_pets_100_140.png")
         text += ["## The same on PETS09-S2L1, frames 100-140", "",
@@ -175,8 +177,8 @@ def main(argv: list[str] | None = None) -> int:
                  f"frames 100-140 ({g.number_of_nodes()} tracklets, {g.number_of_edges()} candidates):", "",
                  "![graph](figures/graph_pets_100_140.png)", ""]
         before = before_confirmation(base)
-        old = finish_sequence(p, before, "greedy", embedder)
-        no_ends = finish_sequence(p, base.replace("sot", extend_seconds=0.0), "greedy", embedder)
+        old = finish_sequence(p, before, embedder)
+        no_ends = finish_sequence(p, base.replace("sot", extend_seconds=0.0), embedder)
         with tempfile.TemporaryDirectory() as tmp:
             scores = {}
             for label, run_ in (("every box kept, every gap filled", old), ("confirmed", no_ends),
@@ -202,7 +204,7 @@ def main(argv: list[str] | None = None) -> int:
                  f"whose mean confirmation confidence is at least {base.sot.extend_min_confidence:g} is followed "
                  f"up to {base.sot.extend_seconds:g} s past both ends by the SOT machinery (template proposals "
                  f"around a constant-velocity prior, re-ranked by re-ID against the trajectory's mean feature, "
-                 f"kept while the affinity is >= {base.sot.extend_min_affinity:g}; `sotmot/extend.py`). On "
+                 f"kept while the affinity is >= {base.sot.extend_min_affinity:g}; `sotmot/sot/extend.py`). On "
                  f"PETS09-S2L1 it added {int(r.tracks.from_sot.sum())} boxes (the last row above); at 7 fps "
                  f"people move far between frames and few ends can be followed. On the 30 fps sequences it adds "
                  f"more and gains about 1 MOTA (`docs/benchmarks.md`).", ""]

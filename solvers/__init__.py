@@ -1,39 +1,13 @@
-"""Long-term association solvers: one signature, one table.
+"""Long-term association solvers: one module each, registered by CLI name in :data:`sotmot.plugins.SOLVERS`.
 
-Every solver is a function ::
-
-    solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Association
-
-that groups tracklets into trajectories, obeying the constraint function
-:func:`sotmot.constraints.check_pair` for every pair of tracklets it joins
-directly. Solvers are registered in :data:`SOLVERS` by their CLI name and
-imported only when asked for, so optional heavy dependencies (OR-Tools) load
-only for the solver that needs them.
+``greedy`` (the paper's greedy merge), ``mincostflow`` (min-cost flow with
+OR-Tools, and its two-stage variant), ``networkx_flow`` (the same flow with
+networkx, for cross-checks), ``lifted`` (the lifted objective, exact per window
+with CP-SAT). Each imports what it shares with the others from
+:mod:`sotmot.association`; adding a solver is one module here plus one line in
+the table. :func:`get_solver` is re-exported for convenience.
 """
 
-from __future__ import annotations
-
-import importlib
-from typing import Callable
-
-from solvers.base import Association, Link, Solver
-from sotmot.errors import SolverError
-from sotmot.plugins import SOLVERS
-
-def get_solver(name: str) -> Solver:
-    """The solver registered as ``name``.
-
-    Raises
-    ------
-    SolverError
-        For an unknown name; the message lists the valid names.
-    """
-    target = SOLVERS.get(name)
-    if target is None:
-        raise SolverError(f"unknown solver {name!r}; valid solvers: {', '.join(sorted(SOLVERS))}")
-    module, func = target.split(":")
-    solver: Callable = getattr(importlib.import_module(module), func)
-    return solver
-
+from sotmot.association import SOLVERS, Association, Link, Solver, get_solver
 
 __all__ = ["SOLVERS", "Association", "Link", "Solver", "get_solver"]

@@ -2,7 +2,7 @@
 
 Repeatedly merge the pair of trajectories with the highest appearance
 affinity (trajectory feature = mean feature of its detections) among the
-pairs that satisfy the constraint A(t1, t2) of :mod:`sotmot.constraints`,
+pairs that satisfy the constraint A(t1, t2) of :mod:`sotmot.association.rules`,
 until no allowed pair is left. Ties in affinity are broken by the smallest
 input tracklet ids of the two trajectories, so the result does not depend on
 the order of the input.
@@ -14,7 +14,7 @@ How it scales (the result is exactly that of the plain loop above):
   boxes).
 * Candidates live in sorted *lists*: one for the pairs of the input
   tracklets, all checked in one vectorised
-  :func:`~sotmot.constraints.check_pairs` call; and one per merged
+  :func:`~sotmot.association.checks.check_pairs` call; and one per merged
   trajectory, holding its pairs with the live trajectories near it,
   unchecked. A heap holds one entry per list, keyed by the list's head, so a
   merge costs a few heap operations however many pairs it creates.
@@ -35,10 +35,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from solvers.base import Association, Link
+from sotmot.association.base import Association, Link
 from sotmot.appearance import pair_affinities, unit
 from sotmot.config import AssociationConfig
-from sotmot.constraints import candidate_pairs, check_pairs, merge, passes_affinity_gate
+from sotmot.association.checks import candidate_pairs, check_pairs
+from sotmot.association.merge import merge
+from sotmot.association.rules import passes_affinity_gate
 from sotmot.types import Tracklet
 
 #: At most this many entries of one list are checked in one call (measured best on MOT16-04:

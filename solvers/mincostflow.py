@@ -1,6 +1,6 @@
 """Long-term association as min-cost flow, solved with OR-Tools' ``SimpleMinCostFlow``.
 
-The network (Zhang et al. 2008; see :mod:`solvers.flow_common`) has a link arc only
+The network (Zhang et al. 2008; see :mod:`sotmot.association.flow_network`) has a link arc only
 where the shared constraint function allows the pair, so this solver obeys the
 same IoU, velocity and gap rules as the greedy merge, on every link it makes.
 Unlike the greedy merge it optimises all links at once: the set of links that
@@ -8,7 +8,7 @@ minimises ``entry cost x trajectories + sum of (1 - affinity)``.
 A status other than OPTIMAL raises :class:`~sotmot.errors.SolverError`.
 
 It builds the network straight from the arrays of
-:func:`sotmot.graph.candidate_links` (the networkx graph of the same links is
+:func:`sotmot.association.candidates.candidate_links` (the networkx graph of the same links is
 what :mod:`solvers.networkx_flow` and the inspection tools use).
 
 :func:`solve_staged` (``flow-staged``) runs the same flow twice: first with
@@ -27,12 +27,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from solvers.base import Association, Link
-from solvers.flow_common import association_from_links, flow_arcs, link_cost
+from sotmot.association.base import Association, Link
+from sotmot.association.flow_network import association_from_links, flow_arcs
+from sotmot.association.objective import link_cost
 from sotmot.config import AssociationConfig
-from sotmot.constraints import link_order_key, merge_group
+from sotmot.association.merge import link_order_key, merge_group
 from sotmot.errors import SolverError
-from sotmot.graph import candidate_links
+from sotmot.association.candidates import candidate_links
 from sotmot.types import Tracklet
 
 

@@ -11,11 +11,11 @@ from collections.abc import Sequence
 
 import networkx as nx
 
-from solvers.base import Association
-from solvers.flow_common import SINK, SOURCE, association_from_links, flow_network
+from sotmot.association.base import Association
+from sotmot.association.flow_network import SINK, SOURCE, association_from_links, flow_network
 from sotmot.config import AssociationConfig
 from sotmot.errors import SolverError
-from sotmot.graph import build_graph
+from sotmot.association.candidates import build_graph
 from sotmot.types import Tracklet
 
 

@@ -1,13 +1,12 @@
-"""What the benchmark scripts in ``scripts/`` share: where the data is, which sequences, which machine.
+"""What the benchmark and fit scripts in ``scripts/`` share: which sequences, which machine, cached inputs.
 
-Scripts import these instead of importing each other. ``DEFAULT_DATA`` is
-``../shared/data`` beside the project (an editable install), or the
-environment variable ``SOTMOT_DATA``.
+Library code: every function takes its paths from the caller and raises on
+bad input; the scripts' command-line side (default paths, shared arguments)
+is ``scripts/common.py``.
 """
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import os
@@ -18,10 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.config import TrackerConfig
+from sotmot.errors import InputError
 from sotmot.io import atomic_path, read_detections, read_seqinfo
-
-DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
-
 
 def machine() -> str:
     """One line: CPU model, logical CPUs, OS and Python version (benchmarks report what they ran on)."""
@@ -60,7 +57,8 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
     when one is first needed, so several calls share it.
     """
     from sotmot.detection import detection_source
-    from sotmot.pipeline import embed_detections, preprocess
+    from sotmot.passes import embed_detections
+    from sotmot.preprocess import preprocess
 
     info = read_seqinfo(seq)
     model = Path(config.appearance.model or "")
@@ -100,7 +98,7 @@ def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
     and the detector settings that change boxes.
     """
     from sotmot.detection import format_detections, make_detector, resolve_detector_path
-    from sotmot.pipeline import detect_sequence
+    from sotmot.passes import detect_sequence
     from sotmot.provenance import file_sha256
 
     info = read_seqinfo(seq)
@@ -131,34 +129,16 @@ def private_config(config: TrackerConfig, seq: Path, detector_model: str, cache:
     return out
 
 
-def add_confirmation_fit_arguments(parser: argparse.ArgumentParser) -> None:
-    """What the confirmation fits share (``scripts/fit_confidence.py``, ``scripts/fit_detector_confidence.py``):
-    the solver, the candidate confirmation thresholds and the box model's L2 penalty."""
-    parser.add_argument("--merger", default="greedy", help="long-term association solver (default: %(default)s)")
-    parser.add_argument("--thresholds", default="0.2,0.25,0.3,0.35,0.4,0.45,0.5,0.55,0.6",
-                        help="candidate confirmation thresholds; 0 (keep all) is always tried (default: %(default)s)")
-    parser.add_argument("--l2", type=float, default=1000.0, help="L2 penalty of the box model (default: %(default)s)")
+def fit_sequences(data: Path, min_length: int) -> list[Path]:
+    """The sequences with frames under ``data`` of at least ``min_length`` frames, for a leave-one-sequence-out fit.
 
-
-def add_fit_arguments(parser: argparse.ArgumentParser, cache: Path) -> None:
-    """The arguments every leave-one-sequence-out fit script takes: the model, the data and which of its sequences,
-    a configuration, the feature cache (default ``cache``) and a JSON report."""
-    parser.add_argument("--model", required=True, help="ONNX re-ID model")
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
-    parser.add_argument("--min-length", type=int, default=100,
-                        help="use sequences with at least this many frames (default: %(default)s)")
-    parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
-    parser.add_argument("--cache", type=Path, default=cache, help="feature cache folder (default: %(default)s)")
-    parser.add_argument("--json", type=Path, help="write every number here")
-
-
-def fit_setup(args: argparse.Namespace) -> tuple[TrackerConfig, list[Path]]:
-    """The configuration (with ``--model``) and the sequences of at least ``--min-length`` frames of a fit script;
-    exits with a message when fewer than two (nothing to hold out)."""
-    from sotmot.config import load_config
-
-    config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
-    seq_dirs = [p for p in sequences(args.data) if read_seqinfo(p).length >= args.min_length]
-    if len(seq_dirs) < 2:
-        sys.exit(f"need at least two sequences of >= {args.min_length} frames under {args.data}")
-    return config, seq_dirs
+    Raises
+    ------
+    InputError
+        Fewer than two (nothing to hold out).
+    """
+    found = [p for p in sequences(data) if read_seqinfo(p).length >= min_length]
+    if len(found) < 2:
+        raise InputError(data, f"a leave-one-sequence-out fit needs at least two sequences of >= {min_length} "
+                               f"frames here, found {len(found)}")
+    return found

@@ -183,7 +183,7 @@ def _build_config(args: argparse.Namespace):
 def _video_sequences(args: argparse.Namespace, work: Path) -> list[Path]:
     """``args.seq_dirs`` with any video file turned into a sequence folder (frames only) under ``work``."""
     from sotmot.io.video import is_video, sequence_from_video
-    from sotmot.pipeline import progress_bar
+    from sotmot.progress import progress_bar
 
     paths = args.seq_dirs if hasattr(args, "seq_dirs") else [args.seq_dir]
     out = []
@@ -200,7 +200,7 @@ def _video_sequences(args: argparse.Namespace, work: Path) -> list[Path]:
 def cmd_track(args: argparse.Namespace) -> int:
     import tempfile
 
-    from sotmot.batch import output_paths
+    from sotmot.runs import output_paths
     from sotmot.io import refuse_overwriting
     from sotmot.io.video import is_video
 
@@ -233,7 +233,7 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 
 def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
-    from sotmot.batch import sequence_inputs, sequence_outputs, track_many
+    from sotmot.runs import sequence_inputs, sequence_outputs, track_many
     from sotmot.io import read_seqinfo, refuse_overwriting
 
     infos = [read_seqinfo(s) for s in seq_dirs]  # fail early on a bad folder, before any work
@@ -310,20 +310,20 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from solvers import get_solver
-    from sotmot.compare import compare, format_comparison
+    from sotmot.association import get_solver
+    from sotmot.inspect.compare import compare, format_comparison
 
-    mergers = [m.strip() for m in args.mergers.split(",")]
-    if not all(mergers):
-        raise SotmotError(f"--solvers {args.mergers!r}: give solver names separated by commas, none empty "
+    solvers = [m.strip() for m in args.solvers.split(",")]
+    if not all(solvers):
+        raise SotmotError(f"--solvers {args.solvers!r}: give solver names separated by commas, none empty "
                           f"(e.g. greedy,flow)")
-    if len(set(mergers)) != len(mergers):
-        raise SotmotError(f"--solvers {args.mergers!r} names a solver twice")
-    for m in mergers:
+    if len(set(solvers)) != len(solvers):
+        raise SotmotError(f"--solvers {args.solvers!r} names a solver twice")
+    for m in solvers:
         get_solver(m)  # unknown names fail here, listing the valid ones
     config = _build_config(args)
     _check_json(args.json, args.seq_dirs)
-    result = compare(args.seq_dirs, mergers, config, progress=_progress(args))
+    result = compare(args.seq_dirs, solvers, config, progress=_progress(args))
     print(format_comparison(result))
     _write_json(args.json, result.to_dict(), "comparison")
     return 0
@@ -334,7 +334,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
     from sotmot.io import refuse_overwriting
     from sotmot.io.video import is_video
-    from sotmot.render import flags_path
+    from sotmot.io.flags import flags_path
 
     inputs = [args.seq_dir, args.results, flags_path(args.results)]
     refuse_overwriting([args.out], inputs, "choose another --out")  # before a video is decoded
@@ -348,8 +348,9 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
     from sotmot.io import read_results, read_seqinfo
-    from sotmot.pipeline import progress_bar
-    from sotmot.render import check_render_target, read_flags, render
+    from sotmot.progress import progress_bar
+    from sotmot.inspect.render import check_render_target, render
+    from sotmot.io.flags import read_flags
 
     info = read_seqinfo(seq_dir)
     check_render_target(info, args.out, inputs)  # before reading and matching anything
@@ -369,7 +370,7 @@ def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
 
 def cmd_train(args: argparse.Namespace) -> int:
     from sotmot.config import AppearanceConfig
-    from sotmot.pipeline import progress_bar
+    from sotmot.progress import progress_bar
     from sotmot.train import TrainConfig, train
 
     from sotmot.io import refuse_overwriting
@@ -398,10 +399,9 @@ def _track_for_inspection(args: argparse.Namespace):
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
-    from sotmot.explain import export_graph, inspection_graph, parse_frames
-    from sotmot.graph_view import draw_png, tracklet_crops, write_html
-
-    from sotmot.io import check_output_dir, read_seqinfo
+    from sotmot.inspect.explain import graph_files, inspection_graph, parse_frames
+    from sotmot.inspect.graph_view import html_page, png_bytes, tracklet_crops
+    from sotmot.io import check_output_dir, read_seqinfo, write_files_atomic
 
     frames = parse_frames(args.frames, read_seqinfo(args.seq_dir).length)
     check_output_dir(args.out)  # a file, a read-only folder: said now, not after the tracking
@@ -420,11 +420,11 @@ def cmd_graph(args: argparse.Namespace) -> int:
 
 
 def cmd_explain(args: argparse.Namespace) -> int:
-    from sotmot.explain import explain, inspection_graph, parse_ids
+    from sotmot.inspect.explain import explain, inspection_graph, parse_ids
 
     a, b = parse_ids(args.ids)
     config, result = _track_for_inspection(args)
-    print(explain(inspection_graph(result, config), a, b, config, config.association.solver))
+    print(explain(inspection_graph(result, config), a, b, config))
     return 0
 
 
@@ -505,7 +505,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Compare long-term association solvers on identical tracklets.",
                        epilog=EPILOG_COMPARE, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequence folders with gt/gt.txt")
-    p.add_argument("--solvers", "--mergers", dest="mergers", default="greedy,flow", metavar="SOLVERS",
+    p.add_argument("--solvers", "--mergers", dest="solvers", default="greedy,flow", metavar="SOLVERS",
                    help="comma-separated solver names (default: %(default)s; --mergers is the older name)")
     _add_tracker_options(p)
     p.add_argument("--json", type=Path, metavar="FILE", help="also write the table as JSON")

@@ -241,7 +241,7 @@ class SotConfig:
         detection. Extensions of false, isolated detections are the SOT
         step's main source of false boxes (issue #12).
     extend_seconds
-        SOT after association (``sotmot.extend``): track each confirmed
+        SOT after association (``sotmot.sot.extend``): track each confirmed
         trajectory up to this many seconds past its last and before its first
         box, where interpolation cannot reach; 0 turns it off. Works with any
         ``variant``; candidates are re-ranked by the re-ID model. On by

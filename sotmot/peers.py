@@ -21,7 +21,8 @@ from sotmot.boxes import xywh_to_xyxy, xyxy_to_xywh
 from sotmot.confidence import scores_are_probabilities
 from sotmot.config import TrackerConfig
 from sotmot.io import FrameReader, read_detections, read_seqinfo
-from sotmot.pipeline import embed_detections, preprocess
+from sotmot.passes import embed_detections
+from sotmot.preprocess import preprocess
 from sotmot.types import Detections, Tracks
 
 #: boxmot trackers: display name -> (boxmot name, options that turn its camera-motion compensation off, or None

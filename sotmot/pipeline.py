@@ -11,97 +11,28 @@ from __future__ import annotations
 
 import logging
 import time
-from collections import deque
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TypeVar
 
 import numpy as np
 
-from solvers import Association, get_solver
 from sotmot.appearance import Embedder, embedder_for
-from sotmot.boxes import nms
-from sotmot.confidence import (
-    BoxModel,
-    box_features,
-    confidence_knots,
-    detection_confidence,
-    load_calibration,
-    model_kind,
-    scores_are_probabilities,
-)
-from sotmot.config import PreprocessConfig, TrackerConfig
-from sotmot.constraints import merge_group
+from sotmot.association import Association, get_solver
+from sotmot.association.merge import merge_group
+from sotmot.confidence import confidence_knots, detection_confidence, load_calibration, model_kind
+from sotmot.config import TrackerConfig
+from sotmot.confirm import box_scorer, confirm
 from sotmot.detection import Detector, detection_source, known_family, make_detector
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
-from sotmot.postprocess import BoxScorer, Expanded, output_ids, to_tracks
+from sotmot.passes import detect_sequence, embed_detections
+from sotmot.postprocess import output_ids, to_tracks
+from sotmot.preprocess import nms_per_frame, preprocess_indices, resolve_nms
+from sotmot.progress import Progress, as_progress
 from sotmot.tracklets import build_tracklets
 from sotmot.types import Detections, Tracklet, Tracks
 
 log = logging.getLogger(__name__)
-T = TypeVar("T")
-
-#: How a stage shows progress: ``(items, description, total) -> items`` (an iterator over the same items).
-Progress = Callable[[Iterable, str, "int | None"], Iterable]
-
-
-def progress_bar(items: Iterable[T], desc: str, enabled: bool, total: int | None = None,
-                 position: int | None = None) -> Iterator[T]:
-    """Wrap ``items`` in a tqdm progress bar on stderr when ``enabled`` (on terminal line ``position``)."""
-    if not enabled:
-        yield from items
-        return
-    from tqdm import tqdm
-
-    yield from tqdm(items, desc=desc, total=total, leave=False, dynamic_ncols=True, unit="frame", position=position)
-
-
-def bars(position: int | None = None) -> Progress:
-    """A :data:`Progress` that draws tqdm bars (on terminal line ``position``: ``track --workers`` gives
-    each worker its own line under the overall bar)."""
-    return lambda items, desc, total=None: progress_bar(items, desc, True, total, position)
-
-
-def as_progress(progress: "bool | Progress") -> Progress:
-    """``progress`` as the stages use it: a :data:`Progress`; True draws bars, False shows nothing."""
-    if callable(progress):
-        return progress
-    return bars() if progress else (lambda items, desc, total=None: items)
-
-
-def resolve_nms(config: PreprocessConfig, detections: Detections) -> str:
-    """The NMS overlap to use: ``config.nms`` with ``"auto"`` decided from the scores.
-
-    ``auto`` means IoM when any score lies outside [0, 1] (scores that are not
-    probabilities, as with the public DPM detections, where the paper uses
-    NMS-IoM), IoU otherwise.
-    """
-    if config.nms != "auto":
-        return config.nms
-    return "iou" if scores_are_probabilities(detections.scores) else "iom"
-
-
-def nms_per_frame(detections: Detections, kind: str, threshold: float) -> np.ndarray:
-    """Indices (ascending) of the boxes that survive NMS of kind ``"iou"``/``"iom"``/``"none"`` in their frame."""
-    if kind == "none" or len(detections) == 0:
-        return np.arange(len(detections))
-    kept = [idx[nms(detections.boxes[idx], detections.scores[idx], threshold, kind)]
-            for idx in detections.by_frame().values()]
-    return np.sort(np.concatenate(kept))
-
-
-def preprocess(detections: Detections, config: PreprocessConfig) -> Detections:
-    """Score threshold, then per-frame NMS (paper Sec. 6.1). Keeps the canonical order."""
-    return detections.subset(preprocess_indices(detections, config))
-
-
-def preprocess_indices(detections: Detections, config: PreprocessConfig) -> np.ndarray:
-    """Indices (ascending) into ``detections`` of the boxes :func:`preprocess` keeps."""
-    kept = np.flatnonzero(detections.scores >= config.score_threshold) if config.score_threshold is not None \
-        else np.arange(len(detections))
-    return kept[nms_per_frame(detections.subset(kept), resolve_nms(config, detections), config.nms_threshold)]
-
 
 def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, embedder: Embedder,
             config: TrackerConfig, progress: "bool | Progress" = False,
@@ -121,7 +52,7 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, 
     features, the SOT links ``(K, 2)`` as indices into them (links whose ends
     NMS removed are dropped) and the number of extension steps.
     """
-    from sotmot.sot import SotTracker
+    from sotmot.sot.algorithm1 import SotTracker
 
     spent = {"appearance": 0.0, "decode": 0.0}
 
@@ -153,114 +84,6 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, 
     return enlarged.subset(keep), all_features[keep], links, result.steps
 
 
-#: Frames the appearance stage decodes (and crops) ahead of the one the model embeds.
-PREFETCH_FRAMES = 8
-
-
-def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
-                     progress: "bool | Progress" = False, timings: dict[str, float] | None = None) -> np.ndarray:
-    """Appearance features ``(N, D)`` of every detection (see :func:`frame_pass` for how frames are read)."""
-    features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
-    per_frame = detections.by_frame()
-    passed = frame_pass(info, sorted(per_frame), lambda frame, image: detections.boxes[per_frame[frame]],
-                        embedder, f"{info.name}: appearance", progress, timings)
-    for frame, _, feats in passed:
-        features[per_frame[frame]] = feats
-    return features
-
-
-def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.ndarray], object],
-               embedder: Embedder | None, desc: str, progress: "bool | Progress" = False,
-               timings: dict[str, float] | None = None) -> list[tuple[int, object, np.ndarray]]:
-    """Read each of ``frames`` once, find its boxes and embed them: ``[(frame, found, features), ...]``.
-
-    ``boxes_of(frame, image)`` gives the frame's boxes: an ``(N, 4)`` array,
-    or ``(boxes, scores)`` from a detector (whose call is timed as
-    ``"detect"``); ``embedder`` None skips the embedding (features
-    ``(N, 0)``). The next frames (:data:`PREFETCH_FRAMES`) are decoded,
-    searched and (for the crop-based backends, onnx and openvino) cropped in a
-    background thread while the re-ID model embeds earlier ones (each
-    releases the GIL), so reading overlaps inference. The crop-based backends
-    get the crops of several frames in one call that fills about one forward
-    pass (``batch_size`` rows; with the flip a crop is two rows): a frame
-    holds a few boxes, and small batches waste the runtime's time
-    (docs/benchmarks.md); other embedders are called once per frame.
-    ``timings``, when given, receives ``"decode"``: the seconds spent reading
-    (and cropping) frames, overlapped with the embedding, so part of, not
-    added to, the stage's wall time.
-    """
-    from concurrent.futures import ThreadPoolExecutor
-
-    from sotmot.appearance.onnx_reid import CropEmbedder, crop_boxes
-
-    frame_reader = FrameReader(info, cache_size=1)  # called from the one decoding thread only
-    spent = {"decode": 0.0, "detect": 0.0}
-    batched = isinstance(embedder, CropEmbedder)
-    per_call = max(1, embedder.batch_size // (2 if embedder.flip else 1)) if batched else 1  # crops: one forward pass
-    out: list[tuple[int, object, np.ndarray]] = []
-
-    def reader(frame: int) -> tuple[np.ndarray, object, np.ndarray]:
-        start = time.perf_counter()
-        image = frame_reader(frame)
-        spent["decode"] += time.perf_counter() - start
-        start = time.perf_counter()
-        found = boxes_of(frame, image)
-        boxes = found[0] if isinstance(found, tuple) else found
-        spent["detect" if isinstance(found, tuple) else "decode"] += time.perf_counter() - start
-        start = time.perf_counter()
-        if batched:
-            image = crop_boxes(image, boxes)
-        spent["decode"] += time.perf_counter() - start
-        return boxes, found, image
-
-    pending: list[tuple[int, np.ndarray]] = []  # (index into out, crops) not embedded yet
-
-    def flush() -> None:
-        sizes = [len(c) for _, c in pending]
-        if sum(sizes):
-            feats = embedder.embed_crops(np.concatenate([c for _, c in pending]))
-            for (k, _), part in zip(pending, np.split(feats, np.cumsum(sizes)[:-1])):
-                out[k] = (out[k][0], out[k][1], part)
-        pending.clear()
-
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-decode") as pool:
-        # a few frames ahead: one call of the model consumes several frames' crops at once
-        upcoming = deque(pool.submit(reader, f) for f in frames[:PREFETCH_FRAMES])
-        for k, frame in enumerate(as_progress(progress)(frames, desc, len(frames))):
-            boxes, found, item = upcoming.popleft().result()
-            if k + PREFETCH_FRAMES < len(frames):
-                upcoming.append(pool.submit(reader, frames[k + PREFETCH_FRAMES]))
-            out.append((frame, found, np.zeros((len(boxes), embedder.dim if embedder else 0), np.float32)))
-            if embedder is None:
-                continue
-            if not batched:
-                out[-1] = (frame, found, embedder.embed(item, boxes))
-                continue
-            pending.append((len(out) - 1, item))
-            if sum(len(c) for _, c in pending) >= per_call or k + 1 == len(frames):
-                flush()
-    if timings is not None:
-        for stage, seconds in spent.items():
-            if seconds:
-                timings[stage] = timings.get(stage, 0.0) + seconds
-    return out
-
-
-def detect_sequence(info: SeqInfo, detector, embedder: Embedder | None = None, progress: "bool | Progress" = False,
-                    timings: dict[str, float] | None = None) -> tuple[Detections, np.ndarray]:
-    """Run ``detector`` on every frame: the detections in canonical order and, with ``embedder``, their features
-    from the same decoded frames (``(N, D)``; ``(N, 0)`` without)."""
-    passed = frame_pass(info, list(range(1, info.length + 1)), lambda frame, image: detector.detect(image),
-                        embedder, f"{info.name}: detection", progress, timings)
-    dim = embedder.dim if embedder is not None else 0
-    frames = np.concatenate([np.full(len(found[0]), frame, np.int64) for frame, found, _ in passed] or [[]])
-    raw = Detections(frames, np.concatenate([found[0] for _, found, _ in passed] or [np.zeros((0, 4))]),
-                     np.concatenate([found[1] for _, found, _ in passed] or [[]]))
-    features = np.concatenate([f for *_, f in passed] or [np.zeros((0, dim), np.float32)]).reshape(len(raw), dim)
-    order = raw.canonical_order()
-    return raw.subset(order), features[order]
-
-
 @dataclass
 class TrackResult:
     """Everything one run produced, for inspection and comparison.
@@ -290,6 +113,9 @@ class TrackResult:
     detected
         The detector's boxes before preprocessing when the detections came
         from the model (``[detection] source``), else None.
+    track_ids
+        The output track id of each of ``trajectories`` (None: dropped as too
+        short), as :func:`~sotmot.postprocess.output_ids` numbers them.
     """
 
     info: SeqInfo
@@ -303,12 +129,16 @@ class TrackResult:
     confidence: np.ndarray = field(default_factory=lambda: np.zeros(0))
     dropped: Tracks = field(default_factory=Tracks.empty)
     detected: Detections | None = None
+    track_ids: list[int | None] = field(default_factory=list)
+
+    def identities(self) -> dict[int, np.ndarray]:
+        """Output track id -> the mean appearance feature of its trajectory (its identity)."""
+        return {i: t.feature for t, i in zip(self.trajectories, self.track_ids) if i is not None}
 
 
-def associate(tracklets: list[Tracklet], merger: str | None, config: TrackerConfig
-              ) -> tuple[Association, list[Tracklet]]:
-    """Run the solver named ``merger`` (None: ``[association] solver``) and merge each group into one trajectory."""
-    solver = get_solver(merger or config.association.solver)
+def associate(tracklets: list[Tracklet], config: TrackerConfig) -> tuple[Association, list[Tracklet]]:
+    """Run the solver ``[association] solver`` names and merge each group into one trajectory."""
+    solver = get_solver(config.association.solver)
     association = solver(tuple(tracklets), config.association)
     by_id = {t.id: t for t in tracklets}
     trajectories = [merge_group([by_id[i] for i in group], new_id=k)
@@ -407,72 +237,47 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected)
 
 
-def box_scorer(prepared: Prepared, model: BoxModel, confidence: np.ndarray | None = None) -> BoxScorer:
-    """``model`` as a :data:`~sotmot.postprocess.BoxScorer` for one prepared sequence.
-
-    ``confidence`` overrides ``prepared.confidence`` (the calibration fit tries
-    other detection confidences on the same sequence).
-    """
-    confidence = prepared.confidence if confidence is None else confidence
-    dets, rate = prepared.detections, prepared.info.frame_rate
-
-    def score(trajectory: Tracklet, expanded: Expanded) -> np.ndarray:
-        return model.predict(box_features(trajectory, expanded, confidence, dets.from_sot, prepared.features, rate))
-
-    return score
-
-
-def confirm(tracks: Tracks, config: TrackerConfig, method: str = "raw") -> tuple[Tracks, Tracks]:
-    """Split scored ``tracks`` into the confirmed boxes and the dropped ones.
-
-    The threshold is ``[confirm] threshold``, or the calibration's for the
-    model kind of the confidence ``method`` the sequence used.
-    """
-    threshold = config.confirm.threshold
-    if threshold is None:
-        threshold = load_calibration(config.confirm.calibration).thresholds[model_kind(method)]
-    keep = ~(tracks.confidence < threshold)  # NaN (not scored) is kept
-    return tracks.subset(np.flatnonzero(keep)), tracks.subset(np.flatnonzero(~keep))
-
-
 def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
-                    merger: str | None = None, embedder: Embedder | None = None,
+                    embedder: Embedder | None = None,
                     progress: "bool | Progress" = False) -> TrackResult:
-    """Long-term association with the solver ``merger`` (None: the config's), then post-processing, confirmation and
+    """Long-term association with the solver ``[association] solver``, then post-processing, confirmation and
     (with ``[sot] extend_seconds``) the extension of trajectory ends; ``embedder`` serves the latter
     (built from ``config.appearance`` when needed and omitted)."""
     timings = dict(prepared.timings)
     clock = _Clock(timings)
-    association, trajectories = associate(prepared.tracklets, merger, config)
+    association, trajectories = associate(prepared.tracklets, config)
     clock.lap("association")
     scorer = None
     if config.confirm.enabled:
         model = load_calibration(config.confirm.calibration).box_models[model_kind(prepared.confidence_method)]
-        scorer = box_scorer(prepared, model)
-    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, scorer, prepared.info.frame_rate)
+        scorer = box_scorer(model, prepared.detections, prepared.features, prepared.confidence,
+                            prepared.info.frame_rate)
+    ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate)
+    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, scorer, prepared.info.frame_rate, ids)
     clock.lap("postprocess")
     tracks, dropped = (confirm(tracks, config, prepared.confidence_method) if config.confirm.enabled
                        else (tracks, Tracks.empty()))
     clock.lap("confirm")
     if (config.sot.extend_seconds > 0 or config.sot.refine_gaps) and len(tracks):
-        tracks = extend_trajectories(prepared, trajectories, tracks, config, embedder, progress)
+        identity = {i: t.feature for t, i in zip(trajectories, ids) if i is not None}
+        tracks = extend_trajectories(prepared, identity, tracks, config, embedder, progress)
         clock.lap("extend")
     log.info("%s: %d tracklets -> %d trajectories -> %d tracks, %d boxes kept, %d dropped as unconfirmed (%s)",
              prepared.info.name, len(prepared.tracklets), len(trajectories), tracks.n_tracks, len(tracks),
-             len(dropped), merger or config.association.solver)
+             len(dropped), config.association.solver)
     return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
-                       association, trajectories, tracks, timings, prepared.confidence, dropped, prepared.detected)
+                       association, trajectories, tracks, timings, prepared.confidence, dropped, prepared.detected,
+                       ids)
 
 
-def extend_trajectories(prepared: Prepared, trajectories: list[Tracklet], tracks: Tracks, config: TrackerConfig,
+def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tracks: Tracks, config: TrackerConfig,
                         embedder: Embedder | None = None, progress: "bool | Progress" = False) -> Tracks:
-    """SOT after association (:mod:`sotmot.extend`) on the output ``tracks``: interpolated boxes replaced by
-    boxes found in the frames (``[sot] refine_gaps``), then the ends extended (``[sot] extend_seconds``)."""
-    from sotmot.extend import extend_ends, refine_gaps
+    """SOT after association (:mod:`sotmot.sot.extend`) on the output ``tracks`` (``identity``: track id -> mean
+    feature): interpolated boxes replaced by boxes found in the frames (``[sot] refine_gaps``), then the ends
+    extended (``[sot] extend_seconds``)."""
+    from sotmot.sot.extend import extend_ends, refine_gaps
 
     info = prepared.info
-    ids = output_ids(trajectories, config.postprocess, info.frame_rate)
-    identity = {i: t.feature for t, i in zip(trajectories, ids) if i is not None}
     reader, embedder = FrameReader(info, cache_size=8), embedder_for(config.appearance, embedder)
     if config.sot.refine_gaps:
         tracks = refine_gaps(tracks, identity, reader, embedder, config.sot,
@@ -485,7 +290,7 @@ def extend_trajectories(prepared: Prepared, trajectories: list[Tracklet], tracks
     return tracks
 
 
-def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(), merger: str | None = None,
+def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
                    embedder: Embedder | None = None, progress: "bool | Progress" = False,
                    features: np.ndarray | None = None, detector: Detector | None = None) -> TrackResult:
     """Track one MOTChallenge sequence folder.
@@ -495,10 +300,8 @@ def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
     seq_dir
         Folder with ``seqinfo.ini``, ``det/det.txt`` and ``img1/``.
     config
-        Tracker configuration.
-    merger
-        Name of the long-term association solver (a key of ``solvers.SOLVERS``);
-        None: ``[association] solver`` of ``config``.
+        Tracker configuration; ``[association] solver`` names the long-term
+        association solver (a key of :data:`sotmot.plugins.SOLVERS`).
     embedder
         Appearance model; built from ``config.appearance`` when omitted.
     progress
@@ -511,6 +314,6 @@ def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
         Person detector, when the detections come from the model (``[detection]
         source``); built from ``config.detection`` when needed and omitted.
     """
-    get_solver(merger or config.association.solver)  # an unknown name fails before any work is done
+    get_solver(config.association.solver)  # an unknown name fails before any work is done
     return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features, detector), config,
-                           merger, embedder, progress)
+                           embedder, progress)

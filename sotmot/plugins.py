@@ -19,9 +19,9 @@ SOLVERS: dict[str, str] = {
 
 #: Re-ID backends: config name -> "module:factory", the factory taking an AppearanceConfig.
 BACKENDS: dict[str, str] = {
-    "onnx": "sotmot.appearance.onnx_reid:OnnxReidEmbedder",
-    "torch": "sotmot.appearance.torch_reid:TorchReidEmbedder",
-    "openvino": "sotmot.appearance.openvino_reid:OpenVinoReidEmbedder",
+    "onnx": "sotmot.appearance.onnx:OnnxReidEmbedder",
+    "torch": "sotmot.appearance.torch:TorchReidEmbedder",
+    "openvino": "sotmot.appearance.openvino:OpenVinoReidEmbedder",
 }
 
 #: Person detectors: config name -> "module:factory", the factory taking a DetectionConfig.

@@ -134,7 +134,7 @@ BoxScorer = Callable[[Tracklet, Expanded], np.ndarray]
 
 def to_tracks(trajectories: Sequence[Tracklet], detections: Detections,
               config: PostprocessConfig = PostprocessConfig(), scorer: BoxScorer | None = None,
-              frame_rate: float | None = None) -> Tracks:
+              frame_rate: float | None = None, ids: Sequence[int | None] | None = None) -> Tracks:
     """Post-process trajectories into the final :class:`Tracks`.
 
     Each trajectory is interpolated (if enabled; gaps up to
@@ -142,9 +142,11 @@ def to_tracks(trajectories: Sequence[Tracklet], detections: Detections,
     written under the id :func:`output_ids` gives it (or dropped). With a
     ``scorer`` every box gets its probability of being a true positive in
     ``Tracks.confidence`` (the confirmation stage then chooses which to keep).
+    ``ids``: :func:`output_ids` of the same trajectories, when the caller has them.
     """
     parts = []
-    for t, track_id in zip(trajectories, output_ids(trajectories, config, frame_rate)):
+    ids = output_ids(trajectories, config, frame_rate) if ids is None else ids
+    for t, track_id in zip(trajectories, ids):
         if track_id is None:
             continue
         e = expand(t, config, frame_rate)

@@ -75,8 +75,8 @@ def frames_fingerprint(info: SeqInfo) -> str | None:
     return digest.hexdigest()
 
 
-def run_record(info: SeqInfo, config: TrackerConfig, merger: str) -> dict[str, Any]:
-    """The record of tracking ``info`` with ``config`` and the solver ``merger``, as of now."""
+def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
+    """The record of tracking ``info`` with ``config`` (its solver included), as of now."""
     from importlib import resources
 
     from sotmot.detection import detection_source
@@ -89,7 +89,7 @@ def run_record(info: SeqInfo, config: TrackerConfig, merger: str) -> dict[str, A
     return {
         "sotmot": sotmot_version(),
         "sequence": info.name,
-        "solver": merger,
+        "solver": config.association.solver,
         "config": config.to_dict(),
         "reid_model": {"path": model, "sha256": file_sha256(model) if model else None},
         "confidence_calibration": {"path": calibration or "packaged",

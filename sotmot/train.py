@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.appearance.onnx_reid import crop_boxes
+from sotmot.appearance.base import crop_boxes
 from sotmot.config import AppearanceConfig
 from sotmot.errors import SotmotError
 from sotmot.io import FrameReader, read_ground_truth, read_seqinfo
@@ -116,7 +116,7 @@ def train(seq_dirs: Sequence[str | Path], appearance: AppearanceConfig, out: str
     """
     import torch
 
-    from sotmot.appearance.torch_reid import TorchReidEmbedder
+    from sotmot.appearance.torch import TorchReidEmbedder
 
     start = time.perf_counter()
     torch.manual_seed(config.seed)

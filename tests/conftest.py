@@ -33,7 +33,7 @@ def model_0288() -> Path:
 @pytest.fixture(scope="session")
 def real_crops() -> np.ndarray:
     """24 ground-truth pedestrian crops of MOT16-04-clip30 (frames 1, 15, 30), as the re-ID backends take them."""
-    from sotmot.appearance.onnx_reid import crop_boxes
+    from sotmot.appearance.base import crop_boxes
     from sotmot.io import FrameReader, read_ground_truth, read_seqinfo
 
     info = read_seqinfo(require(DATA / "MOT16-04-clip30"))

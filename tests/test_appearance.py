@@ -107,7 +107,7 @@ def test_flip_average_and_non_finite_outputs_are_refused():
 
 def test_the_affinity_gate_is_one_rule_and_nan_never_passes():
     from sotmot.config import AssociationConfig
-    from sotmot.constraints import passes_affinity_gate, rule_failures
+    from sotmot.association.rules import passes_affinity_gate, rule_failures
 
     cfg = AssociationConfig(min_affinity=0.5)
     assert passes_affinity_gate([0.49, 0.5, np.nan], cfg).tolist() == [False, True, False]

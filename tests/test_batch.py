@@ -60,7 +60,7 @@ def test_dask_cluster_runs_the_same_jobs_and_keeps_failures_local(tmp_path, mode
 
 @pytest.mark.parametrize("address", ["tcp://127.0.0.1:8786", "dask://127.0.0.1", "dask://:8786", "dask://h:port"])
 def test_malformed_cluster_addresses_are_refused(address):
-    from sotmot.batch import dask_address
+    from sotmot.runs import dask_address
     from sotmot.errors import ConfigError
 
     with pytest.raises(ConfigError, match="dask://HOST:PORT"):
@@ -90,7 +90,7 @@ def test_a_worker_that_dies_fails_its_own_sequence_only(tmp_path, monkeypatch, m
     if sys.platform != "linux":
         pytest.skip("relies on fork: the patched job reaches the workers")
     from conftest import GeometryEmbedder, write_sequence
-    from sotmot import batch
+    from sotmot import runs as batch
     from sotmot.config import TrackerConfig
 
     real = batch.track_one

@@ -34,7 +34,7 @@ def test_help_teaches(capsys):
     assert "--merger" in text and "greedy" in text and "SOTMOT_REID_MODEL" in text and "examples:" in text
 
 
-def test_unknown_merger_is_rejected_with_the_valid_names(capsys):
+def test_unknown_solver_given_by_its_old_flag_is_rejected_with_the_valid_names(capsys):
     with pytest.raises(SystemExit):
         main(["track", "x", "--out", "y", "--merger", "magic"])
     assert "greedy" in capsys.readouterr().err
@@ -82,3 +82,17 @@ def test_appearance_backend_and_flip_come_from_the_command_line():
     args = build_parser().parse_args(["track", "x", "--out", "y", "--appearance", "openvino", "--no-flip"])
     config = _build_config(args)
     assert config.appearance.backend == "openvino" and not config.appearance.flip
+
+
+def test_graph_and_explain_commands_run_to_the_end(tmp_path, model_0288, capsys):
+    """The inspection commands as a user types them: every file written, the explanation printed."""
+    seq = require(DATA / "MOT16-05-clip30")
+    out = tmp_path / "graph"
+    assert main(["graph", str(seq), "--out", str(out), "--reid-model", str(model_0288), "-q"]) == 0
+    written = sorted(p.name for p in out.iterdir())
+    assert written == ["graph.graphml", "graph.html", "graph.json", "graph.png"], written
+    assert (out / "graph.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    nodes = json.loads((out / "graph.json").read_text())["nodes"]
+    assert nodes and "taken by greedy" in capsys.readouterr().out
+    assert main(["explain", str(seq), "--ids", "1,2", "--reid-model", str(model_0288), "-q"]) == 0
+    assert "tracks 1 and 2" in capsys.readouterr().out

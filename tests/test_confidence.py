@@ -126,12 +126,12 @@ def test_threshold_zero_keeps_every_box(tmp_path):
 
 
 def test_unconfirmed_file_holds_the_dropped_boxes(tmp_path):
-    from sotmot.batch import track_one
+    from sotmot.runs import track_one
     from sotmot.io import read_results
 
     seq = _scene(tmp_path, short_score=-0.4, long_score=-0.1)
     config = TrackerConfig().replace("confirm", low_confidence="file")
-    outcome = track_one(str(seq), str(tmp_path / "out"), config, "greedy", False, embedder=GeometryEmbedder())
+    outcome = track_one(str(seq), str(tmp_path / "out"), config, False, embedder=GeometryEmbedder())
     assert outcome.status == "done", outcome.message
     low = read_results(tmp_path / "out" / "SYN.low.txt", 40)
     kept = read_results(tmp_path / "out" / "SYN.txt", 40)

@@ -95,12 +95,12 @@ def test_track_video_refuses_results_over_its_detections(tmp_path, capsys):
 
 
 def test_a_sequence_named_det_is_not_written_over_its_own_detections(tmp_path):
-    from sotmot.batch import track_one
+    from sotmot.runs import track_one
 
     lines = [f"{f},-1,{10 + 2 * f},20,20,40,0.95" for f in range(1, 9)]
     seq = write_sequence(tmp_path, lines, length=10, frame_rate=4, width=120, height=80, name="det")
     before = (seq / "det" / "det.txt").read_text()
-    outcome = track_one(str(seq), str(seq / "det"), TrackerConfig(), "greedy", False, embedder=GeometryEmbedder())
+    outcome = track_one(str(seq), str(seq / "det"), TrackerConfig(), False, embedder=GeometryEmbedder())
     assert outcome.status == "failed" and "which this run reads" in outcome.message
     assert (seq / "det" / "det.txt").read_text() == before
     assert sorted(p.name for p in (seq / "det").iterdir()) == ["det.txt"]
@@ -109,7 +109,7 @@ def test_a_sequence_named_det_is_not_written_over_its_own_detections(tmp_path):
 # 4. --resume that skipped a changed model or a damaged results file -------------------------------------------
 
 def test_the_model_from_the_environment_is_recorded_and_a_change_reruns(tmp_path, monkeypatch):
-    from sotmot.batch import resolve_paths
+    from sotmot.runs import resolve_paths
     from sotmot.provenance import run_record, why_rerun, write_record
 
     seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False)
@@ -120,28 +120,28 @@ def test_the_model_from_the_environment_is_recorded_and_a_change_reruns(tmp_path
     results = tmp_path / "out" / "SYN.txt"
     write_results(results, Tracks(frames=[1], ids=[1], boxes=[[10, 10, 5, 8]], scores=[1]))
     monkeypatch.setenv("SOTMOT_REID_MODEL", str(a))
-    record = run_record(info, resolve_paths(TrackerConfig()), "greedy")
+    record = run_record(info, resolve_paths(TrackerConfig()))
     assert record["reid_model"]["path"] == str(a.resolve()) and record["reid_model"]["sha256"]
     record["results_sha256"] = __import__("hashlib").sha256(results.read_bytes()).hexdigest()
     write_record(results, record)
-    assert why_rerun(results, run_record(info, resolve_paths(TrackerConfig()), "greedy")) is None
+    assert why_rerun(results, run_record(info, resolve_paths(TrackerConfig()))) is None
     monkeypatch.setenv("SOTMOT_REID_MODEL", str(b))
-    assert "reid_model.sha256" in why_rerun(results, run_record(info, resolve_paths(TrackerConfig()), "greedy"))
+    assert "reid_model.sha256" in why_rerun(results, run_record(info, resolve_paths(TrackerConfig())))
 
 
 @pytest.mark.parametrize("damage", ["emptied", "cut"])
 def test_resume_reruns_a_results_file_that_was_emptied_or_cut(tmp_path, damage):
-    from sotmot.batch import track_one
+    from sotmot.runs import track_one
 
     lines = [f"{f},-1,{10 + 2 * f},20,20,40,0.95" for f in range(1, 9)]
     seq = write_sequence(tmp_path, lines, length=10, frame_rate=4, width=120, height=80)
     out = tmp_path / "out"
-    assert track_one(str(seq), str(out), TrackerConfig(), "greedy", True, embedder=GeometryEmbedder()).status == "done"
+    assert track_one(str(seq), str(out), TrackerConfig(), True, embedder=GeometryEmbedder()).status == "done"
     whole = (out / "SYN.txt").read_text()
-    assert track_one(str(seq), str(out), TrackerConfig(), "greedy", True,
+    assert track_one(str(seq), str(out), TrackerConfig(), True,
                      embedder=GeometryEmbedder()).status == "skipped"
     (out / "SYN.txt").write_text("" if damage == "emptied" else "".join(whole.splitlines(True)[:-2]))
-    again = track_one(str(seq), str(out), TrackerConfig(), "greedy", True, embedder=GeometryEmbedder())
+    again = track_one(str(seq), str(out), TrackerConfig(), True, embedder=GeometryEmbedder())
     assert again.status == "done" and "changed since it was written" in again.message
     assert (out / "SYN.txt").read_text() == whole
 
@@ -149,7 +149,7 @@ def test_resume_reruns_a_results_file_that_was_emptied_or_cut(tmp_path, damage):
 # 5. --workers 1000000 ----------------------------------------------------------------------------------------
 
 def test_workers_are_capped_by_sequences_and_cpus():
-    from sotmot.batch import usable_workers
+    from sotmot.runs import usable_workers
 
     assert usable_workers(1_000_000, 2) == min(2, os.cpu_count() or 1)
     assert usable_workers(6, 2) <= 2
@@ -162,7 +162,7 @@ def test_workers_are_capped_by_sequences_and_cpus():
 def test_a_worker_dies_with_its_parent(tmp_path):
     script = textwrap.dedent("""
         import multiprocessing, sys, time
-        from sotmot.batch import _die_with_parent
+        from sotmot.runs import _die_with_parent
 
         def child():
             _die_with_parent()
@@ -317,7 +317,7 @@ def test_results_with_an_impossible_id_are_refused_with_file_and_line(tmp_path, 
 
 @pytest.mark.parametrize("solvers", ["", ",", "greedy,greedy", "greedy,"])
 def test_compare_refuses_an_empty_or_repeated_solver_list(tmp_path, solvers, capsys, monkeypatch):
-    from sotmot import compare
+    from sotmot.inspect import compare
 
     monkeypatch.setattr(compare, "compare", lambda *a, **k: pytest.fail("compared with a bad solver list"))
     seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False)
@@ -366,7 +366,7 @@ def test_duplicate_json_keys_are_refused(tmp_path):
 # 13. --eval without ground truth -----------------------------------------------------------------------------
 
 def test_eval_without_ground_truth_is_refused_before_tracking(tmp_path, capsys, monkeypatch):
-    from sotmot import batch
+    from sotmot import runs as batch
 
     monkeypatch.setattr(batch, "track_many", lambda *a, **k: pytest.fail("tracked before checking --eval"))
     gt = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], name="A", images=False, gt_lines=["1,1,10,10,5,8,1,1,1"])
@@ -383,7 +383,8 @@ def test_eval_without_ground_truth_is_refused_before_tracking(tmp_path, capsys, 
 
 
 def test_json_reports_never_land_on_an_input_and_are_checked_before_the_work(tmp_path, capsys, monkeypatch):
-    from sotmot import compare, evaluate
+    from sotmot import evaluate
+    from sotmot.inspect import compare
 
     seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False, gt_lines=["1,1,10,10,5,8,1,1,1"])
     results = tmp_path / "res"

@@ -184,7 +184,7 @@ def test_detect_sequence_gathers_every_frame_in_canonical_order_with_or_without_
 
     from conftest import GeometryEmbedder, write_sequence
     from sotmot.io import read_seqinfo
-    from sotmot.pipeline import detect_sequence
+    from sotmot.passes import detect_sequence
 
     seq = write_sequence(tmp_path, [], length=6, images=True)
     for f in range(1, 7):  # each frame says its own number in the corner pixel

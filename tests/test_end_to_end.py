@@ -24,7 +24,8 @@ def tud():
     """TUD-Stadtmitte's folder and the features of its preprocessed detections (computed once)."""
     from sotmot.appearance import make_embedder
     from sotmot.io import read_detections, read_seqinfo
-    from sotmot.pipeline import embed_detections, preprocess
+    from sotmot.passes import embed_detections
+    from sotmot.preprocess import preprocess
 
     seq = require(DATA / "TUD-Stadtmitte")
     model = require(MODEL_0288)
@@ -34,14 +35,14 @@ def tud():
     return seq, config, embed_detections(info, dets, make_embedder(config.appearance))
 
 
-def scores(tud, tmp_path, config: TrackerConfig | None = None, merger: str = "greedy") -> dict[str, float]:
+def scores(tud, tmp_path, config: TrackerConfig | None = None, solver: str = "greedy") -> dict[str, float]:
     from sotmot.evaluate import evaluate_files
     from sotmot.io import results_path, write_results
     from sotmot.pipeline import track_sequence
 
     seq, base, features = tud
-    result = track_sequence(seq, config or base, merger=merger, features=features)
-    path = results_path(tmp_path / merger, result.info.name)
+    result = track_sequence(seq, (config or base).replace("association", solver=solver), features=features)
+    path = results_path(tmp_path / solver, result.info.name)
     write_results(path, result.tracks)
     values = evaluate_files([(path, result.info.gt_path, result.info.length, result.info.name)]
                             ).sequences[result.info.name]
@@ -67,11 +68,11 @@ def test_default_tracker_on_tud_stadtmitte_matches_its_pins(tud, tmp_path):
                                     "end extension off"])
 def test_each_stage_is_seen(tud, tmp_path, change):
     _, base, _ = tud
-    config, merger = {
+    config, solver = {
         "interpolation off": (base.replace("postprocess", interpolate=False), "greedy"),
         "l_max 5": (base.replace("association", l_max=5), "greedy"),
         "flow solver": (base, "flow"),
         "confirmation off": (base.replace("confirm", enabled=False), "greedy"),
         "end extension off": (base.replace("sot", extend_seconds=0.0), "greedy"),
     }[change]
-    assert off_pin(scores(tud, tmp_path, config, merger)), f"the pins do not see: {change}"
+    assert off_pin(scores(tud, tmp_path, config, solver)), f"the pins do not see: {change}"

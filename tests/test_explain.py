@@ -11,8 +11,8 @@ import pytest
 
 from conftest import GeometryEmbedder, write_sequence
 from sotmot.config import TrackerConfig
-from sotmot.explain import explain, export_graph, inspection_graph
-from sotmot.graph_view import draw_png, tracklet_crops, write_html
+from sotmot.inspect.explain import explain, export_graph, inspection_graph
+from sotmot.inspect.graph_view import draw_png, tracklet_crops, write_html
 from sotmot.pipeline import track_sequence
 
 # these tests are about association: the confirmation stage (which would judge four boxes of
@@ -37,7 +37,7 @@ def test_velocity_rejection_is_exported_and_explained(tmp_path):
     graph = inspection_graph(result, config)
     (edge,) = graph.edges(data=True)
     assert edge[2]["failed"] == "velocity" and not edge[2]["taken"]
-    text = explain(graph, 1, 2, config, "greedy")
+    text = explain(graph, 1, 2, config)
     assert "REJECTED by velocity" in text
     assert "velocity: 242.00 px/frame" in text and "bound 20.00" in text
     assert "were not merged" in text
@@ -66,7 +66,7 @@ def test_merged_tracks_are_explained_as_taken(tmp_path):
     config = ASSOCIATION_ONLY
     result = track_sequence(seq, config, embedder=GeometryEmbedder())
     graph = inspection_graph(result, config)
-    text = explain(graph, 1, 1, config, "greedy")
+    text = explain(graph, 1, 1, config)
     assert "TAKEN by greedy in round 1" in text and "were merged" in text
     assert text.count("candidate ") == 1  # one link inside one track, said once
     # what the link adds to the lifted objective: the one pair it joins (affinity 1, 4 boxes each), 4 * 4 times the

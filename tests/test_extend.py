@@ -6,7 +6,7 @@ import numpy as np
 
 from conftest import GeometryEmbedder
 from sotmot.config import SotConfig, TrackerConfig
-from sotmot.extend import end_velocity, extend_ends, inside_fraction, refine_gaps
+from sotmot.sot.extend import end_velocity, extend_ends, inside_fraction, refine_gaps
 from sotmot.types import Tracks
 
 WIDTH, HEIGHT, LENGTH = 200, 120, 34

@@ -31,11 +31,11 @@ def test_results_path_refuses_a_name_with_a_separator(tmp_path):
 
 
 def test_track_never_writes_outside_out(tmp_path):
-    from sotmot.batch import track_one
+    from sotmot.runs import track_one
 
     seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=True)
     (seq / "seqinfo.ini").write_text((seq / "seqinfo.ini").read_text().replace("name=SYN", "name=../escaped"))
-    outcome = track_one(str(seq), str(tmp_path / "out"), TrackerConfig(), "greedy", False,
+    outcome = track_one(str(seq), str(tmp_path / "out"), TrackerConfig(), False,
                         embedder=GeometryEmbedder())
     assert outcome.status == "failed" and "plain file name" in outcome.message
     assert not (tmp_path / "escaped.txt").exists() and not (tmp_path / "escaped.flags.csv").exists()
@@ -153,33 +153,33 @@ def _walker_sequence(tmp_path):
 def test_results_carry_a_run_record_and_resume_reruns_only_when_it_differs(tmp_path):
     import json
 
-    from sotmot.batch import track_one
+    from sotmot.runs import track_one
 
     seq = _walker_sequence(tmp_path)
     out = tmp_path / "out"
     config = TrackerConfig()
-    first = track_one(str(seq), str(out), config, "greedy", True, embedder=GeometryEmbedder())
+    first = track_one(str(seq), str(out), config, True, embedder=GeometryEmbedder())
     assert first.status == "done"
     record = json.loads((out / "SYN.run.json").read_text())
     assert record["solver"] == "greedy" and record["config"]["association"]["l_max"] == 60
     assert len(record["inputs"]["detections"]["sha256"]) == 64 and record["sotmot"]
-    assert track_one(str(seq), str(out), config, "greedy", True, embedder=GeometryEmbedder()).status == "skipped"
-    changed = track_one(str(seq), str(out), config.replace("association", l_max=45), "greedy", True,
+    assert track_one(str(seq), str(out), config, True, embedder=GeometryEmbedder()).status == "skipped"
+    changed = track_one(str(seq), str(out), config.replace("association", l_max=45), True,
                         embedder=GeometryEmbedder())
     assert changed.status == "done" and "re-run: made with a different config.association.l_max" in changed.message
-    other_solver = track_one(str(seq), str(out), config.replace("association", l_max=45), "flow", True,
+    other_solver = track_one(str(seq), str(out), config.replace("association", l_max=45, solver="flow"), True,
                              embedder=GeometryEmbedder())
-    assert "different solver" in other_solver.message
+    assert "different config.association.solver" in other_solver.message
     (out / "SYN.run.json").unlink()
-    again = track_one(str(seq), str(out), config, "greedy", True, embedder=GeometryEmbedder())
+    again = track_one(str(seq), str(out), config, True, embedder=GeometryEmbedder())
     assert again.status == "done" and "has no run record" in again.message
     (seq / "det" / "det.txt").write_text((seq / "det" / "det.txt").read_text() + "9,-1,30,20,20,40,0.9\n")
-    edited = track_one(str(seq), str(out), config, "greedy", True, embedder=GeometryEmbedder())
+    edited = track_one(str(seq), str(out), config, True, embedder=GeometryEmbedder())
     assert "inputs.detections.sha256" in edited.message
 
 
 def test_out_that_is_a_file_fails_before_any_work(tmp_path):
-    from sotmot.batch import track_many
+    from sotmot.runs import track_many
 
     seq = _walker_sequence(tmp_path)
     (tmp_path / "taken").write_text("x")
@@ -319,7 +319,7 @@ def test_video_detections_are_checked_against_the_user_file(tmp_path):
 
 
 def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):
-    from sotmot import batch
+    from sotmot import runs as batch
     from sotmot.io import mot
 
     seq = _walker_sequence(tmp_path)
@@ -331,7 +331,7 @@ def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):
         real(path, data)
 
     monkeypatch.setattr(mot, "write_bytes_atomic", full_disk)
-    outcome = batch.track_one(str(seq), str(tmp_path / "out"), TrackerConfig(), "greedy", False,
+    outcome = batch.track_one(str(seq), str(tmp_path / "out"), TrackerConfig(), False,
                               embedder=GeometryEmbedder())
     assert outcome.status == "failed"
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == []
@@ -340,7 +340,7 @@ def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):
 def test_the_solver_is_configuration():
     from sotmot.cli import _build_config, build_parser
 
-    from solvers import SOLVERS
+    from sotmot.association import SOLVERS
 
     with pytest.raises(ConfigError, match="solver must be one of " + ", ".join(sorted(SOLVERS))):
         TrackerConfig().replace("association", solver="magic")
@@ -354,15 +354,15 @@ def test_resume_skips_a_copied_sequence_and_a_video_decoded_again(tmp_path, mode
     import shutil
     import time
 
-    from sotmot.batch import track_one
+    from sotmot.runs import track_one
     from sotmot.cli import main
 
     seq = _walker_sequence(tmp_path)
     out = tmp_path / "out"
-    assert track_one(str(seq), str(out), TrackerConfig(), "greedy", True, embedder=GeometryEmbedder()).status == "done"
+    assert track_one(str(seq), str(out), TrackerConfig(), True, embedder=GeometryEmbedder()).status == "done"
     time.sleep(0.01)
     copy = shutil.copytree(seq, tmp_path / "copy" / "SYN")  # new modification times, same files
-    assert track_one(str(copy), str(out), TrackerConfig(), "greedy", True,
+    assert track_one(str(copy), str(out), TrackerConfig(), True,
                      embedder=GeometryEmbedder()).status == "skipped"
     video = _video(tmp_path)
     det = tmp_path / "street_det.txt"

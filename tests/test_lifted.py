@@ -9,12 +9,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from helpers import direction, one_person_in_three_pieces, tk
-from solvers import get_solver
-from solvers.flow_common import chains_from_links
-from solvers.lifted import LiftedWindowError, lifted_objective, link_pairs, pair_scores
+from sotmot.association import get_solver
+from sotmot.association.flow_network import chains_from_links
+from solvers.lifted import LiftedWindowError
+from sotmot.association.objective import lifted_objective, link_pairs, pair_scores
 from sotmot.config import AssociationConfig
-from sotmot.constraints import link_order_key
-from sotmot.graph import candidate_links
+from sotmot.association.merge import link_order_key
+from sotmot.association.candidates import candidate_links
 
 # one window covers every test instance, so the solver's answer is the exact optimum of the whole instance; the
 # threshold costs keep the hand-computed weights of these tests simple (the learned costs have their own tests)
@@ -144,7 +145,7 @@ def test_learned_costs_ask_more_affinity_of_longer_tracklets():
 
 def test_tracklet_identities_and_the_learned_costs_fit(tmp_path):
     from conftest import write_sequence
-    from sotmot.calibrate import fit_lifted_costs, lifted_pair_samples, tracklet_identities
+    from sotmot.fitting.confidence import fit_lifted_costs, lifted_pair_samples, tracklet_identities
     from sotmot.io import read_seqinfo
 
     # two people over 8 frames; tracklet 3 covers person 1, then (a wrong link) person 2 for 3 of its 5 boxes

@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from conftest import GeometryEmbedder, write_sequence
 from sotmot.config import PreprocessConfig, TrackerConfig
 from sotmot.io import format_results, read_detections
-from sotmot.pipeline import preprocess, track_sequence
+from sotmot.pipeline import track_sequence
+from sotmot.preprocess import preprocess
 
 PEOPLE = st.lists(st.tuples(st.integers(0, 250), st.integers(0, 150), st.integers(-6, 6), st.integers(-3, 3),
                             st.integers(15, 40), st.integers(1, 12), st.integers(0, 10)),
@@ -71,7 +72,7 @@ def test_a_frame_missing_while_embedding_is_the_reader_s_error(tmp_path):
     # frames are decoded in a background thread ahead of the re-ID model: its error must still reach the caller
     from sotmot.errors import InputError
     from sotmot.io import read_seqinfo
-    from sotmot.pipeline import embed_detections
+    from sotmot.passes import embed_detections
 
     seq = write_sequence(tmp_path, [f"{f},-1,10,10,5,8,0.9" for f in range(1, 5)], length=4)
     (seq / "img1" / "000003.jpg").unlink()

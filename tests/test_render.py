@@ -6,7 +6,8 @@ import numpy as np
 from conftest import write_sequence
 from sotmot.cli import main
 from sotmot.io import read_results, read_seqinfo, write_results
-from sotmot.render import colour, read_flags, render, write_flags
+from sotmot.inspect.render import colour, render
+from sotmot.io.flags import read_flags, write_flags
 from sotmot.types import Tracks
 
 
@@ -85,7 +86,7 @@ def test_render_refuses_to_write_into_the_sequence_and_odd_targets(tmp_path, cap
 def test_failed_frame_write_is_an_error_and_leaves_nothing_half_written(tmp_path, monkeypatch):
     import pytest
 
-    from sotmot import render as render_module
+    from sotmot.inspect import render as render_module
     from sotmot.errors import InputError
 
     seq = write_sequence(tmp_path, ["1,-1,5,5,10,20,1"], length=3, width=96, height=64)

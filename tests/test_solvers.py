@@ -9,9 +9,11 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from helpers import one_person_in_three_pieces, tk
-from solvers import SOLVERS, get_solver
+from sotmot.association import SOLVERS, get_solver
 from sotmot.config import AssociationConfig
-from sotmot.constraints import check_pair, gap_velocity, merge_group
+from sotmot.association.checks import check_pair
+from sotmot.association.merge import merge_group
+from sotmot.association.rules import gap_velocity
 from sotmot.errors import SolverError
 
 CFG = AssociationConfig(min_affinity=0.5)
@@ -114,7 +116,7 @@ def plain_greedy(ts, cfg):
     solver documents.
     """
     from sotmot.appearance import affinity_rows
-    from sotmot.constraints import merge
+    from sotmot.association.merge import merge
 
     live = {t.id: ((t.id,), t) for t in ts}
     while True:
@@ -172,7 +174,7 @@ def crossing_case():
 
 @pytest.mark.parametrize("name", ["flow", "flow-nx"])
 def test_flow_beats_greedy_where_greedy_is_suboptimal(name):
-    from solvers.flow_common import flow_objective
+    from sotmot.association.objective import flow_objective
 
     ts = crossing_case()
     cfg = AssociationConfig(min_affinity=0.8)
@@ -187,7 +189,7 @@ def test_flow_beats_greedy_where_greedy_is_suboptimal(name):
 @settings(max_examples=40, deadline=None)
 @given(specs=SPECS)
 def test_ortools_and_networkx_reach_the_same_total_cost(specs):
-    from solvers.flow_common import flow_objective
+    from sotmot.association.objective import flow_objective
 
     ts = random_tracklets(specs)
     a = get_solver("flow")(ts, CFG)
@@ -196,7 +198,7 @@ def test_ortools_and_networkx_reach_the_same_total_cost(specs):
 
 
 def test_flow_links_are_all_allowed_edges():
-    from sotmot.graph import build_graph
+    from sotmot.association.candidates import build_graph
 
     ts = crossing_case()
     cfg = AssociationConfig(min_affinity=0.8)
@@ -208,7 +210,7 @@ def test_flow_links_are_all_allowed_edges():
 
 
 def test_flow_arcs_say_where_each_link_is():
-    from solvers.flow_common import flow_arcs
+    from sotmot.association.flow_network import flow_arcs
 
     ids = [7, 3, 5]
     u, v = np.array([5, 3, 3]), np.array([7, 7, 5])  # deliberately not in (u, v) order

@@ -10,7 +10,7 @@ from sotmot.config import AppearanceConfig, SotConfig, TrackerConfig
 from sotmot.errors import InputError
 from sotmot.io import read_ground_truth
 from sotmot.pipeline import prepare_sequence
-from sotmot.sot import SotTracker
+from sotmot.sot.algorithm1 import SotTracker
 from sotmot.types import Detections
 
 H, W = 240, 320
@@ -181,7 +181,8 @@ def test_with_sot_each_frame_is_decoded_once_and_the_features_are_those_of_the_s
                                                                                               monkeypatch):
     import sotmot.pipeline as pipeline
     from sotmot.io import read_detections, read_seqinfo
-    from sotmot.pipeline import embed_detections, preprocess
+    from sotmot.passes import embed_detections
+    from sotmot.preprocess import preprocess
 
     seq = require(DATA / "MOT16-05-clip30")
     cfg = TrackerConfig().replace("appearance", model=str(model_0288)).replace("sot", variant=variant)

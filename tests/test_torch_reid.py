@@ -5,7 +5,7 @@ import pytest
 
 from conftest import DATA, MODELS, require
 from sotmot.appearance import make_embedder
-from sotmot.appearance.onnx_reid import crop_boxes
+from sotmot.appearance.base import crop_boxes
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
 from sotmot.io import FrameReader, read_ground_truth, read_seqinfo
@@ -94,7 +94,7 @@ def test_a_trained_checkpoint_loads_back_with_identical_embeddings(model_0288, r
 
 def test_vectorised_crops_equal_opencv_crops_within_one_grey_level(model_0288):
     from sotmot.appearance import affinity_rows
-    from sotmot.appearance.torch_reid import crop_boxes_torch
+    from sotmot.appearance.torch import crop_boxes_torch
 
     info = read_seqinfo(require(DATA / "MOT16-04-clip30"))
     gt = read_ground_truth(info.gt_path, info.length)

@@ -1,7 +1,7 @@
 """Deep person re-ID features from the same ONNX (or OpenVINO IR) model, run with the OpenVINO runtime.
 
 The model contract, cropping, batching and flip-averaging are those of
-:mod:`sotmot.appearance.onnx_reid`; only the runtime differs. On the 2-core
+:mod:`sotmot.appearance.onnx`; only the runtime differs. On the 2-core
 CPUs these benchmarks ran on, OpenVINO runs model 0288 about twice as fast
 as onnxruntime with the same features (cosine >= 0.999; docs/benchmarks.md).
 Needs the ``openvino`` extra (``pip install 'sotmot[openvino]'``); CPU only.
@@ -13,8 +13,7 @@ import logging
 
 import numpy as np
 
-from sotmot.appearance.onnx_reid import (CROP_HEIGHT, CROP_WIDTH, CropEmbedder, check_model_io, fixed_dim,
-                                        resolve_model_path)
+from sotmot.appearance.base import CROP_HEIGHT, CROP_WIDTH, CropEmbedder, check_model_io, fixed_dim, resolve_model_path
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
 

@@ -38,7 +38,9 @@ from sotmot.confidence import (
 from sotmot.config import AssociationConfig, TrackerConfig
 from sotmot.evaluate import EvalReport, FrameErrors, evaluate_files, frame_errors
 from sotmot.io import SeqInfo, read_detections, read_seqinfo, results_path, write_results
-from sotmot.pipeline import Prepared, associate, box_scorer, confirm, preprocess
+from sotmot.confirm import box_scorer, confirm
+from sotmot.pipeline import Prepared, associate
+from sotmot.preprocess import preprocess
 from sotmot.postprocess import expand, output_ids, to_tracks
 from sotmot.types import Tracklet, Tracks
 
@@ -97,6 +99,8 @@ class Labelled:
         Every detector score in ``det.txt`` (the quantile map's reference).
     labels
         ``(frame, id) -> 1 / 0`` for the boxes of the unconfirmed output.
+    track_ids
+        The output track id of each trajectory (:func:`~sotmot.postprocess.output_ids`).
     """
 
     prepared: Prepared
@@ -104,21 +108,24 @@ class Labelled:
     family: str
     raw_scores: np.ndarray
     labels: dict[tuple[int, int], int] = field(default_factory=dict)
+    track_ids: list[int | None] = field(default_factory=list)
 
     @property
     def name(self) -> str:
         return self.prepared.info.name
 
 
-def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerConfig, merger: str,
+def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerConfig,
                    workdir: Path, family: str | None = None) -> Labelled:
     """Associate, post-process without confirmation, and label every output box; the detector ``family``, else
     guessed from the scores."""
-    _, trajectories = associate(prepared.tracklets, merger, config)
-    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, None, prepared.info.frame_rate)
+    _, trajectories = associate(prepared.tracklets, config)
+    ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate)
+    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, None, prepared.info.frame_rate, ids)
     labels = box_labels(tracks, prepared.info, workdir)
     keyed = {(int(f), int(i)): int(v) for f, i, v in zip(tracks.frames, tracks.ids, labels) if v >= 0}
-    return Labelled(prepared, trajectories, family or detector_family(raw_scores), np.asarray(raw_scores), keyed)
+    return Labelled(prepared, trajectories, family or detector_family(raw_scores), np.asarray(raw_scores), keyed,
+                    ids)
 
 
 def fit_families(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]]) -> dict[str, tuple[tuple, tuple]]:
@@ -150,7 +157,7 @@ def scored_boxes(seq: Labelled, confidence: np.ndarray, config: TrackerConfig) -
     """Features ``(M, len(FEATURES))`` and labels ``(M,)`` of the labelled output boxes of ``seq``."""
     p = seq.prepared
     rows, labels = [], []
-    for t, tid in zip(seq.trajectories, output_ids(seq.trajectories, config.postprocess, p.info.frame_rate)):
+    for t, tid in zip(seq.trajectories, seq.track_ids):
         if tid is None:
             continue
         e = expand(t, config.postprocess, p.info.frame_rate)
@@ -167,8 +174,8 @@ def confirmed_tracks(seq: Labelled, confidence: np.ndarray, model: BoxModel, thr
                      config: TrackerConfig) -> Tracks:
     """The output of ``seq`` after confirmation with ``model`` at ``threshold``."""
     p = seq.prepared
-    scorer = box_scorer(p, model, confidence)
-    tracks = to_tracks(seq.trajectories, p.detections, config.postprocess, scorer, p.info.frame_rate)
+    scorer = box_scorer(model, p.detections, p.features, confidence, p.info.frame_rate)
+    tracks = to_tracks(seq.trajectories, p.detections, config.postprocess, scorer, p.info.frame_rate, seq.track_ids)
     return confirm(tracks, config.replace("confirm", threshold=threshold))[0]
 
 
@@ -199,7 +206,7 @@ def objective(report: EvalReport, base: EvalReport) -> float:
 def unconfirmed_tracks(seq: Labelled, config: TrackerConfig) -> Tracks:
     """The output of ``seq`` without confirmation (post-processing as configured)."""
     p = seq.prepared
-    return to_tracks(seq.trajectories, p.detections, config.postprocess, None, p.info.frame_rate)
+    return to_tracks(seq.trajectories, p.detections, config.postprocess, None, p.info.frame_rate, seq.track_ids)
 
 
 @dataclass
@@ -314,14 +321,14 @@ def tracklet_identities(tracklets: Sequence[Tracklet], info: SeqInfo, workdir: P
 
 def lifted_pair_samples(tracklets: Sequence[Tracklet], identities: np.ndarray,
                         config: AssociationConfig) -> tuple[np.ndarray, np.ndarray]:
-    """The learned lifted costs' training pairs of one sequence: :data:`~solvers.lifted.PAIR_FEATURES` and labels.
+    """The learned lifted costs' training pairs of one sequence: :data:`~sotmot.association.objective.PAIR_FEATURES` and labels.
 
     Every pair of tracklets with known identities, one ending 1 to ``H``
     frames (the lifted horizon) before the other starts: the pairs a
     trajectory of the lifted solver can hold. Label 1 when both are the same
     person.
     """
-    from solvers.lifted import lifted_horizon, pair_features, pair_inputs
+    from sotmot.association.objective import lifted_horizon, pair_features, pair_inputs
 
     known = np.flatnonzero(identities >= 0)
     starts = np.array([tracklets[k].start for k in known], dtype=np.int64)

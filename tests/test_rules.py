@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 from helpers import tk
 from sotmot.config import AssociationConfig
 from sotmot.boxes import iou_matrix
-from sotmot.constraints import candidate_pairs, check_pair, check_pairs, merge
+from sotmot.association.checks import candidate_pairs, check_pair, check_pairs
+from sotmot.association.merge import merge
 
 CFG = AssociationConfig(min_affinity=0.5)
 BOX = [100, 100, 30, 60]  # width 30: bounds 30, 20, 10 px/frame for gaps 1, 2..5, >5
@@ -23,7 +24,7 @@ def test_adjacent_gap_velocity_bound_is_one_width():
     a = tk(1, [1, 2, 3], BOX)
     assert check_pair(a, tk(2, [4, 5], moved(30)), CFG).allowed  # 30 px in 1 frame = w
     c = check_pair(a, tk(2, [4, 5], moved(31)), CFG)
-    assert c.failed == ("velocity",) and c.velocity == 31 and c.velocity_bound == 30 and c.gap_at_max_velocity == 1
+    assert c.failed == ("velocity",) and c.velocity == 31 and c.velocity_bound == 30 and c.velocity_gap == 1
 
 
 def test_short_gap_bound_is_two_thirds_width():
@@ -174,11 +175,11 @@ def test_regression_interleaved_pair_checks_the_gaps_it_fills():
     a = tk(1, [1, 3], BOX)
     b = tk(2, [2], moved(200))
     c = check_pair(a, b, CFG)
-    assert c.failed == ("velocity",) and c.velocity == 200 and c.gap_at_max_velocity == 1
+    assert c.failed == ("velocity",) and c.velocity == 200 and c.velocity_gap == 1
 
 
 def test_a_large_check_split_into_pieces_gives_the_same_answers(monkeypatch):
-    import sotmot.constraints as constraints
+    import sotmot.association.checks as checks
 
     rng = np.random.default_rng(3)
     ts = [tk(k, np.arange(s, s + n), [100 + 15 * (k % 4), 100, 30, 60], feature=(1.0, 0.1 * (k % 3)))
@@ -186,9 +187,9 @@ def test_a_large_check_split_into_pieces_gives_the_same_answers(monkeypatch):
     pairs = candidate_pairs(ts, CFG.l_max)
     aff = rng.uniform(0.3, 1.0, len(pairs))
     whole = check_pairs(ts, pairs, aff, CFG, complete=True)
-    monkeypatch.setattr(constraints, "CHECK_FRAMES", 200)
+    monkeypatch.setattr(checks, "CHECK_FRAMES", 200)
     pieces = check_pairs(ts, pairs, aff, CFG, complete=True)
-    for name in ("allowed", "overlap", "max_gap", "worst_gap", "speed", "bound"):
+    for name in ("allowed", "overlap", "max_gap", "velocity_gap", "speed", "bound"):
         np.testing.assert_array_equal(getattr(pieces, name), getattr(whole, name))
     np.testing.assert_array_equal(pieces.min_iou, whole.min_iou)  # NaN where no shared frames, in both
     assert whole.allowed.any() and not whole.allowed.all()
@@ -206,13 +207,14 @@ def test_pair_affinities_in_chunks_equal_affinity_rows():
 
 def test_a_rule_is_one_entry_checked_explained_and_drawn(monkeypatch):
     """Adding a rule to the table is enough for the checker, the explanation and the drawing to use it."""
-    from sotmot import constraints, explain
+    from sotmot.association import rules as constraints
+    from sotmot.inspect import explain
     from sotmot.config import TrackerConfig
 
     tall = constraints.Rule("gap", ("max_gap",), lambda m, a: np.asarray(m["max_gap"]) > 3,
                             lambda d, a: f"short gaps only: {d['max_gap']}", (1, 2, 3))
     table = constraints.RULES[:1] + (tall,)
-    monkeypatch.setattr(constraints, "RULES", table)  # what editing the table in constraints.py does
+    monkeypatch.setattr(constraints, "RULES", table)  # what editing the table in rules.py does
     monkeypatch.setattr(explain, "RULES", table)
     failures = constraints.rule_failures(0, np.nan, np.array([2, 5]), 0.0, np.inf, np.array([0.9, 0.9]), CFG)
     assert set(failures) == {"iou", "gap"} and failures["gap"].tolist() == [False, True]

@@ -3,10 +3,10 @@
 An edge ``u -> v`` joins two tracklets whose time spans lie within ``l_max``
 frames, oriented from the one that starts first (ties: ends first, then the
 smaller id), so the graph is acyclic. Every edge carries what the shared
-constraint function :func:`sotmot.constraints.check_pair` found: the
+constraint function :func:`sotmot.association.checks.check_pair` found: the
 appearance affinity, the gap, the velocity and its bound, each constraint's
 pass/fail, and the link cost of the flow formulation (which lives beside the
-solvers that use it, in :mod:`solvers.flow_common`).
+solvers that use it, in :mod:`sotmot.association.flow_network`).
 """
 
 from __future__ import annotations
@@ -17,10 +17,12 @@ from dataclasses import dataclass
 import networkx as nx
 import numpy as np
 
-from solvers.flow_common import link_cost
+from sotmot.association.objective import link_cost
 from sotmot.appearance import pair_affinities, unit
 from sotmot.config import AssociationConfig
-from sotmot.constraints import CONSTRAINTS, PairChecks, candidate_pairs, check_pairs, link_order_key
+from sotmot.association.checks import PairChecks, candidate_pairs, check_pairs
+from sotmot.association.merge import link_order_key
+from sotmot.association.rules import CONSTRAINTS
 from sotmot.errors import SolverError
 from sotmot.types import Tracklet
 
@@ -110,7 +112,7 @@ def build_graph(tracklets: Sequence[Tracklet], config: AssociationConfig,
         check = links.screen.check(r)
         attrs = {f"ok_{c}": c not in check.failed for c in CONSTRAINTS}
         graph.add_edge(u.id, v.id, affinity=check.affinity, weight=float(link_cost(check.affinity)),
-                       gap=max(0, v.start - u.end), max_gap=check.max_gap, velocity_gap=check.gap_at_max_velocity,
+                       gap=max(0, v.start - u.end), max_gap=check.max_gap, velocity_gap=check.velocity_gap,
                        velocity=check.velocity, velocity_bound=check.velocity_bound,
                        overlap_frames=check.overlap_frames, min_segment_iou=check.min_segment_iou,
                        allowed=check.allowed, failed=",".join(check.failed), **attrs)

@@ -19,22 +19,21 @@ from typing import Any
 
 import numpy as np
 
-from solvers import get_solver
+from sotmot.association import get_solver
 from sotmot.appearance import Embedder, embedder_for
 from sotmot.config import TrackerConfig
 from sotmot.errors import SotmotError
 from sotmot.evaluate import evaluate_files
-from solvers.flow_common import flow_objective
-from solvers.lifted import lifted_objective
+from sotmot.association.objective import flow_objective, lifted_objective
 from sotmot.io import results_path, write_results
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracklet
 
-#: ``lifted_obj``: the lifted objective of the solver's grouping (:func:`solvers.lifted.lifted_objective`, higher is
+#: ``lifted_obj``: the lifted objective of the solver's grouping (:func:`sotmot.association.objective.lifted_objective`, higher is
 #: better), the one objective every solver is scored on. ``window_gap``: for the lifted solver, the summed gap
 #: between CP-SAT's proved bound and its solution over the windows not proven optimal (0: every window optimal;
 #: NaN for solvers without a bound). ``flow_net_cost``: the flow network's own cost (lower is better for that
-#: network only; :func:`solvers.flow_common.flow_objective`).
+#: network only; :func:`sotmot.association.objective.flow_objective`).
 COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "trajectories", "lifted_obj", "window_gap", "flow_net_cost", "solver_s")
 _FLOAT_COLUMNS = {"lifted_obj": 1, "window_gap": 1, "flow_net_cost": 3, "solver_s": 3}
 
@@ -51,7 +50,7 @@ def fingerprint(tracklets: Sequence[Tracklet]) -> str:
 
 @dataclass
 class Comparison:
-    """Rows of the comparison: ``rows[sequence][merger] -> metric -> value``, plus ``"COMBINED"``."""
+    """Rows of the comparison: ``rows[sequence][solver] -> metric -> value``, plus ``"COMBINED"``."""
 
     rows: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
     tracklets: dict[str, int] = field(default_factory=dict)
@@ -61,14 +60,14 @@ class Comparison:
         return {"rows": self.rows, "tracklets": self.tracklets}
 
 
-def compare(seq_dirs: Sequence[str | Path], mergers: Sequence[str], config: TrackerConfig = TrackerConfig(),
+def compare(seq_dirs: Sequence[str | Path], solvers: Sequence[str], config: TrackerConfig = TrackerConfig(),
             embedder: Embedder | None = None, progress: bool = False) -> Comparison:
-    """Run every solver in ``mergers`` on the same tracklets of each sequence and score them."""
-    for name in mergers:
+    """Run every solver in ``solvers`` on the same tracklets of each sequence and score them."""
+    for name in solvers:
         get_solver(name)
     embedder = embedder_for(config.appearance, embedder)
     result = Comparison()
-    pairs: dict[str, list[tuple[Path, Path, int, str]]] = {m: [] for m in mergers}
+    pairs: dict[str, list[tuple[Path, Path, int, str]]] = {m: [] for m in solvers}
     with tempfile.TemporaryDirectory(prefix="sotmot-compare-") as tmp:
         for seq in seq_dirs:
             prepared = prepare_sequence(seq, config, embedder, progress)
@@ -76,31 +75,31 @@ def compare(seq_dirs: Sequence[str | Path], mergers: Sequence[str], config: Trac
             before = fingerprint(prepared.tracklets)
             result.tracklets[name] = len(prepared.tracklets)
             result.rows[name] = {}
-            for merger in mergers:
+            for solver in solvers:
                 start = time.perf_counter()
-                run = finish_sequence(prepared, config, merger, embedder)
+                run = finish_sequence(prepared, config.replace("association", solver=solver), embedder)
                 seconds = run.timings["association"]
                 if fingerprint(prepared.tracklets) != before:
-                    raise SotmotError(f"solver {merger!r} changed the tracklets of {name}")
-                path = results_path(Path(tmp) / merger, name)
+                    raise SotmotError(f"solver {solver!r} changed the tracklets of {name}")
+                path = results_path(Path(tmp) / solver, name)
                 write_results(path, run.tracks)
-                pairs[merger].append((path, prepared.info.gt_path, prepared.info.length, name))
-                result.rows[name][merger] = {
+                pairs[solver].append((path, prepared.info.gt_path, prepared.info.length, name))
+                result.rows[name][solver] = {
                     "trajectories": float(len(run.association.groups)),
                     "lifted_obj": lifted_objective(prepared.tracklets, run.association.groups, config.association),
                     "window_gap": run.association.stats.get("bound_gap", float("nan")),
                     "flow_net_cost": flow_objective(prepared.tracklets, run.association.groups, config.association),
                     "solver_s": seconds, "total_s": time.perf_counter() - start,
                 }
-        result.rows["COMBINED"] = {m: {} for m in mergers}
-        for merger in mergers:
-            report = evaluate_files(pairs[merger])
+        result.rows["COMBINED"] = {m: {} for m in solvers}
+        for solver in solvers:
+            report = evaluate_files(pairs[solver])
             for name, scores in report.sequences.items():
-                result.rows[name][merger].update(scores)
-            combined = result.rows["COMBINED"][merger]
+                result.rows[name][solver].update(scores)
+            combined = result.rows["COMBINED"][solver]
             combined.update(report.combined)
             for key in ("trajectories", "lifted_obj", "window_gap", "flow_net_cost", "solver_s"):
-                combined[key] = float(sum(result.rows[n][merger][key] for n in result.tracklets))
+                combined[key] = float(sum(result.rows[n][solver][key] for n in result.tracklets))
     return result
 
 
@@ -111,17 +110,17 @@ def _width(column: str) -> int:
 def format_comparison(comparison: Comparison) -> str:
     """One block per sequence and a COMBINED block: a row per solver."""
     lines = []
-    for name, by_merger in comparison.rows.items():
+    for name, by_solver in comparison.rows.items():
         extra = f" ({comparison.tracklets[name]} tracklets)" if name in comparison.tracklets else ""
         lines.append(f"{name}{extra}")
-        head = f"  {'merger':<9}" + "".join(f"{c:>{_width(c)}}" for c in COLUMNS)
+        head = f"  {'solver':<9}" + "".join(f"{c:>{_width(c)}}" for c in COLUMNS)
         lines.append(head)
-        for merger, values in by_merger.items():
+        for solver, values in by_solver.items():
             cells = []
             for c in COLUMNS:
                 v = values.get(c, float("nan"))
                 digits = 1 if c in ("HOTA", "MOTA", "IDF1") else _FLOAT_COLUMNS.get(c, 0)
                 cells.append(f"{v:{_width(c)}.{digits}f}")
-            lines.append(f"  {merger:<9}" + "".join(cells))
+            lines.append(f"  {solver:<9}" + "".join(cells))
         lines.append("")
     return "\n".join(lines)

@@ -24,8 +24,8 @@ import networkx as nx
 import numpy as np
 
 from sotmot.boxes import pixel_bounds
-from sotmot.constraints import CONSTRAINTS, RULES
-from sotmot.explain import json_scalar
+from sotmot.association.rules import CONSTRAINTS, RULES
+from sotmot.inspect.explain import json_scalar
 from sotmot.io import write_bytes_atomic, write_text_atomic
 
 #: Colours as (B, G, R) for OpenCV and hex for SVG.

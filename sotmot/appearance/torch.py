@@ -16,9 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.appearance import flip_average
+from sotmot.appearance.base import CROP_HEIGHT, CROP_WIDTH, check_model_io, flip_average, resolve_model_path
 from sotmot.boxes import pixel_bounds
-from sotmot.appearance.onnx_reid import CROP_HEIGHT, CROP_WIDTH, check_model_io, resolve_model_path
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
 
@@ -153,7 +152,7 @@ def crop_boxes_torch(frame, boxes: np.ndarray, height: int = CROP_HEIGHT, width:
         ``(3, H, W)`` float tensor (BGR, 0-255) on any device.
     boxes
         ``(N, 4)`` ``x, y, w, h`` pixels; clipped to the image exactly as
-        :func:`~sotmot.appearance.onnx_reid.crop_boxes` does, then sampled
+        :func:`~sotmot.appearance.base.crop_boxes` does, then sampled
         bilinearly at the pixel centres of the output, as OpenCV's linear
         resize does.
 
@@ -183,7 +182,7 @@ def crop_boxes_torch(frame, boxes: np.ndarray, height: int = CROP_HEIGHT, width:
 class TorchReidEmbedder:
     """Flip-averaged re-ID features computed with torch (CPU, or CUDA with ``device="cuda"``).
 
-    Same protocol and same numbers as :class:`~sotmot.appearance.onnx_reid.OnnxReidEmbedder`
+    Same protocol and same numbers as :class:`~sotmot.appearance.onnx.OnnxReidEmbedder`
     (within float rounding); the module is in :attr:`module` for fine-tuning.
     """
 

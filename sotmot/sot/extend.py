@@ -37,7 +37,7 @@ import numpy as np
 from sotmot.appearance import Embedder, affinity_rows
 from sotmot.boxes import centers, iou_matrix
 from sotmot.config import SotConfig
-from sotmot.sot import TemplateSearch
+from sotmot.sot.search import TemplateSearch
 from sotmot.types import Tracks
 
 log = logging.getLogger(__name__)
@@ -81,6 +81,34 @@ def mean_confidence(confidence: np.ndarray) -> float:
     return float(scored.mean()) if len(scored) else 1.0
 
 
+def passes_end_gates(config: SotConfig, track_confidence: float = 1.0, affinity: float = 1.0, step: int = 1,
+                     steps: int | None = None) -> bool:
+    """The end extension's gates, stated once: the track's mean confirmation confidence is at least
+    ``extend_min_confidence``, the found box's re-ID affinity with the track at least ``extend_min_affinity``,
+    and the box at most ``steps`` frames from the end (None: no limit). :func:`extend_ends` checks each where it
+    knows the number; :func:`gated` applies all three to a trace (``scripts/fit_sot.py``)."""
+    return (not track_confidence < config.extend_min_confidence and not affinity < config.extend_min_affinity
+            and (steps is None or step <= steps))
+
+
+def gated(trace: list[dict], frame_rate: float, config: SotConfig) -> list[dict]:
+    """The boxes of a :func:`extend_ends` trace (run with looser gates) that ``config``'s gates keep.
+
+    An end stops at its first box that fails a gate, as :func:`extend_ends`
+    does, so this reproduces the stricter run, except that a box cut from one
+    end no longer blocks another track's end.
+    """
+    steps = end_steps(config.extend_seconds, frame_rate)
+    stopped, kept = set(), []
+    for box in trace:  # in the order they were added: each end's boxes one step after another
+        end = (box["track"], box["direction"])
+        if end in stopped or not passes_end_gates(config, box["track_confidence"], box["affinity"], box["step"], steps):
+            stopped.add(end)
+            continue
+        kept.append(box)
+    return kept
+
+
 class _Finder:
     """The search both uses share: template proposals around a prior, re-ranked by re-ID against an identity."""
 
@@ -121,7 +149,7 @@ class _Finder:
         aff = affinity_rows(np.repeat(identity[None], len(candidates), 0), self.embedder.embed(image, candidates))
         best = int(np.argmax(aff))
         found = candidates[best]
-        if aff[best] < cfg.extend_min_affinity or inside_fraction(found, image.shape[1], image.shape[0]) < 0.5:
+        if not passes_end_gates(cfg, affinity=aff[best]) or inside_fraction(found, image.shape[1], image.shape[0]) < 0.5:
             return None, float(aff[best])
         others = [b for o, b in self.occupied.get(frame, []) if o != track_id]
         if others and iou_matrix(found, np.stack(others))[0].max() > cfg.stop_iou:
@@ -177,7 +205,7 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
         rows = _track_rows(tracks, track_id)
         frames, boxes = tracks.frames[rows], tracks.boxes[rows]
         identity, confidence = features.get(track_id), mean_confidence(tracks.confidence[rows])
-        if identity is None or confidence < config.extend_min_confidence:
+        if identity is None or not passes_end_gates(config, track_confidence=confidence):
             continue
         for direction in (1, -1):
             start = int(frames[-1] if direction == 1 else frames[0])

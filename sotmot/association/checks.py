@@ -1,50 +1,29 @@
-"""The long-term association constraint A(t1, t2) and trajectory merging (paper Sec. 3.4).
+"""The constraint A(t1, t2) of :mod:`sotmot.association.rules` evaluated, vectorised over many pairs.
 
-This module is the one place where the rules live. Every solver (the greedy
-merge, the flow solvers) and every inspection tool calls :func:`check_pair`
-and :func:`merge`, so all of them obey, and explain, the very same rules:
-
-1. **IoU**: on every temporally overlapping segment (a maximal run of
-   consecutive frames where both trajectories have a box) the mean IoU of
-   their boxes must be ``> tau_iou`` (0.5). The merged trajectory keeps the
-   higher-score box in each shared frame.
-2. **Velocity**: in every gap that the merge creates or changes, the speed
-   of the box centre under linear motion, ``||c2 - c1|| / (f2 - f1)`` pixels
-   per frame, must be ``<= w``, ``2/3 w`` or ``1/3 w`` for a frame difference
-   of 1, 2..5 or more than 5, with ``w`` the mean width of the two boxes at
-   the gap's ends. Gaps that lie wholly inside one input before the other
-   begins (or after it ends) are unchanged by the merge and not re-checked.
-3. **Gap**: every gap (frame difference between consecutive boxes) of the
-   merged trajectory is ``<= l_max`` (60).
-4. **Affinity**: the appearance affinity of the two mean features is
-   ``>= min_affinity`` (a gate below which a pair is never merged).
-
-Boxes are ``x, y, w, h`` pixels, frames 1-based.
+Every solver calls :func:`check_pairs` (or :func:`check_pair` for one pair,
+with every number measured, as the explanations need), and
+:func:`candidate_pairs` to find the pairs worth checking. Boxes are ``x, y, w,
+h`` pixels, frames 1-based.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
 
 import numpy as np
 
 from sotmot.appearance import affinity as feature_affinity
-from sotmot.boxes import centers, iou_aligned
+from sotmot.association.rules import CONSTRAINTS, Constraint, gap_velocity, rule_failures
+from sotmot.boxes import iou_aligned
 from sotmot.config import AssociationConfig
 from sotmot.types import Tracklet
-
-Constraint = Literal["iou", "velocity", "gap", "affinity"]
 
 #: Frames one :func:`check_pairs` call walks through at once (about 250 bytes each); larger
 #: checks are split into pieces of about this size, so memory stays bounded on long sequences.
 CHECK_FRAMES = 400_000
-
-#: A pair's measurements by name (the names of the association graph's edge attributes): scalars or arrays.
-Measurements = Mapping[str, Any]
 
 
 @dataclass(frozen=True)
@@ -65,7 +44,7 @@ class PairCheck:
         Lowest mean IoU over the overlapping segments (NaN when they do not overlap).
     max_gap
         Largest frame difference between consecutive boxes of the merged trajectory.
-    gap_at_max_velocity
+    velocity_gap
         Frame difference of the checked gap with the highest speed/bound
         ratio (0 if the merge creates or changes no gap).
     velocity
@@ -80,50 +59,9 @@ class PairCheck:
     overlap_frames: int
     min_segment_iou: float
     max_gap: int
-    gap_at_max_velocity: int
+    velocity_gap: int
     velocity: float
     velocity_bound: float
-
-
-def link_order_key(t: Tracklet) -> tuple[int, int, int]:
-    """The orientation of links: the tracklet that starts first (ties: ends first, then smaller id) leads."""
-    return (t.start, t.end, t.id)
-
-
-def velocity_bound(gap: np.ndarray | int, width: np.ndarray | float,
-                   config: AssociationConfig) -> np.ndarray:
-    """Velocity bound in pixels per frame for a gap of ``gap`` frames between boxes of mean ``width``."""
-    gap = np.asarray(gap)
-    factor = np.where(gap <= 1, config.velocity_adjacent,
-                      np.where(gap <= config.short_gap, config.velocity_short, config.velocity_long))
-    return factor * np.asarray(width, dtype=np.float64)
-
-
-def merge(a: Tracklet, b: Tracklet, new_id: int) -> Tracklet:
-    """One trajectory from two: the union of their frames, the higher-score box in shared frames.
-
-    Ties in score keep ``a``'s box. The mean feature is the mean over both
-    trajectories' detections.
-    """
-    n = a.n_features + b.n_features
-    feature = (a.feature.astype(np.float64) * a.n_features + b.feature.astype(np.float64) * b.n_features) / n
-    if a.end < b.start or b.end < a.start:  # disjoint spans: one after the other
-        early, late = (a, b) if a.end < b.start else (b, a)
-        return Tracklet(id=new_id, frames=np.concatenate([early.frames, late.frames]),
-                        boxes=np.concatenate([early.boxes, late.boxes]),
-                        scores=np.concatenate([early.scores, late.scores]),
-                        det_index=np.concatenate([early.det_index, late.det_index]), feature=feature, n_features=n)
-    frames = np.concatenate([a.frames, b.frames])
-    scores = np.concatenate([a.scores, b.scores])
-    origin = np.r_[np.zeros(len(a), np.int64), np.ones(len(b), np.int64)]
-    # Sort by frame, then best score first, then a before b; keep the first row of each frame.
-    order = np.lexsort((origin, -scores, frames))
-    frames = frames[order]
-    first = np.r_[True, frames[1:] != frames[:-1]]
-    take = order[first]
-    return Tracklet(id=new_id, frames=np.concatenate([a.frames, b.frames])[take],
-                    boxes=np.concatenate([a.boxes, b.boxes])[take], scores=np.concatenate([a.scores, b.scores])[take],
-                    det_index=np.concatenate([a.det_index, b.det_index])[take], feature=feature, n_features=n)
 
 
 class _Ends:
@@ -219,9 +157,9 @@ def _overlap_gaps(index: _FrameIndex, local: np.ndarray,
     lo = index.starts[local].max(axis=1)
     hi = index.ends[local].min(axis=1)
     max_gap = np.maximum(index.inner[local[:, 0]], index.inner[local[:, 1]])
-    worst_gap, speed, bound = np.zeros(k, np.int64), np.zeros(k), np.full(k, np.inf)
+    velocity_gap, speed, bound = np.zeros(k, np.int64), np.zeros(k), np.full(k, np.inf)
     if k == 0:
-        return max_gap, worst_gap, speed, bound
+        return max_gap, velocity_gap, speed, bound
     first = np.maximum(index.starts[local].min(axis=1), lo - config.l_max - 1)
     last = np.minimum(index.ends[local].max(axis=1), hi + config.l_max + 1)
     which, frame = _expand(first, last)
@@ -233,107 +171,14 @@ def _overlap_gaps(index: _FrameIndex, local: np.ndarray,
     boxes = np.where(take_a[present][:, None], index.boxes[pos_a[present]], index.boxes[pos_b[present]])
     step = np.flatnonzero((which[1:] == which[:-1]) & (frame[1:] >= lo[which[1:]]) & (frame[:-1] <= hi[which[:-1]]))
     if len(step) == 0:
-        return max_gap, worst_gap, speed, bound
+        return max_gap, velocity_gap, speed, bound
     pair = which[step]
     gaps, spd, bnd = gap_velocity(frame[step], boxes[step], frame[step + 1], boxes[step + 1], config)
     np.maximum.at(max_gap, pair, gaps)
     order = np.lexsort((-(spd / bnd), pair))  # by pair, worst ratio first
     head = order[np.r_[True, pair[order][1:] != pair[order][:-1]]]
-    worst_gap[pair[head]], speed[pair[head]], bound[pair[head]] = gaps[head], spd[head], bnd[head]
-    return max_gap, worst_gap, speed, bound
-
-
-def gap_velocity(f1: np.ndarray, b1: np.ndarray, f2: np.ndarray, b2: np.ndarray,
-                 config: AssociationConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Gap, speed and velocity bound between boxes ``b1`` at frames ``f1`` and ``b2`` at ``f2``.
-
-    Vectorised over rows: ``f1, f2`` are ``(K,)`` frames with ``f2 > f1``,
-    ``b1, b2`` are ``(K, 4)`` boxes. Returns the frame differences, the centre
-    speeds in pixels per frame (linear motion) and their bounds.
-    """
-    gaps = np.asarray(f2) - np.asarray(f1)
-    speed = np.linalg.norm(centers(b2) - centers(b1), axis=1) / gaps
-    bound = velocity_bound(gaps, 0.5 * (np.asarray(b1)[:, 2] + np.asarray(b2)[:, 2]), config)
-    return gaps, speed, bound
-
-
-def rule_failures(overlap, min_iou, max_gap, speed, bound, affinity,
-                  config: AssociationConfig) -> dict[Constraint, np.ndarray]:
-    """Each rule of :data:`RULES` applied elementwise: per constraint, True where it fails."""
-    measured = {"overlap_frames": overlap, "min_segment_iou": min_iou, "max_gap": max_gap, "velocity": speed,
-                "velocity_bound": bound, "affinity": affinity}
-    return {rule.name: np.asarray(rule.fails(measured, config)) for rule in RULES}
-
-
-def passes_affinity_gate(affinity, config: AssociationConfig) -> np.ndarray:
-    """Where an appearance affinity is at least ``min_affinity``: the one statement of the gate.
-
-    NaN never passes (a comparison with NaN is false), so every caller treats an
-    undefined affinity the same way: as a pair that is never merged.
-    """
-    return np.asarray(affinity, dtype=np.float64) >= config.min_affinity
-
-
-@dataclass(frozen=True)
-class Rule:
-    """One rule of A(t1, t2): what it measures, when it fails, how it is explained and drawn.
-
-    The checker (:func:`rule_failures`), the explanations (``sotmot explain``)
-    and the drawings (``sotmot graph``) iterate over :data:`RULES`, so a new
-    rule is one entry there.
-
-    Attributes
-    ----------
-    name
-        The constraint's name (edge attribute ``ok_<name>``, reported in ``failed``).
-    measures
-        The measurement names (edge attributes) it reads.
-    fails
-        ``(measurements, config) -> bool array``: True where the rule fails.
-    describe
-        ``(edge data, config) -> str``: the measurement in plain words, for one pair.
-    colour
-        BGR colour of a link rejected by this rule in drawings.
-    """
-
-    name: Constraint
-    measures: tuple[str, ...]
-    fails: Callable[[Measurements, AssociationConfig], np.ndarray]
-    describe: Callable[[Measurements, AssociationConfig], str]
-    colour: tuple[int, int, int]
-
-
-def _describe_iou(d: Measurements, a: AssociationConfig) -> str:
-    if not d["overlap_frames"]:
-        return "IoU: no shared frames (rule does not apply)"
-    return (f"IoU: {d['overlap_frames']} shared frames, lowest segment mean IoU {d['min_segment_iou']:.3f} "
-            f"(must be > {a.tau_iou})")
-
-
-def _describe_velocity(d: Measurements, a: AssociationConfig) -> str:
-    if not math.isfinite(d["velocity_bound"]):
-        return "velocity: the merge creates or changes no gap"
-    return (f"velocity: {d['velocity']:.2f} px/frame over the worst checked gap of {d['velocity_gap']} frames "
-            f"(bound {d['velocity_bound']:.2f})")
-
-
-#: The rules, in the order a failed one is reported when several fail.
-RULES: tuple[Rule, ...] = (
-    Rule("iou", ("overlap_frames", "min_segment_iou"),
-         lambda m, a: (np.asarray(m["overlap_frames"]) > 0) & ~(np.asarray(m["min_segment_iou"]) > a.tau_iou),
-         _describe_iou, (0, 140, 255)),
-    Rule("gap", ("max_gap",), lambda m, a: np.asarray(m["max_gap"]) > a.l_max,
-         lambda d, a: f"gap: largest gap of the merged trajectory {d['max_gap']} frames (max {a.l_max})",
-         (180, 60, 160)),
-    Rule("velocity", ("velocity", "velocity_bound"),
-         lambda m, a: np.asarray(m["velocity"]) > np.asarray(m["velocity_bound"]),
-         _describe_velocity, (40, 40, 220)),
-    Rule("affinity", ("affinity",), lambda m, a: ~passes_affinity_gate(m["affinity"], a),
-         lambda d, a: f"affinity: {d['affinity']:.3f} (min {a.min_affinity})", (200, 120, 30)),
-)
-
-#: The constraints' names, in :data:`RULES` order.
-CONSTRAINTS: tuple[Constraint, ...] = tuple(rule.name for rule in RULES)
+    velocity_gap[pair[head]], speed[pair[head]], bound[pair[head]] = gaps[head], spd[head], bnd[head]
+    return max_gap, velocity_gap, speed, bound
 
 
 @dataclass(frozen=True)
@@ -350,7 +195,7 @@ class PairChecks:
         0 / 0 / 0 / inf and their gap and velocity entries False.
     affinity, overlap, min_iou
         Affinity, shared frames, lowest segment mean IoU (NaN if none).
-    max_gap, worst_gap, speed, bound
+    max_gap, velocity_gap, speed, bound
         Largest gap of the merged trajectory; gap, speed and bound of the
         checked gap with the highest speed/bound ratio.
     """
@@ -361,7 +206,7 @@ class PairChecks:
     overlap: np.ndarray
     min_iou: np.ndarray
     max_gap: np.ndarray
-    worst_gap: np.ndarray
+    velocity_gap: np.ndarray
     speed: np.ndarray
     bound: np.ndarray
 
@@ -385,7 +230,7 @@ class PairChecks:
                          failed=tuple(c for c in CONSTRAINTS if self.failures[c][row]),
                          affinity=float(self.affinity[row]), overlap_frames=overlap,
                          min_segment_iou=float(self.min_iou[row]) if overlap else math.nan,
-                         max_gap=int(self.max_gap[row]), gap_at_max_velocity=int(self.worst_gap[row]),
+                         max_gap=int(self.max_gap[row]), velocity_gap=int(self.velocity_gap[row]),
                          velocity=float(self.speed[row]), velocity_bound=float(self.bound[row]))
 
 
@@ -436,19 +281,19 @@ def check_pairs(tracklets: Sequence[Tracklet], pairs: np.ndarray, affinities: np
     overlap, min_iou = np.zeros(k, np.int64), np.full(k, np.nan)
     overlap[met], min_iou[met] = _segment_ious(index, met_local)
     failures = rule_failures(overlap, min_iou, 0, 0.0, np.inf, affinities, config)
-    max_gap, worst_gap, speed, bound = np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros(k), np.full(k, np.inf)
+    max_gap, velocity_gap, speed, bound = np.zeros(k, np.int64), np.zeros(k, np.int64), np.zeros(k), np.full(k, np.inf)
     measure = np.ones(k, bool) if complete else ~(failures["iou"] | failures["affinity"])
     rows = apart[measure[apart]]
     a_first = ends.ends[local[rows, 0]] < ends.starts[local[rows, 1]]
     early, late = np.where(a_first, local[rows, 0], local[rows, 1]), np.where(a_first, local[rows, 1], local[rows, 0])
-    max_gap[rows], worst_gap[rows], speed[rows], bound[rows] = _junction_gaps(ends, early, late, config)
+    max_gap[rows], velocity_gap[rows], speed[rows], bound[rows] = _junction_gaps(ends, early, late, config)
     sel = np.flatnonzero(measure[met])
-    max_gap[met[sel]], worst_gap[met[sel]], speed[met[sel]], bound[met[sel]] = _overlap_gaps(
+    max_gap[met[sel]], velocity_gap[met[sel]], speed[met[sel]], bound[met[sel]] = _overlap_gaps(
         index, met_local[sel], config)
     failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config)
     allowed = ~np.any(np.stack([failures[c] for c in CONSTRAINTS]), axis=0) if k else np.zeros(0, bool)
     return PairChecks(allowed=allowed, failures=failures, affinity=affinities, overlap=overlap, min_iou=min_iou,
-                  max_gap=max_gap, worst_gap=worst_gap, speed=speed, bound=bound)
+                  max_gap=max_gap, velocity_gap=velocity_gap, speed=speed, bound=bound)
 
 
 def _scatter(part: PairChecks, rows: np.ndarray, affinities: np.ndarray, config: AssociationConfig) -> PairChecks:
@@ -461,11 +306,11 @@ def _scatter(part: PairChecks, rows: np.ndarray, affinities: np.ndarray, config:
         return out
 
     overlap, min_iou = fill(part.overlap, 0), fill(part.min_iou, np.nan)
-    max_gap, worst_gap = fill(part.max_gap, 0), fill(part.worst_gap, 0)
+    max_gap, velocity_gap = fill(part.max_gap, 0), fill(part.velocity_gap, 0)
     speed, bound = fill(part.speed, 0.0), fill(part.bound, np.inf)
     failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config)
     return PairChecks(allowed=fill(part.allowed, False), failures=failures, affinity=affinities, overlap=overlap,
-                  min_iou=min_iou, max_gap=max_gap, worst_gap=worst_gap, speed=speed, bound=bound)
+                  min_iou=min_iou, max_gap=max_gap, velocity_gap=velocity_gap, speed=speed, bound=bound)
 
 
 def check_pair(a: Tracklet, b: Tracklet, config: AssociationConfig,
@@ -505,13 +350,3 @@ def candidate_pairs(tracklets: Sequence[Tracklet], l_max: int) -> np.ndarray:
     i, j = order[which], order[pos]
     pairs = np.stack([np.minimum(i, j), np.maximum(i, j)], axis=1).astype(np.int64)
     return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
-
-
-def merge_group(tracklets: Sequence[Tracklet], new_id: int) -> Tracklet:
-    """One trajectory from several tracklets, merged pairwise with :func:`merge` in the given order."""
-    if not tracklets:
-        raise ValueError("cannot merge an empty group")
-    out = dataclasses.replace(tracklets[0], id=new_id)
-    for t in tracklets[1:]:
-        out = merge(out, t, new_id)
-    return out

@@ -6,7 +6,7 @@ with a unit-capacity observation arc, a source ``"S"`` enters every ``in``
 node, every ``out`` node exits to the sink ``"T"``, and a link arc
 ``("out", u) -> ("in", v)`` exists for every allowed edge between tracklets
 whose spans do not meet (a path cover's links; see
-:func:`sotmot.graph.candidate_links`). A bypass arc
+:func:`sotmot.association.candidates.candidate_links`). A bypass arc
 ``S -> T`` lets the solver choose how many trajectories to start.
 
 Costs (floats, before scaling to integers by :func:`integer_costs`):
@@ -34,10 +34,9 @@ from collections.abc import Mapping, Sequence
 import networkx as nx
 import numpy as np
 
-from solvers.base import Association, Link
-from sotmot.appearance import affinity_rows
+from sotmot.association.base import Association, Link
+from sotmot.association.objective import entry_cost
 from sotmot.config import AssociationConfig
-from sotmot.constraints import link_order_key
 from sotmot.errors import SolverError
 from sotmot.types import Tracklet
 
@@ -46,16 +45,6 @@ SINK = "T"
 #: Integer cost units per 1.0 of float cost.
 COST_SCALE = 10_000
 _INT64_SAFE = 2**62
-
-
-def link_cost(affinity: float | np.ndarray) -> float | np.ndarray:
-    """Flow cost of linking two tracklets with this appearance affinity: ``1 - affinity``."""
-    return 1.0 - affinity
-
-
-def entry_cost(config: AssociationConfig) -> float:
-    """Cost of starting a trajectory: ``1 - min_affinity``."""
-    return 1.0 - config.min_affinity
 
 
 def integer_costs(costs: np.ndarray, n_paths: int, scale: int = COST_SCALE) -> np.ndarray:
@@ -145,26 +134,6 @@ def chains_from_links(tracklet_ids: Sequence[int], links: Sequence[tuple[int, in
     if sum(len(g) for g in groups) != len(tracklet_ids):
         raise SolverError("the flow solution has a cycle or leaves tracklets out")
     return tuple(sorted(groups))
-
-
-def flow_objective(tracklets: Sequence[Tracklet], groups: Sequence[Sequence[int]],
-                   config: AssociationConfig) -> float:
-    """Float cost of any grouping under the flow objective, so solvers can be compared on it.
-
-    ``entry_cost * number of trajectories + sum of link costs`` over consecutive
-    tracklets of each group (ordered by start, end, id), without the constant
-    observation rewards. For the flow solvers' own groupings this equals their
-    optimal cost; the greedy merge, which never sees this objective, is
-    costed the same way.
-    """
-    by_id = {t.id: t for t in tracklets}
-    total = entry_cost(config) * len(groups)
-    for group in groups:
-        order = sorted((by_id[u] for u in group), key=link_order_key)
-        if len(order) > 1:
-            aff = affinity_rows(np.stack([t.feature for t in order[:-1]]), np.stack([t.feature for t in order[1:]]))
-            total += float(np.sum(link_cost(aff)))
-    return float(total)
 
 
 def association_from_links(tracklets: Sequence[Tracklet], links: Sequence[tuple[int, int]],

@@ -22,8 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.errors import InputError
-from sotmot.io import (FrameReader, SeqInfo, check_output_dir, refuse_overwriting, write_bytes_atomic,
-                       write_text_atomic)
+from sotmot.io import FrameReader, SeqInfo, check_output_dir, refuse_overwriting, write_bytes_atomic
 from sotmot.types import Tracks
 
 TRAIL = 12
@@ -34,47 +33,6 @@ def colour(track_id: int) -> tuple[int, int, int]:
     hue = (track_id * 0.618033988749895) % 1.0
     r, g, b = colorsys.hsv_to_rgb(hue, 0.85, 0.95)
     return int(b * 255), int(g * 255), int(r * 255)
-
-
-def flags_path(results: str | Path) -> Path:
-    """The side file with the SOT / interpolation flags of a results file."""
-    results = Path(results)
-    return results.with_name(results.stem + ".flags.csv")
-
-
-def write_flags(results: str | Path, tracks: Tracks) -> None:
-    """Write ``frame,id,interpolated,from_sot,confidence`` for every box of ``tracks`` (atomically).
-
-    ``confidence`` is the confirmation stage's probability that the box is a
-    true positive (empty where it was not computed).
-    """
-    order = np.lexsort((tracks.ids, tracks.frames))
-    conf = ["" if np.isnan(c) else f"{c:.4f}" for c in tracks.confidence]
-    rows = ["frame,id,interpolated,from_sot,confidence\n"] + [
-        f"{tracks.frames[i]},{tracks.ids[i]},{int(tracks.interpolated[i])},{int(tracks.from_sot[i])},{conf[i]}\n"
-        for i in order]
-    write_text_atomic(flags_path(results), "".join(rows))
-
-
-def read_flags(results: str | Path, tracks: Tracks) -> Tracks:
-    """``tracks`` with the flags of its side file, if there is one (else unchanged)."""
-    path = flags_path(results)
-    if not path.is_file():
-        return tracks
-    flags: dict[tuple[int, int], tuple[bool, bool, float]] = {}
-    for number, line in enumerate(path.read_text().splitlines()[1:], 2):
-        cells = line.split(",")
-        try:
-            f, i, interp, sot = (int(x) for x in cells[:4])
-            conf = float(cells[4]) if len(cells) == 5 and cells[4] else float("nan")
-            if len(cells) not in (4, 5):
-                raise ValueError
-        except ValueError:
-            raise InputError(path, "expected frame,id,interpolated,from_sot[,confidence]", line=number) from None
-        flags[f, i] = (bool(interp), bool(sot), conf)
-    got = [flags.get((int(f), int(i)), (False, False, float("nan"))) for f, i in zip(tracks.frames, tracks.ids)]
-    return Tracks(tracks.frames, tracks.ids, tracks.boxes, tracks.scores,
-                  [g[0] for g in got], [g[1] for g in got], [g[2] for g in got])
 
 
 def _dashed_rectangle(img: np.ndarray, p1: tuple[int, int], p2: tuple[int, int], col, thickness: int) -> None:

@@ -117,17 +117,17 @@ def _worker_embedder(appearance: AppearanceConfig):
         return _EMBEDDERS[appearance]
 
 
-def _pooled_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
+def _pooled_job(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
                 progress: bool) -> Outcome:
     """One sequence in a pool worker; with progress, its bars drawn on a free line under the overall bar."""
-    from sotmot.pipeline import bars
+    from sotmot.progress import bars
 
     embedder = _worker_embedder(config.appearance)
     if not (progress and _SLOTS is not None):
-        return track_one(seq_dir, out_dir, config, merger, resume, embedder=embedder)
+        return track_one(seq_dir, out_dir, config, resume, embedder=embedder)
     slot = _SLOTS.get()
     try:
-        return track_one(seq_dir, out_dir, config, merger, resume, progress=bars(slot), embedder=embedder)
+        return track_one(seq_dir, out_dir, config, resume, progress=bars(slot), embedder=embedder)
     finally:
         _SLOTS.put(slot)
 
@@ -143,7 +143,7 @@ def output_paths(out_dir: str | Path, name: str, config: TrackerConfig, detected
     from sotmot.detection import detections_path
     from sotmot.io import results_path
     from sotmot.provenance import record_path
-    from sotmot.render import flags_path
+    from sotmot.io.flags import flags_path
 
     out = results_path(out_dir, name)
     side = [flags_path(out), record_path(out)]
@@ -178,7 +178,7 @@ def resolve_paths(config: TrackerConfig) -> TrackerConfig:
     (and hashes) the model however it was given, and workers on other
     machines read the same files rather than their own environment.
     """
-    from sotmot.appearance.onnx_reid import ENV_VAR
+    from sotmot.appearance.base import ENV_VAR
     from sotmot.detection import ENV_VAR as DETECTOR_ENV_VAR
     from sotmot.io.mot import model_given
 
@@ -192,21 +192,21 @@ def resolve_paths(config: TrackerConfig) -> TrackerConfig:
     return config.replace("confirm", calibration=absolute(config.confirm.calibration))
 
 
-def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool,
+def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
               progress=False, embedder=None) -> Outcome:
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
     from sotmot.detection import detections_path, format_detections
     from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
     from sotmot.pipeline import track_sequence
     from sotmot.provenance import record_path, run_record, why_rerun, write_record
-    from sotmot.render import flags_path, write_flags
+    from sotmot.io.flags import flags_path, write_flags
 
     try:
         info = read_seqinfo(seq_dir)
         outputs = sequence_outputs(out_dir, info, config)
         refuse_overwriting(outputs, sequence_inputs(info, config), "choose another --out")
         out = outputs[-1]
-        record = run_record(info, config, merger)
+        record = run_record(info, config)
         rerun = ""
         if resume:
             why = why_rerun(out, record)
@@ -215,7 +215,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
                                f"{info.name}: results exist from the same run settings, skipped (--resume)")
             rerun = f" (re-run: {why})" if out.is_file() else ""
         start = time.perf_counter()
-        result = track_sequence(seq_dir, config, merger=merger, embedder=embedder, progress=progress)
+        result = track_sequence(seq_dir, config, embedder=embedder, progress=progress)
         text = format_results(result.tracks)
         record["results_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()  # --resume checks it
         written: list[Path] = []
@@ -248,7 +248,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
         return Outcome(seq_dir, "failed", None, f"{seq_dir}: unexpected {type(exc).__name__}: {detail}")
 
 
-def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerConfig, merger: str | None = None,
+def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerConfig,
                workers: int = 1, resume: bool = False, progress: bool = False, report=None,
                cluster: str | None = None) -> list[Outcome]:
     """Track every sequence; ``workers > 1`` runs them in that many processes, ``cluster`` on Dask.
@@ -267,9 +267,6 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     """
     from sotmot.io import check_output_dir
 
-    if merger is not None:  # the solver is configuration: the run record and every worker see one value
-        config = config.replace("association", solver=merger)
-    merger = config.association.solver
     config = resolve_paths(config)
     seq_dirs = [str(s) for s in seq_dirs]
     out_dir = str(check_output_dir(out_dir))  # a file, a read-only folder: said now, not after the work
@@ -277,7 +274,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     if cluster is not None:
         if workers > 1:
             raise ConfigError("use --workers (this machine) or --cluster (Dask), not both")
-        return _track_on_dask(cluster, seq_dirs, out_dir, config, merger, resume, progress, report)
+        return _track_on_dask(cluster, seq_dirs, out_dir, config, resume, progress, report)
     workers = usable_workers(workers, len(seq_dirs))
     from sotmot.appearance import make_embedder
 
@@ -285,9 +282,9 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         embedder = None
         outcomes = []
         for seq in seq_dirs:
-            if embedder is None and not (resume and _resumable(seq, out_dir, config, merger)):
+            if embedder is None and not (resume and _resumable(seq, out_dir, config)):
                 embedder = make_embedder(config.appearance)  # a bad model path stops everything, once
-            outcome = track_one(seq, out_dir, config, merger, resume, progress, embedder)
+            outcome = track_one(seq, out_dir, config, resume, progress, embedder)
             report(outcome)
             outcomes.append(outcome)
         return outcomes
@@ -305,7 +302,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
             slots.put(line)
         initargs = (config, tqdm.get_lock(), slots)
     with _pool(workers, initargs) as pool:
-        futures = {pool.submit(_pooled_job, seq, out_dir, config, merger, resume, progress): seq
+        futures = {pool.submit(_pooled_job, seq, out_dir, config, resume, progress): seq
                    for seq in seq_dirs}
         by_seq = _gather(futures, as_completed(futures), "in a worker process", progress,
                          lambda o: None if _broken(o) else report(o))
@@ -315,7 +312,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         if not _broken(by_seq[seq]):
             continue
         with _pool(1, (config,)) as alone:
-            future = alone.submit(_pooled_job, seq, out_dir, config, merger, resume, False)
+            future = alone.submit(_pooled_job, seq, out_dir, config, resume, False)
             by_seq.update(_gather({future: seq}, as_completed([future]), "in a worker process", False,
                                   lambda o: None))
         if _broken(by_seq[seq]):
@@ -385,7 +382,7 @@ def dask_address(cluster: str) -> str:
     return f"tcp://{host}:{port}"
 
 
-def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, resume: bool) -> Outcome:
+def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool) -> Outcome:
     """One sequence on a Dask worker, with that worker process's appearance model.
 
     Every path in ``config`` was made absolute by the client (:func:`resolve_paths`), so the worker reads
@@ -394,12 +391,12 @@ def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str, re
     embedder = None
     outcome = None
     config = _worker_threads(config)
-    if not (resume and _resumable(seq_dir, out_dir, config, merger)):
+    if not (resume and _resumable(seq_dir, out_dir, config)):
         try:
             embedder = _worker_embedder(config.appearance)
         except SotmotError as exc:
             outcome = Outcome(seq_dir, "failed", None, f"{seq_dir}: {exc}")
-    outcome = outcome or track_one(seq_dir, out_dir, config, merger, resume, embedder=embedder)
+    outcome = outcome or track_one(seq_dir, out_dir, config, resume, embedder=embedder)
     if outcome.status != "failed":
         return outcome
     try:
@@ -428,7 +425,7 @@ def _worker_threads(config: TrackerConfig) -> TrackerConfig:
     return config
 
 
-def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: TrackerConfig, merger: str,
+def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: TrackerConfig,
                    resume: bool, progress: bool, report) -> list[Outcome]:
     address = dask_address(cluster)
     try:
@@ -443,7 +440,7 @@ def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: Trac
     except (OSError, TimeoutError) as exc:
         raise ConfigError(f"cannot reach the Dask scheduler at {cluster} ({address}): {exc}") from exc
     try:
-        futures = {client.submit(_dask_job, seq, out_dir, config, merger, resume, pure=False): orig
+        futures = {client.submit(_dask_job, seq, out_dir, config, resume, pure=False): orig
                    for seq, orig in zip(seq_dirs_abs, seq_dirs)}
         by_seq = _gather(futures, dask_completed(list(futures)), "on the cluster", progress, report)
     finally:
@@ -451,13 +448,13 @@ def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: Trac
     return [by_seq[s] for s in seq_dirs]
 
 
-def _resumable(seq_dir: str, out_dir: str, config: TrackerConfig, merger: str) -> bool:
+def _resumable(seq_dir: str, out_dir: str, config: TrackerConfig) -> bool:
     """Whether ``--resume`` will skip this sequence (its results exist from the same run settings)."""
     from sotmot.io import read_seqinfo, results_path
     from sotmot.provenance import run_record, why_rerun
 
     try:
         info = read_seqinfo(seq_dir)
-        return why_rerun(results_path(out_dir, info.name), run_record(info, config, merger)) is None
+        return why_rerun(results_path(out_dir, info.name), run_record(info, config)) is None
     except SotmotError:
         return False

@@ -1,12 +1,12 @@
 """Why the tracker linked what it linked: the association graph of a run, exported and explained.
 
-The graph is :func:`sotmot.graph.build_graph` with the rejected candidates
+The graph is :func:`sotmot.association.candidates.build_graph` with the rejected candidates
 kept, annotated with what the solver did: every node (tracklet) carries the
 output track id it ended in; an edge is *taken* when its two tracklets ended
 in one trajectory, one right after the other (ordered by start, end, id), and
 for the greedy merge ``round`` says in which merge round they were joined.
 A taken edge also carries what it adds to the lifted objective of
-:mod:`solvers.lifted` (the one objective every solver is scored on):
+:mod:`sotmot.association.objective` (the one objective every solver is scored on):
 ``lifted_gain`` and ``lifted_pairs``, the pairs of tracklets the link puts
 into one trajectory, as ``a->b:+w`` joined by ``;``.
 """
@@ -22,13 +22,13 @@ import networkx as nx
 import numpy as np
 
 from sotmot.config import TrackerConfig
-from solvers.lifted import link_pairs
-from sotmot.constraints import RULES, link_order_key
+from sotmot.association.objective import link_pairs
+from sotmot.association.merge import link_order_key
+from sotmot.association.rules import RULES
 from sotmot.errors import SotmotError
-from sotmot.graph import build_graph
+from sotmot.association.candidates import build_graph
 from sotmot.io import write_files_atomic
 from sotmot.pipeline import TrackResult
-from sotmot.postprocess import output_ids
 
 
 def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[int, int] | None = None) -> nx.DiGraph:
@@ -37,7 +37,7 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
     Node attributes: ``start``, ``end``, ``length``, ``mean_score``,
     ``sot_boxes`` (boxes added by the SOT step), ``track`` (output id, -1 if
     the trajectory was dropped). Edge attributes: those of
-    :func:`~sotmot.graph.build_graph` plus ``taken`` and ``round`` (greedy
+    :func:`~sotmot.association.candidates.build_graph` plus ``taken`` and ``round`` (greedy
     merge order, 0 when not taken or for solvers that decide at once), and on
     taken edges ``lifted_gain`` and ``lifted_pairs`` (see the module docstring).
     """
@@ -46,9 +46,8 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
         a, b = frames
         tracklets = [t for t in tracklets if t.end >= a and t.start <= b]
     graph = build_graph(tracklets, config.association, include_rejected=True)
-    ids = output_ids(result.trajectories, config.postprocess, result.info.frame_rate)
     track_of = {}
-    for group, track in zip(result.association.groups, ids):
+    for group, track in zip(result.association.groups, result.track_ids):
         for t in group:
             track_of[t] = -1 if track is None else track
     for t in tracklets:
@@ -135,12 +134,12 @@ def graph_files(graph: nx.DiGraph) -> dict[str, bytes]:
 
 
 def _verdict(data: dict, config: TrackerConfig) -> list[str]:
-    """One line per rule of :data:`~sotmot.constraints.RULES`: its measurement in words, then ok or FAILS."""
+    """One line per rule of :data:`~sotmot.association.rules.RULES`: its measurement in words, then ok or FAILS."""
     return [f"{rule.describe(data, config.association)} -> {'ok' if data[f'ok_{rule.name}'] else 'FAILS'}"
             for rule in RULES]
 
 
-def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig, merger: str) -> str:
+def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig) -> str:
     """Plain words on why output tracks ``track_a`` and ``track_b`` were or were not merged."""
     members = {}
     for track in (track_a, track_b):
@@ -163,7 +162,7 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
                 continue
             found += 1
             data = graph.edges[x, y]
-            state = (f"TAKEN by {merger}" + (f" in round {data['round']}" if data["round"] else "")) \
+            state = (f"TAKEN by {config.association.solver}" + (f" in round {data['round']}" if data["round"] else "")) \
                 if data["taken"] else ("allowed, not taken" if data["allowed"] else
                                        f"REJECTED by {data['failed'].replace(',', ', ')}")
             out.append(f"candidate {x} -> {y}: {state}")
@@ -177,7 +176,7 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
         out.append(f"no candidate pair between them: their tracklets are more than l_max = "
                    f"{config.association.l_max} frames apart, so they were never compared")
     verdict = "were merged" if same else "were not merged"
-    out.append(f"-> tracks {track_a} and {track_b} {verdict} ({merger}).")
+    out.append(f"-> tracks {track_a} and {track_b} {verdict} ({config.association.solver}).")
     return "\n".join(out)
 
 

@@ -1,4 +1,4 @@
-"""Deep person re-ID features from an ONNX model run with onnxruntime.
+"""What every re-ID backend shares: the model-input contract, crops, batching and the flip average.
 
 Made for Intel's Open Model Zoo person-reidentification-retail models
 (input ``N x 3 x 256 x 128``, BGR, raw 0-255, mean and scale inside the model;
@@ -14,9 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.appearance import flip_average
+from sotmot.appearance.affinity import normalize
 from sotmot.boxes import pixel_bounds
-from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
 from sotmot.io.mot import resolve_model_file
 
@@ -46,6 +45,26 @@ def check_model_io(path: Path, inputs: list[tuple[str, list]], outputs: list[tup
     if len(outputs) != 1 or len(outputs[0][1]) != 2:
         raise ModelError(f"{path}: expected one output of shape N x D (an embedding), got {outputs}")
     return inputs[0][0], outputs[0][1][1]
+
+
+def flip_average(features: np.ndarray, mirrored: np.ndarray | None, source: object) -> np.ndarray:
+    """Unit features from a network's raw outputs: ``features`` ``(N, D)`` of the crops and, with the
+    flip of paper eq. 1, ``mirrored`` ``(N, D)`` of their mirror images (each normalised, averaged,
+    normalised again). Every backend ends here.
+
+    Raises
+    ------
+    ModelError
+        An output is NaN or infinite (named after ``source``, the model file): a feature that
+        cannot be compared must not enter tracking.
+    """
+    features = np.asarray(features, dtype=np.float32)
+    if not np.isfinite(features).all() or (mirrored is not None and not np.isfinite(mirrored).all()):
+        raise ModelError(f"{source}: the model gave NaN or infinite features; is it a re-ID model taking BGR "
+                         f"0-255 crops?")
+    if mirrored is None:
+        return normalize(features)
+    return normalize(normalize(features) + normalize(mirrored))
 
 
 def crop_boxes(frame: np.ndarray, boxes: np.ndarray, height: int = CROP_HEIGHT,
@@ -103,44 +122,6 @@ class CropEmbedder:
     def embed(self, frame: np.ndarray, boxes: np.ndarray) -> np.ndarray:
         """Features ``(N, D)`` float32, unit length, of ``(N, 4)`` ``x, y, w, h`` boxes in ``frame``."""
         return self.embed_crops(crop_boxes(frame, boxes))
-
-
-class OnnxReidEmbedder(CropEmbedder):
-    """Flip-averaged re-ID features from an ONNX model run with onnxruntime.
-
-    Parameters
-    ----------
-    config
-        ``model`` (path), ``flip``, ``batch_size``, ``threads`` and ``device`` are used.
-    """
-
-    def __init__(self, config: AppearanceConfig) -> None:
-        import onnxruntime as ort
-
-        self.path = resolve_model_path(config.model)
-        self.flip = config.flip
-        self.batch_size = config.batch_size
-        options = ort.SessionOptions()
-        options.log_severity_level = 3  # the Intel models trigger harmless "unused initializer" warnings
-        if config.threads:
-            options.intra_op_num_threads = config.threads
-        providers = ["CPUExecutionProvider"]
-        if config.device == "cuda":
-            if "CUDAExecutionProvider" not in ort.get_available_providers():
-                raise ModelError("device 'cuda' asked for, but this onnxruntime has no CUDA provider "
-                                 "(install onnxruntime-gpu, or use --appearance torch on a CUDA machine)")
-            providers = ["CUDAExecutionProvider"]
-        try:
-            self.session = ort.InferenceSession(str(self.path), sess_options=options, providers=providers)
-        except Exception as exc:  # onnxruntime raises its own untyped errors
-            raise ModelError(f"{self.path}: cannot be loaded as an ONNX model: {exc}") from exc
-        self.input_name, dim = check_model_io(self.path, [(i.name, list(i.shape)) for i in self.session.get_inputs()],
-                                              [(o.name, list(o.shape)) for o in self.session.get_outputs()])
-        self.dim = fixed_dim(self.path, dim)
-        log.info("re-ID model %s: %d-d embedding", self.path, self.dim)
-
-    def _run(self, tensor: np.ndarray) -> np.ndarray:
-        return self.session.run(None, {self.input_name: tensor})[0]
 
 
 def fixed_dim(path: Path, dim: object) -> int:

@@ -50,13 +50,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sotmot.appearance import affinity_rows
-from sotmot.boxes import centers, iou_matrix, pixel_bounds
+from sotmot.boxes import centers, iou_matrix
 from sotmot.config import SotConfig
+from sotmot.sot.search import TemplateSearch
 from sotmot.types import Detections
 
 log = logging.getLogger(__name__)
-
-TEMPLATE_HEIGHT = 64
 
 
 @dataclass
@@ -99,87 +98,6 @@ class _End:
     direction: int = field(compare=False)
     chain: int = field(compare=False)
     velocity: np.ndarray = field(compare=False)
-
-
-def crop_resized(frame: np.ndarray, box: np.ndarray, width: int, height: int) -> np.ndarray:
-    """The ``x, y, w, h`` box of ``frame`` resized to ``(height, width)``, clipped to the image, grey."""
-    import cv2
-
-    x1, y1, x2, y2 = (int(c[0]) for c in pixel_bounds(np.asarray(box)[None], frame.shape[1], frame.shape[0]))
-    patch = frame[y1:y2, x1:x2]
-    if patch.ndim == 3:
-        patch = cv2.cvtColor(patch, cv2.COLOR_BGR2GRAY)
-    return cv2.resize(patch, (width, height), interpolation=cv2.INTER_AREA)
-
-
-class TemplateSearch:
-    """Dense search for a seed template around a prior box with one ``matchTemplate`` per scale.
-
-    The template is the seed crop at a fixed height of 64 pixels; the search
-    window (the prior box grown by ``radius`` box sizes on every side) is
-    rescaled by the same factor, so the cost does not grow with resolution.
-    """
-
-    def __init__(self, config: SotConfig) -> None:
-        self.radius = config.search_radius
-        self.scales = config.scales
-
-    @staticmethod
-    def template(frame: np.ndarray, box: np.ndarray) -> np.ndarray:
-        """The seed template: grey crop at height 64 with the box's aspect ratio."""
-        w = max(4, int(round(TEMPLATE_HEIGHT * box[2] / box[3])))
-        return crop_resized(frame, box, w, TEMPLATE_HEIGHT).astype(np.float32)
-
-    def score_box(self, template: np.ndarray, frame: np.ndarray, box: np.ndarray) -> float:
-        """Normalised correlation of the template with ``box`` of ``frame``, clipped to [0, 1]."""
-        import cv2
-
-        patch = crop_resized(frame, box, template.shape[1], template.shape[0]).astype(np.float32)
-        return float(np.clip(cv2.matchTemplate(patch, template, cv2.TM_CCOEFF_NORMED)[0, 0], 0.0, 1.0))
-
-    def search(self, template: np.ndarray, frame: np.ndarray, prior: np.ndarray,
-               top: int = 1) -> tuple[np.ndarray, np.ndarray]:
-        """Best ``top`` boxes ``(k, 4)`` around ``prior`` and their correlations ``(k,)`` in [0, 1]."""
-        import cv2
-
-        img_h, img_w = frame.shape[:2]
-        grey = frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)  # callers pass grey
-        boxes, scores = [], []
-        for s in self.scales:
-            bw, bh = prior[2] * s, prior[3] * s
-            k = TEMPLATE_HEIGHT / bh  # image pixels -> template pixels
-            tw = max(4, int(round(bw * k)))
-            tmpl = cv2.resize(template, (tw, TEMPLATE_HEIGHT), interpolation=cv2.INTER_AREA)
-            cx, cy = prior[0] + prior[2] / 2, prior[1] + prior[3] / 2
-            x1 = int(np.floor(max(0.0, cx - bw / 2 - self.radius * bw)))
-            y1 = int(np.floor(max(0.0, cy - bh / 2 - self.radius * bh)))
-            x2 = int(np.ceil(min(img_w, cx + bw / 2 + self.radius * bw)))
-            y2 = int(np.ceil(min(img_h, cy + bh / 2 + self.radius * bh)))
-            rw, rh = int(round((x2 - x1) * k)), int(round((y2 - y1) * k))
-            if rw < tw or rh < TEMPLATE_HEIGHT:
-                continue
-            region = cv2.resize(grey[y1:y2, x1:x2], (rw, rh), interpolation=cv2.INTER_AREA).astype(np.float32)
-            response = cv2.matchTemplate(region, tmpl, cv2.TM_CCOEFF_NORMED)
-            if top == 1:
-                flat = [int(np.argmax(response))]
-            else:
-                flat = np.argpartition(response, -4 * top, axis=None)[-4 * top:] if response.size > 4 * top \
-                    else np.arange(response.size)
-            for idx in flat:
-                py, px = np.unravel_index(idx, response.shape)
-                boxes.append([x1 + px / k, y1 + py / k, bw, bh])
-                scores.append(float(response[py, px]))
-        if not boxes:
-            return np.zeros((0, 4)), np.zeros(0)
-        boxes_arr, scores_arr = np.asarray(boxes), np.clip(np.asarray(scores), 0.0, 1.0)
-        order = np.argsort(-scores_arr, kind="stable")
-        keep: list[int] = []
-        for i in order:  # spread the proposals: no two nearly the same box
-            if all(iou_matrix(boxes_arr[i], boxes_arr[j])[0, 0] < 0.7 for j in keep):
-                keep.append(int(i))
-            if len(keep) == top:
-                break
-        return boxes_arr[keep], scores_arr[keep]
 
 
 class SotTracker:

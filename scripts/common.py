@@ -1,0 +1,53 @@
+"""The command-line side the scripts in ``scripts/`` share: default paths and common arguments.
+
+Run a script as ``python scripts/NAME.py``; Python puts this folder on the
+import path, so ``from common import ...`` finds this module. ``DEFAULT_DATA``
+is ``../shared/data`` beside the project, or the environment variable
+``SOTMOT_DATA``. What the scripts compute lives in the library
+(:mod:`sotmot.benchmarks` and the stages themselves).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from sotmot.benchmarks import fit_sequences
+from sotmot.config import TrackerConfig, load_config
+from sotmot.errors import SotmotError
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data"))
+
+
+def add_confirmation_fit_arguments(parser: argparse.ArgumentParser) -> None:
+    """What the confirmation fits share (``scripts/fit_confidence.py``, ``scripts/fit_detector_confidence.py``):
+    the solver, the candidate confirmation thresholds and the box model's L2 penalty."""
+    parser.add_argument("--solver", "--merger", dest="solver", default="greedy", help="long-term association solver (default: %(default)s)")
+    parser.add_argument("--thresholds", default="0.2,0.25,0.3,0.35,0.4,0.45,0.5,0.55,0.6",
+                        help="candidate confirmation thresholds; 0 (keep all) is always tried (default: %(default)s)")
+    parser.add_argument("--l2", type=float, default=1000.0, help="L2 penalty of the box model (default: %(default)s)")
+
+
+def add_fit_arguments(parser: argparse.ArgumentParser, cache: Path) -> None:
+    """The arguments every leave-one-sequence-out fit script takes: the model, the data and which of its sequences,
+    a configuration, the feature cache (default ``cache``) and a JSON report."""
+    parser.add_argument("--model", required=True, help="ONNX re-ID model")
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
+    parser.add_argument("--min-length", type=int, default=100,
+                        help="use sequences with at least this many frames (default: %(default)s)")
+    parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
+    parser.add_argument("--cache", type=Path, default=cache, help="feature cache folder (default: %(default)s)")
+    parser.add_argument("--json", type=Path, help="write every number here")
+
+
+def fit_setup(args: argparse.Namespace) -> tuple[TrackerConfig, list[Path]]:
+    """The configuration (with ``--model``) and the sequences of at least ``--min-length`` frames of a fit script;
+    exits with the error's message when there are fewer than two (nothing to hold out)."""
+    config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
+    try:
+        return config, fit_sequences(args.data, args.min_length)
+    except SotmotError as exc:
+        sys.exit(f"{Path(sys.argv[0]).name}: error: {exc}")

@@ -1,0 +1,36 @@
+"""Confirmation: each output box scored by the calibrated box model, and the boxes more likely false than
+true dropped (the model and its features: :mod:`sotmot.confidence`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sotmot.confidence import BoxModel, box_features, load_calibration, model_kind
+from sotmot.config import TrackerConfig
+from sotmot.postprocess import BoxScorer, Expanded
+from sotmot.types import Detections, Tracklet, Tracks
+
+
+def box_scorer(model: BoxModel, detections: Detections, features: np.ndarray, confidence: np.ndarray,
+               frame_rate: float) -> BoxScorer:
+    """``model`` as a :data:`~sotmot.postprocess.BoxScorer` for one sequence's ``detections`` (after
+    preprocessing), their ``(N, D)`` features and ``(N,)`` detection confidences."""
+
+    def score(trajectory: Tracklet, expanded: Expanded) -> np.ndarray:
+        return model.predict(box_features(trajectory, expanded, confidence, detections.from_sot, features,
+                                          frame_rate))
+
+    return score
+
+
+def confirm(tracks: Tracks, config: TrackerConfig, method: str = "raw") -> tuple[Tracks, Tracks]:
+    """Split scored ``tracks`` into the confirmed boxes and the dropped ones.
+
+    The threshold is ``[confirm] threshold``, or the calibration's for the
+    model kind of the confidence ``method`` the sequence used.
+    """
+    threshold = config.confirm.threshold
+    if threshold is None:
+        threshold = load_calibration(config.confirm.calibration).thresholds[model_kind(method)]
+    keep = ~(tracks.confidence < threshold)  # NaN (not scored) is kept
+    return tracks.subset(np.flatnonzero(keep)), tracks.subset(np.flatnonzero(~keep))

@@ -1,0 +1,125 @@
+"""One pass over a sequence's frames: each frame decoded once, its boxes found (read or detected) and embedded.
+
+Boxes are ``x, y, w, h`` pixels, frames 1-based.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable
+
+import numpy as np
+
+from sotmot.appearance import Embedder
+from sotmot.io import FrameReader, SeqInfo
+from sotmot.progress import Progress, as_progress
+from sotmot.types import Detections
+
+
+#: Frames the appearance stage decodes (and crops) ahead of the one the model embeds.
+PREFETCH_FRAMES = 8
+
+
+def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
+                     progress: "bool | Progress" = False, timings: dict[str, float] | None = None) -> np.ndarray:
+    """Appearance features ``(N, D)`` of every detection (see :func:`frame_pass` for how frames are read)."""
+    features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
+    per_frame = detections.by_frame()
+    passed = frame_pass(info, sorted(per_frame), lambda frame, image: detections.boxes[per_frame[frame]],
+                        embedder, f"{info.name}: appearance", progress, timings)
+    for frame, _, feats in passed:
+        features[per_frame[frame]] = feats
+    return features
+
+
+def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.ndarray], object],
+               embedder: Embedder | None, desc: str, progress: "bool | Progress" = False,
+               timings: dict[str, float] | None = None) -> list[tuple[int, object, np.ndarray]]:
+    """Read each of ``frames`` once, find its boxes and embed them: ``[(frame, found, features), ...]``.
+
+    ``boxes_of(frame, image)`` gives the frame's boxes: an ``(N, 4)`` array,
+    or ``(boxes, scores)`` from a detector (whose call is timed as
+    ``"detect"``); ``embedder`` None skips the embedding (features
+    ``(N, 0)``). The next frames (:data:`PREFETCH_FRAMES`) are decoded,
+    searched and (for the crop-based backends, onnx and openvino) cropped in a
+    background thread while the re-ID model embeds earlier ones (each
+    releases the GIL), so reading overlaps inference. The crop-based backends
+    get the crops of several frames in one call that fills about one forward
+    pass (``batch_size`` rows; with the flip a crop is two rows): a frame
+    holds a few boxes, and small batches waste the runtime's time
+    (docs/benchmarks.md); other embedders are called once per frame.
+    ``timings``, when given, receives ``"decode"``: the seconds spent reading
+    (and cropping) frames, overlapped with the embedding, so part of, not
+    added to, the stage's wall time.
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    from sotmot.appearance.base import CropEmbedder, crop_boxes
+
+    frame_reader = FrameReader(info, cache_size=1)  # called from the one decoding thread only
+    spent = {"decode": 0.0, "detect": 0.0}
+    batched = isinstance(embedder, CropEmbedder)
+    per_call = max(1, embedder.batch_size // (2 if embedder.flip else 1)) if batched else 1  # crops: one forward pass
+    out: list[tuple[int, object, np.ndarray]] = []
+
+    def reader(frame: int) -> tuple[np.ndarray, object, np.ndarray]:
+        start = time.perf_counter()
+        image = frame_reader(frame)
+        spent["decode"] += time.perf_counter() - start
+        start = time.perf_counter()
+        found = boxes_of(frame, image)
+        boxes = found[0] if isinstance(found, tuple) else found
+        spent["detect" if isinstance(found, tuple) else "decode"] += time.perf_counter() - start
+        start = time.perf_counter()
+        if batched:
+            image = crop_boxes(image, boxes)
+        spent["decode"] += time.perf_counter() - start
+        return boxes, found, image
+
+    pending: list[tuple[int, np.ndarray]] = []  # (index into out, crops) not embedded yet
+
+    def flush() -> None:
+        sizes = [len(c) for _, c in pending]
+        if sum(sizes):
+            feats = embedder.embed_crops(np.concatenate([c for _, c in pending]))
+            for (k, _), part in zip(pending, np.split(feats, np.cumsum(sizes)[:-1])):
+                out[k] = (out[k][0], out[k][1], part)
+        pending.clear()
+
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-decode") as pool:
+        # a few frames ahead: one call of the model consumes several frames' crops at once
+        upcoming = deque(pool.submit(reader, f) for f in frames[:PREFETCH_FRAMES])
+        for k, frame in enumerate(as_progress(progress)(frames, desc, len(frames))):
+            boxes, found, item = upcoming.popleft().result()
+            if k + PREFETCH_FRAMES < len(frames):
+                upcoming.append(pool.submit(reader, frames[k + PREFETCH_FRAMES]))
+            out.append((frame, found, np.zeros((len(boxes), embedder.dim if embedder else 0), np.float32)))
+            if embedder is None:
+                continue
+            if not batched:
+                out[-1] = (frame, found, embedder.embed(item, boxes))
+                continue
+            pending.append((len(out) - 1, item))
+            if sum(len(c) for _, c in pending) >= per_call or k + 1 == len(frames):
+                flush()
+    if timings is not None:
+        for stage, seconds in spent.items():
+            if seconds:
+                timings[stage] = timings.get(stage, 0.0) + seconds
+    return out
+
+
+def detect_sequence(info: SeqInfo, detector, embedder: Embedder | None = None, progress: "bool | Progress" = False,
+                    timings: dict[str, float] | None = None) -> tuple[Detections, np.ndarray]:
+    """Run ``detector`` on every frame: the detections in canonical order and, with ``embedder``, their features
+    from the same decoded frames (``(N, D)``; ``(N, 0)`` without)."""
+    passed = frame_pass(info, list(range(1, info.length + 1)), lambda frame, image: detector.detect(image),
+                        embedder, f"{info.name}: detection", progress, timings)
+    dim = embedder.dim if embedder is not None else 0
+    frames = np.concatenate([np.full(len(found[0]), frame, np.int64) for frame, found, _ in passed] or [[]])
+    raw = Detections(frames, np.concatenate([found[0] for _, found, _ in passed] or [np.zeros((0, 4))]),
+                     np.concatenate([found[1] for _, found, _ in passed] or [[]]))
+    features = np.concatenate([f for *_, f in passed] or [np.zeros((0, dim), np.float32)]).reshape(len(raw), dim)
+    order = raw.canonical_order()
+    return raw.subset(order), features[order]

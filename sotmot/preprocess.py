@@ -1,0 +1,46 @@
+"""Cleaning the detections before tracking: a score threshold, then NMS per frame (paper Sec. 6.1).
+
+Boxes are ``x, y, w, h`` pixels, frames 1-based.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sotmot.boxes import nms
+from sotmot.confidence import scores_are_probabilities
+from sotmot.config import PreprocessConfig
+from sotmot.types import Detections
+
+
+def resolve_nms(config: PreprocessConfig, detections: Detections) -> str:
+    """The NMS overlap to use: ``config.nms`` with ``"auto"`` decided from the scores.
+
+    ``auto`` means IoM when any score lies outside [0, 1] (scores that are not
+    probabilities, as with the public DPM detections, where the paper uses
+    NMS-IoM), IoU otherwise.
+    """
+    if config.nms != "auto":
+        return config.nms
+    return "iou" if scores_are_probabilities(detections.scores) else "iom"
+
+
+def nms_per_frame(detections: Detections, kind: str, threshold: float) -> np.ndarray:
+    """Indices (ascending) of the boxes that survive NMS of kind ``"iou"``/``"iom"``/``"none"`` in their frame."""
+    if kind == "none" or len(detections) == 0:
+        return np.arange(len(detections))
+    kept = [idx[nms(detections.boxes[idx], detections.scores[idx], threshold, kind)]
+            for idx in detections.by_frame().values()]
+    return np.sort(np.concatenate(kept))
+
+
+def preprocess(detections: Detections, config: PreprocessConfig) -> Detections:
+    """Score threshold, then per-frame NMS (paper Sec. 6.1). Keeps the canonical order."""
+    return detections.subset(preprocess_indices(detections, config))
+
+
+def preprocess_indices(detections: Detections, config: PreprocessConfig) -> np.ndarray:
+    """Indices (ascending) into ``detections`` of the boxes :func:`preprocess` keeps."""
+    kept = np.flatnonzero(detections.scores >= config.score_threshold) if config.score_threshold is not None \
+        else np.arange(len(detections))
+    return kept[nms_per_frame(detections.subset(kept), resolve_nms(config, detections), config.nms_threshold)]

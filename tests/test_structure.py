@@ -1,0 +1,89 @@
+"""The package's layout: each module on a floor, imports only downwards or sideways, no cycle, and the core
+reaching a solver only through its name table (``sotmot.plugins``)."""
+
+import ast
+from pathlib import Path
+
+import networkx as nx
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Floor of each module (a prefix names a package and everything in it); a module imports only its own floor or
+#: lower ones. A new module needs a line here: where it sits is a decision, not an accident.
+FLOORS = {
+    "sotmot.errors": 0, "sotmot.types": 0, "sotmot.plugins": 0, "sotmot.boxes": 0, "sotmot.progress": 0,
+    "sotmot": 0,  # the package's __init__
+    "sotmot.config": 1,
+    "sotmot.io": 2, "sotmot.evaluate": 2,
+    "sotmot.appearance": 3, "sotmot.detection": 3, "sotmot.postprocess": 3,
+    "sotmot.confidence": 4, "sotmot.provenance": 4, "sotmot.passes": 4, "sotmot.sot": 4, "sotmot.tracklets": 4,
+    "sotmot.preprocess": 5, "sotmot.confirm": 5, "sotmot.association": 5,
+    "solvers": 6,
+    "sotmot.pipeline": 7,
+    "sotmot.runs": 8, "sotmot.peers": 8, "sotmot.train": 8, "sotmot.benchmarks": 8,
+    "sotmot.inspect": 9, "sotmot.fitting": 9,
+    "sotmot.cli": 10, "sotmot.__main__": 10,
+}
+
+
+def modules() -> dict[str, Path]:
+    found = {}
+    for package in ("sotmot", "solvers"):
+        for path in (ROOT / package).rglob("*.py"):
+            name = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+            found[name.removesuffix(".__init__")] = path
+    return found
+
+
+def import_graph() -> nx.DiGraph:
+    """Every import between the project's modules, at module level or inside functions."""
+    mods = modules()
+    graph = nx.DiGraph()
+    graph.add_nodes_from(mods)
+    for name, path in mods.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                targets = [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
+            elif isinstance(node, ast.Import):
+                targets = [alias.name for alias in node.names]
+            else:
+                continue
+            graph.add_edges_from((name, t) for t in targets if t in mods and t != name)
+    return graph
+
+
+def floor(module: str) -> int:
+    best = max((p for p in FLOORS if module == p or module.startswith(p + ".")), key=len, default=None)
+    assert best is not None, f"{module} has no floor in FLOORS"
+    return FLOORS[best]
+
+
+def test_every_import_goes_down_or_sideways():
+    upward = [(a, b) for a, b in import_graph().edges if floor(b) > floor(a)]
+    assert not upward, f"imports from a lower floor to a higher one: {upward}"
+
+
+def test_no_import_cycle():
+    graph = import_graph()
+    # a package's __init__ and its own modules may refer to each other (it re-exports them); across modules, no
+    for a, b in list(graph.edges):
+        if b.startswith(a + ".") or a.startswith(b + "."):
+            graph.remove_edge(a, b)
+    cycles = list(nx.simple_cycles(graph))
+    assert not cycles, f"import cycles: {cycles}"
+
+
+def test_the_core_reaches_a_solver_only_through_the_name_table():
+    graph = import_graph()
+    reached = [(a, b) for a, b in graph.edges if a.startswith("sotmot") and b.split(".")[0] == "solvers"]
+    assert not reached, f"the core imports a solver module directly: {reached}"
+    from sotmot.plugins import SOLVERS
+
+    assert all(target.startswith("solvers.") for target in SOLVERS.values())
+
+
+def test_the_floor_check_sees_an_upward_import():
+    """The check can fail: a low module that imports the pipeline is caught."""
+    graph = import_graph()
+    graph.add_edge("sotmot.boxes", "sotmot.pipeline")
+    assert [(a, b) for a, b in graph.edges if floor(b) > floor(a)] == [("sotmot.boxes", "sotmot.pipeline")]
