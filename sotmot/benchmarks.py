@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sotmot.appearance import resolve_backend
 from sotmot.config import TrackerConfig
 from sotmot.errors import InputError
 from sotmot.io import atomic_path, read_detections, read_seqinfo
@@ -65,7 +66,8 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
     # the detector-score calibration changes no box and no feature: it is not part of the key
     cleaning = {k: v for k, v in config.preprocess.__dict__.items() if k != "confidence"}
     # the runtime and fine-tuned weights, when not the defaults (so keys of default runs stay as they were)
-    runtime = [v for v in (config.appearance.backend if config.appearance.backend != "onnx" else None,
+    backend = resolve_backend(config.appearance).backend
+    runtime = [v for v in (backend if backend != "onnx" else None,
                            config.appearance.weights) if v]
     detections = [config.detection.file] if config.detection.file else []  # default runs keep their keys
     key = hashlib.sha256(json.dumps([info.name, model.name, model.stat().st_size if model.is_file() else 0,

@@ -49,3 +49,11 @@ class SolverError(SotmotError):
 
 class EvaluationError(SotmotError):
     """Scoring with TrackEval failed or is not possible for the given input."""
+
+
+def runtime_message(exc: BaseException) -> str:
+    """A model runtime's error in one line: OpenVINO's messages span several lines and name its own C++ source
+    files ("Exception from src/...cpp:84:"), which tell a user nothing; the rest is kept."""
+    lines = [line.strip() for line in str(exc).splitlines()]
+    kept = [line for line in lines if line and not (line.startswith("Exception from ") and line.endswith(":"))]
+    return " ".join(kept) or type(exc).__name__

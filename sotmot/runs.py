@@ -265,9 +265,12 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         Both ``workers > 1`` and ``cluster``; a malformed cluster address,
         an unreachable scheduler, or ``distributed`` not installed.
     """
+    from sotmot.appearance import resolve_backend
     from sotmot.io import check_output_dir
 
     config = resolve_paths(config)
+    # the backend "auto" picks, decided here once: the run record and every worker see the one that runs
+    config = config.replace("appearance", backend=resolve_backend(config.appearance).backend)
     seq_dirs = [str(s) for s in seq_dirs]
     out_dir = str(check_output_dir(out_dir))  # a file, a read-only folder: said now, not after the work
     report = report or (lambda outcome: None)

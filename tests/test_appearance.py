@@ -35,7 +35,11 @@ def test_a_file_that_is_not_a_model_is_a_clear_error(tmp_path):
     bad = tmp_path / "bad.onnx"
     bad.write_bytes(b"this is not onnx")
     with pytest.raises(ModelError, match="cannot be loaded as an ONNX model"):
-        make_embedder(AppearanceConfig(model=str(bad)))
+        make_embedder(AppearanceConfig(model=str(bad), backend="onnx"))
+    pytest.importorskip("openvino")
+    with pytest.raises(ModelError, match="cannot be loaded by OpenVINO") as caught:
+        make_embedder(AppearanceConfig(model=str(bad), backend="openvino"))
+    assert "\n" not in str(caught.value) and "src/inference" not in str(caught.value)  # one line a user can read
 
 
 @pytest.fixture(scope="module")

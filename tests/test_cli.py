@@ -78,10 +78,34 @@ def test_appearance_backend_and_flip_come_from_the_command_line():
     from sotmot.cli import _build_config, build_parser
 
     config = _build_config(build_parser().parse_args(["track", "x", "--out", "y"]))
-    assert config.appearance.backend == "onnx" and config.appearance.flip
-    args = build_parser().parse_args(["track", "x", "--out", "y", "--appearance", "openvino", "--no-flip"])
+    assert config.appearance.backend == "auto" and config.appearance.flip
+    args = build_parser().parse_args(["track", "x", "--out", "y", "--appearance", "onnx", "--no-flip"])
     config = _build_config(args)
-    assert config.appearance.backend == "openvino" and not config.appearance.flip
+    assert config.appearance.backend == "onnx" and not config.appearance.flip
+
+
+def test_auto_backend_is_openvino_where_installed_on_the_cpu_else_onnx(monkeypatch):
+    import importlib.util
+
+    from sotmot.appearance import resolve_backend
+    from sotmot.config import AppearanceConfig
+
+    pytest.importorskip("openvino")
+    assert resolve_backend(AppearanceConfig()).backend == "openvino"
+    assert resolve_backend(AppearanceConfig(device="cuda")).backend == "onnx"  # OpenVINO here runs on CPUs only
+    assert resolve_backend(AppearanceConfig(backend="onnx")).backend == "onnx"  # asked for: kept
+    found = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "openvino" else found(name, *a))
+    assert resolve_backend(AppearanceConfig()).backend == "onnx"
+
+
+def test_the_run_record_names_the_backend_that_ran(tmp_path, model_0288, capsys):
+    seq = require(DATA / "MOT16-05-clip30")
+    assert main(["track", str(seq), "--out", str(tmp_path), "--reid-model", str(model_0288)]) == 0
+    pytest.importorskip("openvino")
+    record = json.loads((tmp_path / "MOT16-05-clip30.run.json").read_text())
+    assert record["config"]["appearance"]["backend"] == "openvino"
+    assert "re-ID by openvino" in capsys.readouterr().err
 
 
 def test_graph_and_explain_commands_run_to_the_end(tmp_path, model_0288, capsys):

@@ -18,7 +18,7 @@ onnx = pytest.importorskip("onnx", reason="the torch extra is not installed (pip
                                    "person-reidentification-retail-0277.onnx"])
 def test_torch_matches_onnxruntime_on_real_crops(model, real_crops):
     path = str(require(MODELS / model))
-    ref = make_embedder(AppearanceConfig(model=path)).embed_crops(real_crops)
+    ref = make_embedder(AppearanceConfig(model=path, backend="onnx")).embed_crops(real_crops)
     got = make_embedder(AppearanceConfig(model=path, backend="torch")).embed_crops(real_crops)
     assert got.shape == ref.shape == (len(real_crops), 256)
     assert np.abs(got - ref).max() < 1e-4

@@ -50,8 +50,20 @@ def embedder_for(config: AppearanceConfig, embedder: Embedder | None = None) -> 
     return embedder if embedder is not None else make_embedder(config)
 
 
+def resolve_backend(config: AppearanceConfig) -> AppearanceConfig:
+    """``config`` with ``backend = "auto"`` made concrete: ``"openvino"`` where the OpenVINO runtime is installed
+    and the device is the CPU (the same tracking scores as onnxruntime, about twice as fast), else ``"onnx"``."""
+    if config.backend != "auto":
+        return config
+    import importlib.util
+
+    fast = config.device == "cpu" and importlib.util.find_spec("openvino") is not None
+    return dataclasses.replace(config, backend="openvino" if fast else "onnx")
+
+
 def make_embedder(config: AppearanceConfig) -> Embedder:
-    """Build the embedder that ``config.backend`` names."""
+    """Build the embedder that ``config.backend`` names (``"auto"``: :func:`resolve_backend`)."""
+    config = resolve_backend(config)
     target = BACKENDS.get(config.backend)
     if target is None:
         raise ConfigError(f"unknown appearance backend {config.backend!r}; valid: {', '.join(BACKENDS)}")
@@ -70,4 +82,4 @@ def make_embedder(config: AppearanceConfig) -> Embedder:
 
 
 __all__ = ["BACKENDS", "Embedder", "affinity", "affinity_rows", "embedder_for", "flip_average", "make_embedder",
-           "normalize", "pair_affinities", "roc_auc", "unit", "unit_affinity_rows"]
+           "normalize", "pair_affinities", "resolve_backend", "roc_auc", "unit", "unit_affinity_rows"]

@@ -15,7 +15,7 @@ import numpy as np
 
 from sotmot.appearance.base import CROP_HEIGHT, CROP_WIDTH, CropEmbedder, check_model_io, fixed_dim, resolve_model_path
 from sotmot.config import AppearanceConfig
-from sotmot.errors import ModelError
+from sotmot.errors import ModelError, runtime_message
 
 log = logging.getLogger(__name__)
 
@@ -48,7 +48,7 @@ class OpenVinoReidEmbedder(CropEmbedder):
         try:
             model = core.read_model(str(self.path))
         except Exception as exc:  # OpenVINO raises its own untyped errors
-            raise ModelError(f"{self.path}: cannot be loaded by OpenVINO: {exc}") from exc
+            raise ModelError(f"{self.path}: cannot be loaded by OpenVINO: {runtime_message(exc)}") from exc
         _, dim = check_model_io(self.path, [(p.any_name, _shape(p)) for p in model.inputs],
                                 [(p.any_name, _shape(p)) for p in model.outputs])
         self.dim = fixed_dim(self.path, dim)
