@@ -41,7 +41,7 @@ import sys
 import time
 from pathlib import Path
 
-from sotmot.appearance import make_embedder
+from sotmot.appearance import make_embedder, resolve_backend
 from sotmot.plugins import BACKENDS
 from common import DEFAULT_DATA
 from sotmot.benchmarks import machine, sequences
@@ -79,8 +79,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", required=True)
     parser.add_argument("--sot", default="none", choices=["none", "template", "deep"])
     parser.add_argument("--solver", "--merger", dest="solver", default="greedy", help="long-term association solver (default: %(default)s)")
-    parser.add_argument("--appearance", default="onnx", choices=sorted(BACKENDS),
-                        help="appearance backend (default: %(default)s)")
+    parser.add_argument("--appearance", default="auto", choices=["auto", *sorted(BACKENDS)],
+                        help="appearance backend (default: %(default)s, as sotmot track)")
     parser.add_argument("--no-flip", action="store_true", help="embed each crop once, without its mirror image")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--device", default="cpu", choices=["cpu", "cuda"])
@@ -103,6 +103,7 @@ def main(argv: list[str] | None = None) -> int:
 
         config = config.replace("detection", source="model", model=args.detector_model)
         detector = make_detector(config.detection)  # loaded once, outside the clock, like the re-ID model
+    config = config.replace("appearance", backend=resolve_backend(config.appearance).backend)  # the one that runs
     embedder = make_embedder(config.appearance)
     rows = {}
     seqs = sequences(args.data, args.sequences)
@@ -134,10 +135,10 @@ def main(argv: list[str] | None = None) -> int:
         print("\n".join(lines))
     detections = f"model {Path(args.detector_model).name}" if args.detector_model else "det/det.txt (public)"
     print(f"machine: {machine()}; detections: {detections}; sot: {args.sot}; solver: {args.solver}; appearance: "
-          f"{args.appearance} on {args.device}, flip {'off' if args.no_flip else 'on'}")
+          f"{config.appearance.backend} on {args.device}, flip {'off' if args.no_flip else 'on'}")
     if args.json:
         args.json.write_text(json.dumps({"machine": machine(), "sot": args.sot, "solver": args.solver,
-                                         "appearance": args.appearance, "device": args.device,
+                                         "appearance": config.appearance.backend, "device": args.device,
                                          "flip": not args.no_flip, "detections": detections,
                                          "rows": rows}, indent=2) + "\n")
     return 0

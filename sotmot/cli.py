@@ -148,6 +148,8 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("appearance", model=args.reid_model)
     if args.appearance:
         config = config.replace("appearance", backend=args.appearance)
+    if getattr(args, "fps", None):
+        config = config.replace("input", fps=args.fps)
     if getattr(args, "no_flip", False):
         config = config.replace("appearance", flip=False)
     if args.device:
@@ -181,28 +183,7 @@ def _build_config(args: argparse.Namespace):
     return config
 
 
-def _video_sequences(args: argparse.Namespace, work: Path) -> list[Path]:
-    """``args.seq_dirs`` with any video file turned into a sequence folder (frames only) under ``work``."""
-    from sotmot.io.video import is_video, sequence_from_video
-    from sotmot.progress import progress_bar
-
-    paths = args.seq_dirs if hasattr(args, "seq_dirs") else [args.seq_dir]
-    out = []
-    for p in paths:
-        if is_video(p):
-            out.append(sequence_from_video(p, work, None, getattr(args, "fps", None),
-                                           progress=lambda it, p=p: progress_bar(it, f"{p.name}: decode",
-                                                                                 _progress(args))))
-        else:
-            out.append(p)
-    return out
-
-
 def cmd_track(args: argparse.Namespace) -> int:
-    import tempfile
-
-    from sotmot.runs import output_paths
-    from sotmot.io import refuse_overwriting
     from sotmot.io.video import is_video
 
     videos = [p for p in args.seq_dirs if is_video(p)]
@@ -210,8 +191,6 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise SotmotError("--det belongs to one video or sequence; track several in separate runs")
     if args.det is not None and args.detections == "model":
         raise SotmotError("--det gives the detections, --detections model asks the detector for them: choose one")
-    if videos and args.cluster:
-        raise SotmotError("video input is decoded on this machine; use --workers, not --cluster")
     if videos and args.eval:
         raise SotmotError(f"{videos[0]}: --eval needs ground truth (a sequence folder with gt/gt.txt); a video has "
                           f"none")
@@ -223,21 +202,14 @@ def cmd_track(args: argparse.Namespace) -> int:
     if videos and config.detection.source == "file" and config.detection.file is None:
         raise SotmotError(f"{videos[0]}: a video has no det.txt: give its detections with --det FILE, or let the "
                           f"detector find the people (--detections auto or model)")
-    for video in videos:  # its sequence is decoded into a temporary folder: check against the user's files now
-        detected = args.det is None and config.detection.source != "file"
-        refuse_overwriting(output_paths(args.out, video.stem, config, detected), [video, args.det],
-                           "choose another --out")
-    if not videos:
-        return _track(args, config, args.seq_dirs)
-    with tempfile.TemporaryDirectory(prefix="sotmot-video-") as work:
-        return _track(args, config, _video_sequences(args, Path(work)))
+    return _track(args, config, args.seq_dirs)  # a video's frames are read from the file itself
 
 
 def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
     from sotmot.runs import sequence_inputs, sequence_outputs, track_many
     from sotmot.io import read_seqinfo, refuse_overwriting
 
-    infos = [read_seqinfo(s) for s in seq_dirs]  # fail early on a bad folder, before any work
+    infos = [read_seqinfo(s, config.input.fps) for s in seq_dirs]  # a bad folder or video fails before any work
     names = [i.name for i in infos]
     if len(set(names)) != len(names):
         raise SotmotError(f"two sequences share a name: {names}")
@@ -286,7 +258,7 @@ def _check_json(path: Path | None, seq_dirs: list[Path], results_dir: Path | Non
     inputs = []
     for seq in seq_dirs:
         info = read_seqinfo(seq)
-        inputs += [info.path / "seqinfo.ini", info.det_path, info.gt_path]
+        inputs += [info.source, info.det_path, info.gt_path]
         if results_dir is not None:
             inputs.append(results_path(results_dir, info.name))
     refuse_overwriting([path], inputs, "choose another --json")
@@ -338,20 +310,15 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    import tempfile
-
     from sotmot.io import refuse_overwriting
     from sotmot.io.video import is_video
     from sotmot.io.flags import flags_path
 
     inputs = [args.seq_dir, args.results, flags_path(args.results)]
-    refuse_overwriting([args.out], inputs, "choose another --out")  # before a video is decoded
-    if not is_video(args.seq_dir):
-        return _render(args, args.seq_dir, inputs)
-    if args.gt:
+    refuse_overwriting([args.out], inputs, "choose another --out")  # before a video is read
+    if args.gt and is_video(args.seq_dir):
         raise SotmotError("--gt needs a sequence folder with gt/gt.txt, not a video")
-    with tempfile.TemporaryDirectory(prefix="sotmot-video-") as work:
-        return _render(args, _video_sequences(args, Path(work))[0], inputs)
+    return _render(args, args.seq_dir, inputs)
 
 
 def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:

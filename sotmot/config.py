@@ -38,6 +38,29 @@ def _check(cond: bool, section: str, message: str) -> None:
         raise ConfigError(f"[{section}] {message}")
 
 
+#: The highest frame rate taken (``frameRate``, ``--fps``, a video container's): every stage counts time in
+#: frames from it (1-second batches, the 2-second interpolation bound), and a wrong one silently breaks them all.
+MAX_FRAME_RATE = 240.0
+
+
+@dataclass(frozen=True)
+class InputConfig:
+    """How a video file is read (a MOTChallenge folder's ``seqinfo.ini`` says all of it).
+
+    Attributes
+    ----------
+    fps
+        Frame rate of a video input (``--fps``): every stage counts time in
+        frames from it; None takes the container's.
+    """
+
+    fps: float | None = None
+
+    def __post_init__(self) -> None:
+        _check(self.fps is None or 0 < self.fps <= MAX_FRAME_RATE, "input",
+               f"fps must be a frame rate above 0 and at most {MAX_FRAME_RATE:g} per second")
+
+
 @dataclass(frozen=True)
 class DetectionConfig:
     """Where the detections come from: a detector's file, or the built-in person detector run on the frames.
@@ -375,7 +398,7 @@ class AssociationConfig:
     short_gap
         Longest gap that counts as short (paper: 5).
     solver
-        The long-term association solver, a name in ``solvers.SOLVERS``:
+        The long-term association solver, a name in ``sotmot.plugins.SOLVERS``:
         ``"greedy"`` (the paper's greedy merge), ``"flow"`` (min-cost flow,
         OR-Tools), ``"flow-nx"`` (the same with networkx), ``"flow-staged"``
         (the same flow twice: links of at most ``flow_stage_gap`` frames, then
@@ -550,6 +573,7 @@ class ConfirmConfig:
 class TrackerConfig:
     """The whole tracker: one section per stage."""
 
+    input: InputConfig = field(default_factory=InputConfig)
     detection: DetectionConfig = field(default_factory=DetectionConfig)
     preprocess: PreprocessConfig = field(default_factory=PreprocessConfig)
     appearance: AppearanceConfig = field(default_factory=AppearanceConfig)
@@ -572,6 +596,7 @@ class TrackerConfig:
 
 
 SECTIONS: dict[str, type] = {
+    "input": InputConfig,
     "detection": DetectionConfig,
     "preprocess": PreprocessConfig,
     "appearance": AppearanceConfig,

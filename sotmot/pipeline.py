@@ -1,7 +1,7 @@
 """The tracker's stages wired together; each stage is also callable on its own.
 
     detect (a model) or read (a det.txt) -> preprocess (score threshold, NMS) -> embed -> tracklets
-         -> long-term association (a solver from ``solvers.SOLVERS``)
+         -> long-term association (a solver named in ``sotmot.plugins.SOLVERS``)
          -> post-processing -> confirmation (``sotmot.confidence``) -> results
 
 Boxes are ``x, y, w, h`` pixels, frames 1-based throughout.
@@ -182,7 +182,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     """
     timings: dict[str, float] = {}
     clock = _Clock(timings)
-    info = read_seqinfo(seq_dir)
+    info = read_seqinfo(seq_dir, config.input.fps)
     sot = config.sot.variant != "none"
     source, det_file = detection_source(config.detection, info)
     detected = raw_features = None

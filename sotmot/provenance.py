@@ -60,11 +60,13 @@ def file_sha256(path: str | Path) -> str | None:
 
 
 def frames_fingerprint(info: SeqInfo) -> str | None:
-    """SHA-256 of the frame folder's listing: each file's name and size.
+    """SHA-256 of the frame folder's listing: each file's name and size (for a video, the file's).
 
-    Not modification times: a copied dataset, or a video decoded again into a
-    new temporary folder (``track VIDEO --det``), has the same frames.
+    Not modification times: a copied dataset has the same frames; and not the
+    bytes of a video, which can be large (its size and name stand for them).
     """
+    if info.video is not None:
+        return hashlib.sha256(f"{info.video.name}\t{info.video.stat().st_size}\n".encode()).hexdigest()
     folder = info.frames_dir
     if not folder.is_dir():
         return None
@@ -94,7 +96,7 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
         "reid_model": {"path": model, "sha256": file_sha256(model) if model else None},
         "confidence_calibration": {"path": calibration or "packaged",
                                    "sha256": file_sha256(calibration or str(packaged))},
-        "inputs": {"seqinfo.ini": file_sha256(info.path / "seqinfo.ini"),
+        "inputs": {"seqinfo.ini": None if info.video is not None else file_sha256(info.source),  # a video: below
                    "detections": {"source": source, "path": None if det_file is None else str(det_file),
                                   "sha256": None if det_file is None else file_sha256(det_file)},
                    "frames (names, sizes)": frames_fingerprint(info)},

@@ -165,7 +165,7 @@ def sequence_inputs(info, config: TrackerConfig) -> list[Path | None]:
     """The files tracking ``info`` reads: no output may land on one of them (:func:`sotmot.io.refuse_overwriting`)."""
     from sotmot.detection import detection_source
 
-    return [info.path / "seqinfo.ini", detection_source(config.detection, info)[1], info.det_path, info.gt_path,
+    return [info.source, detection_source(config.detection, info)[1], info.det_path, info.gt_path,
             config.appearance.model, config.appearance.weights, config.confirm.calibration,
             config.detection.model]
 
@@ -202,7 +202,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
     from sotmot.io.flags import flags_path, write_flags
 
     try:
-        info = read_seqinfo(seq_dir)
+        info = read_seqinfo(seq_dir, config.input.fps)
         outputs = sequence_outputs(out_dir, info, config)
         refuse_overwriting(outputs, sequence_inputs(info, config), "choose another --out")
         out = outputs[-1]
@@ -457,7 +457,7 @@ def _resumable(seq_dir: str, out_dir: str, config: TrackerConfig) -> bool:
     from sotmot.provenance import run_record, why_rerun
 
     try:
-        info = read_seqinfo(seq_dir)
+        info = read_seqinfo(seq_dir, config.input.fps)
         return why_rerun(results_path(out_dir, info.name), run_record(info, config)) is None
     except SotmotError:
         return False

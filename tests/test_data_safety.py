@@ -231,21 +231,23 @@ def test_sigterm_cleans_the_temporary_frames_of_a_video(tmp_path, monkeypatch, c
 # 8. a truncated video, an absurd frame rate -------------------------------------------------------------------
 
 def test_a_truncated_video_is_tracked_with_a_warning(tmp_path, caplog):
-    from sotmot.io.video import sequence_from_video
+    from sotmot.io import FrameReader
 
     whole = write_video(tmp_path / "whole.avi", n=30)
     cut = tmp_path / "cut.avi"
     cut.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
     with caplog.at_level("WARNING"):
-        seq = sequence_from_video(cut, tmp_path / "work")
-    length = read_seqinfo(seq).length
+        info = read_seqinfo(cut)
+    length = info.length
     assert 0 < length < 30
+    reader = FrameReader(info, cache_size=1)
+    assert reader(length).shape == (info.height, info.width, 3)  # the last frame counted decodes
+    with pytest.raises(InputError, match=f"outside the video's frames 1..{length}"):
+        reader(length + 1)
     assert any("announces 30 frames" in r.getMessage() and "truncated" in r.getMessage() for r in caplog.records)
 
 
 def test_an_absurd_frame_rate_is_refused(tmp_path, capsys):
-    from sotmot.io.video import sequence_from_video
-
     video = write_video(tmp_path / "street.avi")
     det = tmp_path / "d.txt"
     det.write_text("1,-1,10,20,20,40,0.9\n")
@@ -253,7 +255,7 @@ def test_an_absurd_frame_rate_is_refused(tmp_path, capsys):
         main(["track", str(video), "--det", str(det), "--out", str(tmp_path / "out"), "--fps", "10000"])
     assert "at most 240" in capsys.readouterr().err
     with pytest.raises(InputError, match="above 240"):
-        sequence_from_video(write_video(tmp_path / "fast.avi", fps=10000.0), tmp_path / "work")
+        read_seqinfo(write_video(tmp_path / "fast.avi", fps=10000.0))
     seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False, frame_rate=10000)
     with pytest.raises(InputError, match="frameRate='10000'.*above 240") as err:
         read_seqinfo(seq)

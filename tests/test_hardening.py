@@ -304,18 +304,19 @@ def test_track_a_video_with_its_detections_then_render_it(tmp_path, model_0288, 
     assert "no person detector given: pass --detector-model" in capsys.readouterr().err
 
 
-def test_video_detections_are_checked_against_the_user_file(tmp_path):
-    from sotmot.io.video import sequence_from_video
+def test_video_detections_are_checked_against_the_user_file(tmp_path, capsys, model_0288):
+    from sotmot.cli import main
 
     video = _video(tmp_path, n=4)
     det = tmp_path / "d.txt"
     det.write_text("1,-1,10,20,20,40,0.9\n9,-1,10,20,20,40,0.9\n")
-    with pytest.raises(InputError, match="frame 9 is outside 1..4") as err:
-        sequence_from_video(video, tmp_path / "work", det)
-    assert str(err.value).startswith(str(det)) and err.value.line == 2
-    seq = sequence_from_video(video, tmp_path / "work", None, fps=12.5)
-    info = read_seqinfo(seq)
+    assert main(["track", str(video), "--det", str(det), "--out", str(tmp_path / "out"), "--reid-model",
+                 str(model_0288), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert f"{det}:2" in err and "frame 9 is outside 1..4" in err
+    info = read_seqinfo(video, fps=12.5)
     assert (info.name, info.length, info.width, info.height, info.frame_rate) == ("street", 4, 120, 80, 12.5)
+    assert info.video == video and read_seqinfo(video).frame_rate == 5.0
 
 
 def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):

@@ -145,7 +145,7 @@ def test_learned_costs_ask_more_affinity_of_longer_tracklets():
 
 def test_tracklet_identities_and_the_learned_costs_fit(tmp_path):
     from conftest import write_sequence
-    from sotmot.fitting.confidence import fit_lifted_costs, lifted_pair_samples, tracklet_identities
+    from sotmot.fitting.lifted import fit_lifted_costs, lifted_pair_samples, tracklet_identities
     from sotmot.io import read_seqinfo
 
     # two people over 8 frames; tracklet 3 covers person 1, then (a wrong link) person 2 for 3 of its 5 boxes

@@ -1,7 +1,7 @@
-"""Fitting from labelled sequences: the confidence calibration (``sotmot/data/confidence.json``) and the
-lifted solver's learned costs (``[association] lifted_coefficients``).
+"""Fitting the confidence calibration (``sotmot/data/confidence.json``) from labelled sequences.
 
-Used by ``scripts/fit_confidence.py`` and ``scripts/fit_lifted.py``; nothing here runs while tracking. Labels
+Used by ``scripts/fit_confidence.py`` and ``scripts/fit_detector_confidence.py`` (the lifted costs:
+:mod:`sotmot.fitting.lifted`); nothing here runs while tracking. Labels
 come from TrackEval's own preprocessing and the CLEAR matching rule
 (:func:`sotmot.evaluate.frame_errors`): a box is a true positive when it is
 matched to a considered pedestrian at IoU >= 0.5, a false positive when it is
@@ -31,11 +31,10 @@ from sotmot.confidence import (
     confidence_knots,
     detection_confidence,
     detector_family,
-    fit_logistic,
     isotonic,
     model_kind,
 )
-from sotmot.config import AssociationConfig, TrackerConfig
+from sotmot.config import TrackerConfig
 from sotmot.evaluate import EvalReport, FrameErrors, evaluate_files, frame_errors
 from sotmot.io import SeqInfo, read_detections, read_seqinfo, results_path, write_results
 from sotmot.confirm import box_scorer, confirm
@@ -295,67 +294,3 @@ def held_out_tracks(seq: Labelled, method: str, calibration: Calibration, config
     used, confidence = sequence_confidence(seq, method, calibration)
     kind = model_kind(used)
     return used, confirmed_tracks(seq, confidence, calibration.box_models[kind], calibration.thresholds[kind], config)
-
-
-def tracklet_identities(tracklets: Sequence[Tracklet], info: SeqInfo, workdir: Path) -> np.ndarray:
-    """``(T,)`` ground-truth identity of each tracklet, or -1 when fewer than half its boxes are one identity's.
-
-    Each tracklet is written as a track of its own and matched by the CLEAR
-    rule (:func:`sotmot.evaluate.frame_errors`); a box on a distractor or on
-    no one counts against every identity.
-    """
-    if not tracklets:
-        return np.zeros(0, dtype=np.int64)
-    tracks = Tracks(np.concatenate([t.frames for t in tracklets]),
-                    np.concatenate([np.full(len(t.frames), k + 1) for k, t in enumerate(tracklets)]),
-                    np.concatenate([t.boxes for t in tracklets]), np.concatenate([t.scores for t in tracklets]))
-    matched = clear_matching(tracks, info, workdir).identities
-    out = np.full(len(tracklets), -1, dtype=np.int64)
-    for k, t in enumerate(tracklets):
-        ids, counts = np.unique([matched.get((int(f), k + 1), -1) for f in t.frames], return_counts=True)
-        best = int(np.argmax(np.where(ids >= 0, counts, 0)))
-        if ids[best] >= 0 and 2 * counts[best] >= len(t.frames):
-            out[k] = ids[best]
-    return out
-
-
-def lifted_pair_samples(tracklets: Sequence[Tracklet], identities: np.ndarray,
-                        config: AssociationConfig) -> tuple[np.ndarray, np.ndarray]:
-    """The learned lifted costs' training pairs of one sequence: :data:`~sotmot.association.objective.PAIR_FEATURES` and labels.
-
-    Every pair of tracklets with known identities, one ending 1 to ``H``
-    frames (the lifted horizon) before the other starts: the pairs a
-    trajectory of the lifted solver can hold. Label 1 when both are the same
-    person.
-    """
-    from sotmot.association.objective import lifted_horizon, pair_features, pair_inputs
-
-    known = np.flatnonzero(identities >= 0)
-    starts = np.array([tracklets[k].start for k in known], dtype=np.int64)
-    ends = np.array([tracklets[k].end for k in known], dtype=np.int64)
-    gap = starts[None, :] - ends[:, None]
-    early, late = np.nonzero((gap >= 1) & (gap <= lifted_horizon(config)))
-    if len(early) == 0:
-        return np.zeros((0, 3)), np.zeros(0)
-    affinity, n_early, n_late, _ = pair_inputs(tracklets, known[early], known[late])
-    same = identities[known[early]] == identities[known[late]]
-    return pair_features(affinity, n_early, n_late), same.astype(np.float64)
-
-
-def fit_lifted_costs(samples: Sequence[tuple[np.ndarray, np.ndarray]]) -> tuple[float, float, float, float]:
-    """``[association] lifted_coefficients`` from the pairs of :func:`lifted_pair_samples` of several sequences.
-
-    Logistic regression with the two classes weighted equally, so that its
-    log-odds are the log-likelihood ratio of "one person" against "two
-    people" (the share of same-person pairs among candidates is not a prior
-    of the pairs a trajectory holds); returned in raw feature units,
-    intercept first.
-    """
-    x = np.concatenate([f for f, _ in samples])
-    y = np.concatenate([label for _, label in samples])
-    if y.min(initial=1.0) == y.max(initial=0.0):
-        raise ValueError("the lifted costs need both same-person and different-person pairs")
-    weights = np.where(y > 0, 0.5 / y.sum(), 0.5 / (len(y) - y.sum()))
-    mean, scale, coef, intercept = fit_logistic(x, y, weights, l2=1.0)
-    raw = coef / scale
-    return (float(intercept - raw @ mean), *(float(c) for c in raw))

@@ -1,7 +1,8 @@
 """MOTChallenge input and output: sequence info, detections, ground truth, results, frames."""
 
+from sotmot.io.frames import FrameReader
+from sotmot.io.sequence import read_seqinfo
 from sotmot.io.mot import (
-    FrameReader,
     atomic_path,
     check_output_dir,
     GroundTruth,
@@ -12,7 +13,6 @@ from sotmot.io.mot import (
     read_detections,
     read_ground_truth,
     read_results,
-    read_seqinfo,
     refuse_overwriting,
     results_path,
     same_file,

@@ -12,7 +12,6 @@ import logging
 import math
 import os
 import tempfile
-from collections import OrderedDict
 from collections.abc import Iterable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
@@ -22,6 +21,7 @@ from typing import Literal
 
 import numpy as np
 
+from sotmot.config import MAX_FRAME_RATE
 from sotmot.errors import InputError, ModelError
 from sotmot.types import Detections, Tracks
 
@@ -29,9 +29,6 @@ GtStyle = Literal["MOT15", "MOT16"]
 _LINK_STUB_BYTES = 1024  # a checked-out symbolic link is a text file no longer than its target path
 #: A detection box wider or taller than this many image widths or heights is an input error.
 MAX_BOX_SCALE = 4.0
-#: The highest frame rate taken (``frameRate``, ``--fps``, a video container's): every stage counts time in
-#: frames from it (1-second batches, the 2-second interpolation bound), and a wrong one silently breaks them all.
-MAX_FRAME_RATE = 240.0
 #: Track and ground-truth ids are positive integers below this (TrackEval indexes arrays by them).
 MAX_ID = 2**31 - 1
 log = logging.getLogger(__name__)
@@ -60,6 +57,9 @@ class SeqInfo:
         Image size in pixels (``imWidth``, ``imHeight``).
     im_dir, im_ext
         Image folder name and file extension (``imDir``, ``imExt``).
+    video
+        For a sequence read straight from a video file (:func:`sotmot.io.video.video_info`): that
+        file, which is then also ``path``; None for a MOTChallenge folder.
     """
 
     path: Path
@@ -70,6 +70,12 @@ class SeqInfo:
     height: int
     im_dir: str = "img1"
     im_ext: str = ".jpg"
+    video: Path | None = None
+
+    @property
+    def source(self) -> Path:
+        """The file that describes the sequence: ``seqinfo.ini``, or the video file."""
+        return self.video if self.video is not None else self.path / "seqinfo.ini"
 
     @property
     def det_path(self) -> Path:
@@ -89,8 +95,10 @@ class SeqInfo:
         video) link ``img1`` to another sequence's folder. Where the link was
         checked out as a small text file holding the relative path (git with
         ``core.symlinks=false``, copies that do not keep links), that path is
-        followed.
+        followed. For a video: the video file.
         """
+        if self.video is not None:
+            return self.video
         folder = self.path / self.im_dir
         if folder.is_file() and folder.stat().st_size <= _LINK_STUB_BYTES:
             try:
@@ -112,8 +120,8 @@ def is_plain_name(name: str) -> bool:
             and not Path(name).is_absolute() and ":" not in name[:2])
 
 
-def read_seqinfo(seq_dir: str | Path) -> SeqInfo:
-    """Read ``seq_dir/seqinfo.ini``.
+def read_seqinfo_ini(seq_dir: str | Path) -> SeqInfo:
+    """Read ``seq_dir/seqinfo.ini`` (a video file is read by :func:`sotmot.io.sequence.read_seqinfo`).
 
     Raises
     ------
@@ -511,55 +519,3 @@ def _umask() -> int:
 def write_results(path: str | Path, tracks: Tracks) -> None:
     """Write ``tracks`` as a MOTChallenge results file, atomically."""
     write_text_atomic(path, format_results(tracks))
-
-
-class FrameReader:
-    """Reads the frames of a sequence as BGR ``uint8`` arrays, keeping a few in memory.
-
-    Parameters
-    ----------
-    info
-        The sequence whose ``img1/`` folder is read.
-    cache_size
-        How many decoded frames to keep (least recently used are dropped), so
-        stages that revisit frames do not decode them again.
-    """
-
-    def __init__(self, info: SeqInfo, cache_size: int = 8) -> None:
-        self.info = info
-        self.cache_size = cache_size
-        self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
-
-    def __call__(self, frame: int) -> np.ndarray:
-        """The image of 1-based ``frame``, shape ``(H, W, 3)`` BGR.
-
-        Raises
-        ------
-        InputError
-            The file is missing or cannot be decoded as an image.
-        """
-        cached = self._cache.get(frame)
-        if cached is not None:
-            self._cache.move_to_end(frame)
-            return cached
-        import cv2
-
-        path = self.info.frame_path(frame)
-        if not path.is_file():
-            raise InputError(path, f"frame {frame} is missing from {self.info.im_dir}/")
-        # bytes read by Python, decoded by OpenCV: cv2.imread crashes on some paths (not valid UTF-8)
-        try:
-            data = np.fromfile(path, dtype=np.uint8)
-        except OSError as exc:
-            raise InputError(path, f"frame {frame} cannot be read: {exc.strerror}") from exc
-        image = cv2.imdecode(data, cv2.IMREAD_COLOR) if len(data) else None
-        if image is None:
-            raise InputError(path, f"frame {frame} cannot be decoded as an image")
-        if image.shape[:2] != (self.info.height, self.info.width):
-            raise InputError(path, f"frame {frame} is {image.shape[1]} x {image.shape[0]} px but seqinfo.ini says "
-                             f"imWidth={self.info.width}, imHeight={self.info.height}")
-        image.setflags(write=False)
-        self._cache[frame] = image
-        if len(self._cache) > self.cache_size:
-            self._cache.popitem(last=False)
-        return image

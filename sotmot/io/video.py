@@ -1,27 +1,25 @@
-"""Video input: a video file (and a detector's output, if the user has one) become a MOTChallenge sequence folder.
+"""Video input: a video file is a sequence of its own, its frames read straight from the file.
 
-Most users have a video, perhaps with a ``det.txt``, rather than a MOTChallenge folder.
-:func:`sequence_from_video` decodes the video once with OpenCV into a folder
-of JPEG frames beside a ``seqinfo.ini`` (name from the file name, frame rate
-from the container or ``fps``, size from the first frame) and a copy of the
-detections, so every command runs on it unchanged. Frames are 1-based, as in
-MOTChallenge: the video's first frame is frame 1.
+Most users have a video, perhaps with a ``det.txt``, rather than a MOTChallenge
+folder. :func:`video_info` describes a video as a :class:`~sotmot.io.mot.SeqInfo`
+(name from the file name, frame rate from the container or ``fps``, size from
+the first frame), and :class:`~sotmot.io.frames.VideoFile` decodes its frames
+on demand, so every stage runs on it unchanged and nothing is written to disk
+but the results. Frames are 1-based, as in MOTChallenge: the video's first
+frame is frame 1.
 """
 
 from __future__ import annotations
 
 import logging
-import shutil
-from collections.abc import Callable, Iterable
+from functools import lru_cache
 from pathlib import Path
 
 from sotmot.errors import InputError
-from sotmot.io.mot import MAX_FRAME_RATE, is_plain_name
+from sotmot.io.mot import MAX_FRAME_RATE, SeqInfo, is_plain_name
 
 #: File extensions taken for videos (anything else is a sequence folder).
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov", ".m4v", ".webm", ".mpg", ".mpeg")
-#: JPEG quality of the extracted frames.
-JPEG_QUALITY = 95
 log = logging.getLogger(__name__)
 
 
@@ -31,97 +29,79 @@ def is_video(path: str | Path) -> bool:
     return path.suffix.lower() in VIDEO_SUFFIXES and not path.is_dir()
 
 
-def sequence_from_video(video: str | Path, work: str | Path, det: str | Path | None = None,
-                        fps: float | None = None,
-                        progress: Callable[[Iterable[int]], Iterable[int]] | None = None) -> Path:
-    """Write ``work/<name>/`` (seqinfo.ini, img1/, det/det.txt) from ``video`` and return it.
+def video_info(video: str | Path, fps: float | None = None) -> SeqInfo:
+    """The sequence a video file is: ``path`` and ``video`` the file, ``length`` its decodable frames.
 
-    Parameters
-    ----------
-    video
-        The video file.
-    work
-        A folder for the sequence (a temporary one, usually).
-    det
-        The detections (MOTChallenge ``det.txt`` layout, frames counted from 1
-        at the video's first frame); None writes no ``det.txt``: the detector
-        (``[detection] source = "auto"``) finds the people; render needs none.
-    fps
-        Frame rate; None takes the container's.
+    The frame count is the container's when its last frame decodes (one
+    seek); otherwise (a truncated or damaged file, or a container that gives
+    none) the frames are counted by reading through the file once, with a
+    warning when fewer than announced. Described once per file, size,
+    modification time and ``fps`` in a process.
 
     Raises
     ------
     InputError
-        The video cannot be opened or has no frame, its name is not a plain
-        file name, the frame rate is unknown, or ``det`` is missing.
+        The video is missing, cannot be opened or has no frame, its name is
+        not a plain file name, or the frame rate is unknown or above
+        :data:`~sotmot.io.mot.MAX_FRAME_RATE` (``fps`` overrides the container's).
     """
-    import cv2
-
     video = Path(video)
     if not video.is_file():
         raise InputError(video, "video file not found")
-    if det is not None and not Path(det).is_file():
-        raise InputError(Path(det), "detections file not found (--det)")
-    name = video.stem
-    if not is_plain_name(name):
-        raise InputError(video, f"the file name {name!r} cannot name a sequence")
-    capture = cv2.VideoCapture(str(video))
-    if not capture.isOpened():
-        raise InputError(video, "OpenCV cannot open this video")
-    rate = fps if fps is not None else float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
-    if not rate or rate <= 0 or rate != rate:
-        capture.release()
-        raise InputError(video, "the container gives no frame rate; pass --fps")
-    if rate > MAX_FRAME_RATE:
-        capture.release()
-        raise InputError(video, f"frame rate {rate:g} is above {MAX_FRAME_RATE:g} per second "
-                         f"({'--fps' if fps is not None else 'the container says so'}); pass the real rate with --fps")
-    announced = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
-    seq = Path(work) / name
-    try:
-        Path(work).mkdir(parents=True, exist_ok=True)
-        seq.mkdir()  # a new folder: never one that was there before
-    except FileExistsError:
-        capture.release()
-        raise InputError(seq, "already exists; decode the video into an empty folder") from None
-    try:
-        _fill_sequence(seq, video, capture, rate, announced, det, progress)
-    except BaseException:
-        shutil.rmtree(seq, ignore_errors=True)  # made by this call: nothing half-written stays
-        raise
-    finally:
-        capture.release()
-    return seq
+    st = video.stat()
+    return _video_info(video.resolve(), video, st.st_size, st.st_mtime_ns, fps)
 
 
-def _fill_sequence(seq: Path, video: Path, capture, rate: float, announced: int, det: str | Path | None,
-                   progress: Callable[[Iterable[int]], Iterable[int]] | None) -> None:
-    """Decode ``capture`` into ``seq/img1`` and write ``seqinfo.ini`` and ``det/det.txt`` beside it."""
+@lru_cache(maxsize=64)
+def _video_info(resolved: Path, given: Path, size: int, mtime_ns: int, fps: float | None) -> SeqInfo:
     import cv2
 
-    (seq / "img1").mkdir()
-    (seq / "det").mkdir()  # det/det.txt only with ``det``
-    count, size = 0, None
-    frames = iter(int, 1)  # 0, 0, ... until the video ends
-    for _ in (progress(frames) if progress else frames):
-        ok, image = capture.read()
-        if not ok:
-            break
-        count += 1
-        size = size or (image.shape[1], image.shape[0])
-        if not cv2.imwrite(str(seq / "img1" / f"{count:06d}.jpg"), image, [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY]):
-            raise InputError(seq / "img1", f"frame {count} could not be written (disk full?)")
-    if count == 0 or size is None:
-        raise InputError(video, "the video has no frame OpenCV can decode")
-    if announced > count:
-        log.warning("%s: the container announces %d frames but only %d could be decoded; the video may be "
-                    "truncated or damaged, and frames %d to %d are not tracked", video, announced, count,
-                    count + 1, announced)
-    (seq / "seqinfo.ini").write_text(
-        f"[Sequence]\nname={seq.name}\nimDir=img1\nframeRate={rate:g}\nseqLength={count}\n"
-        f"imWidth={size[0]}\nimHeight={size[1]}\nimExt=.jpg\n", encoding="utf-8")
-    if det is not None:  # without, the folder has no det/det.txt: the detector finds the people
-        from sotmot.io.mot import read_detections
+    name = given.stem
+    if not is_plain_name(name):
+        raise InputError(given, f"the file name {name!r} cannot name a sequence")
+    capture = cv2.VideoCapture(str(resolved))
+    try:
+        if not capture.isOpened():
+            raise InputError(given, "OpenCV cannot open this video")
+        rate = fps if fps is not None else float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
+        if not rate or rate <= 0 or rate != rate:
+            raise InputError(given, "the container gives no frame rate; pass --fps")
+        if rate > MAX_FRAME_RATE:
+            raise InputError(given, f"frame rate {rate:g} is above {MAX_FRAME_RATE:g} per second "
+                             f"({'--fps' if fps is not None else 'the container says so'}); pass the real rate "
+                             f"with --fps")
+        ok, first = capture.read()
+        if not ok or first is None:
+            raise InputError(given, "the video has no frame OpenCV can decode")
+        announced = int(capture.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+        length = announced if announced > 0 and _decodes(capture, announced) else _count(resolved)
+        if announced > length:
+            log.warning("%s: the container announces %d frames but only %d could be decoded; the video may be "
+                        "truncated or damaged, and frames %d to %d are not tracked", given, announced, length,
+                        length + 1, announced)
+    finally:
+        capture.release()
+    return SeqInfo(path=given, name=name, frame_rate=float(rate), length=length, width=first.shape[1],
+                   height=first.shape[0], im_dir="", im_ext=given.suffix, video=given)
 
-        read_detections(det, count, size)  # errors name the user's file and line, not the copy
-        shutil.copyfile(det, seq / "det" / "det.txt")
+
+def _decodes(capture, frame: int) -> bool:
+    """Whether 1-based ``frame`` decodes, and no frame follows it."""
+    import cv2
+
+    if not capture.set(cv2.CAP_PROP_POS_FRAMES, frame - 1):
+        return False
+    ok, image = capture.read()
+    return bool(ok) and image is not None and not capture.grab()
+
+
+def _count(video: Path) -> int:
+    """The decodable frames, counted from the start (grabbed, not converted)."""
+    import cv2
+
+    capture = cv2.VideoCapture(str(video))
+    count = 0
+    while capture.grab():
+        count += 1
+    capture.release()
+    return count

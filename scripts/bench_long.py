@@ -1,0 +1,170 @@
+#!/usr/bin/env python3
+"""What a long video costs: wall time, frames/s, peak memory and peak temporary disk, and how they grow with length.
+
+For each ``--sequences`` entry ``NAME:K`` (default: PETS09-S2L1 up to 6 times,
+MOT16-09 up to 8 times) the shared sequence is played ``k`` times in a row
+for each ``k`` of ``--factors`` up to ``K``, written once as an MPEG-4 video
+(cached under ``--cache``) with its public detections shifted to match, and
+tracked end to end by ``sotmot track VIDEO --det DET`` in a child process under
+``/usr/bin/time -v`` (peak resident memory). The child's ``TMPDIR`` is a fresh
+folder whose size is sampled every 0.1 s (peak temporary disk; the results
+folder is not counted). The growth exponent is the least-squares slope of
+log(time) and log(peak memory) against log(frames): 1 is linear.
+
+    .venv/bin/python scripts/bench_long.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
+        --json bench_long.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from common import DEFAULT_DATA, ROOT
+from sotmot.benchmarks import machine
+from sotmot.io import read_seqinfo
+
+#: The issue's targets for the longest MOT16-09 video (8x, 4,200 frames at 1080p).
+TARGETS = {"peak_rss_mb": 1536, "peak_tmp_mb": 100, "exponent": 1.1}
+
+
+def repeated_video(seq: Path, factor: int, cache: Path) -> tuple[Path, Path]:
+    """``seq`` played ``factor`` times as ``cache/<name>-x<factor>.mp4`` and its shifted detections (made once)."""
+    import cv2
+
+    from sotmot.io import FrameReader, atomic_path
+
+    info = read_seqinfo(seq)
+    video = cache / f"{info.name}-x{factor}.mp4"
+    det = cache / f"{info.name}-x{factor}.det.txt"
+    if not det.is_file():
+        lines = info.det_path.read_text().splitlines()
+        shifted = [f"{int(float(line.split(',', 1)[0])) + r * info.length},{line.split(',', 1)[1]}"
+                   for r in range(factor) for line in lines if line.strip()]
+        cache.mkdir(parents=True, exist_ok=True)
+        with atomic_path(det) as tmp:
+            tmp.write_text("\n".join(shifted) + "\n")
+    if not video.is_file():
+        cache.mkdir(parents=True, exist_ok=True)
+        with atomic_path(video) as tmp:
+            part = tmp.with_suffix(".mp4")
+            writer = cv2.VideoWriter(str(part), cv2.VideoWriter_fourcc(*"mp4v"), info.frame_rate,
+                                     (info.width, info.height))
+            reader = FrameReader(info, cache_size=1)
+            for _ in range(factor):
+                for f in range(1, info.length + 1):
+                    writer.write(np.ascontiguousarray(reader(f)))
+            writer.release()
+            part.replace(tmp)
+    return video, det
+
+
+def folder_bytes(folder: Path) -> int:
+    total = 0
+    for root, _, files in os.walk(folder):
+        for name in files:
+            try:
+                total += (Path(root) / name).stat().st_size
+            except OSError:
+                pass  # removed while we looked
+    return total
+
+
+def measure(command: list[str], tmpdir: Path) -> dict[str, float]:
+    """Wall seconds, peak RSS (MB, ``/usr/bin/time -v``) and peak size of ``tmpdir`` (MB) of one run."""
+    peak = [0]
+    done = threading.Event()
+
+    def watch() -> None:
+        while not done.is_set():
+            peak[0] = max(peak[0], folder_bytes(tmpdir))
+            done.wait(0.1)
+
+    watcher = threading.Thread(target=watch, daemon=True)
+    watcher.start()
+    start = time.perf_counter()
+    proc = subprocess.run(["/usr/bin/time", "-v", *command], capture_output=True, text=True,
+                          env={**os.environ, "TMPDIR": str(tmpdir)})
+    seconds = time.perf_counter() - start
+    done.set()
+    watcher.join()
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(command)} failed:\n{proc.stderr[-3000:]}")
+    match = re.search(r"Maximum resident set size \(kbytes\): (\d+)", proc.stderr)
+    if not match:
+        raise SystemExit("no 'Maximum resident set size' in /usr/bin/time -v output")
+    return {"seconds": seconds, "peak_rss_mb": int(match.group(1)) / 1024, "peak_tmp_mb": peak[0] / 2**20}
+
+
+def exponent(frames: list[int], values: list[float]) -> float:
+    """Slope of log(value) against log(frames): how a cost grows with length (1 = linearly)."""
+    if len(frames) < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(frames), np.log(values), 1)[0])
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
+    parser.add_argument("--model", required=True, help="ONNX re-ID model")
+    parser.add_argument("--sequences", default="PETS09-S2L1:6,MOT16-09:8",
+                        help="NAME:K, comma-separated: each sequence up to K times (default: %(default)s)")
+    parser.add_argument("--factors", default="1,2,4,8", help="lengths tried, in multiples of the sequence "
+                        "(those up to each K, and K itself; default: %(default)s)")
+    parser.add_argument("--cache", type=Path, default=ROOT / ".cache" / "long",
+                        help="where the long videos are kept between runs (default: %(default)s)")
+    parser.add_argument("--json", type=Path, help="write every number here")
+    args = parser.parse_args(argv)
+    if not Path("/usr/bin/time").exists():
+        print("needs /usr/bin/time (Debian package 'time')", file=sys.stderr)
+        return 2
+    sotmot = Path(sys.executable).with_name("sotmot")
+    factors = sorted({int(f) for f in args.factors.split(",")})
+    rows, growth = [], {}
+    for item in args.sequences.split(","):
+        name, most = item.split(":")
+        seq = args.data / name
+        info = read_seqinfo(seq)
+        mine = sorted({f for f in factors if f <= int(most)} | {int(most)})
+        seq_rows = []
+        for factor in mine:
+            video, det = repeated_video(seq, factor, args.cache)
+            with tempfile.TemporaryDirectory(prefix="sotmot-long-") as tmp:
+                scratch = Path(tmp) / "tmp"
+                scratch.mkdir()
+                got = measure([str(sotmot), "track", str(video), "--det", str(det), "--out", str(Path(tmp) / "out"),
+                               "--reid-model", args.model, "-q"], scratch)
+            frames = info.length * factor
+            row = {"sequence": name, "factor": factor, "frames": frames, "size": f"{info.width}x{info.height}",
+                   **got, "fps": frames / got["seconds"]}
+            rows.append(row)
+            seq_rows.append(row)
+            print(f"{name} x{factor}: {frames} frames {row['size']}, {got['seconds']:.0f} s ({row['fps']:.1f} "
+                  f"frames/s), peak RSS {got['peak_rss_mb']:.0f} MB, peak temporary disk {got['peak_tmp_mb']:.1f} MB",
+                  flush=True)
+        growth[name] = {"time": exponent([r["frames"] for r in seq_rows], [r["seconds"] for r in seq_rows]),
+                        "memory": exponent([r["frames"] for r in seq_rows], [r["peak_rss_mb"] for r in seq_rows])}
+        print(f"{name}: growth exponent, time {growth[name]['time']:.2f}, peak memory {growth[name]['memory']:.2f}")
+    print("\n| sequence | frames | wall s | frames/s | peak RSS MB | peak temp MB |\n|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['sequence']} x{r['factor']} | {r['frames']} | {r['seconds']:.0f} | {r['fps']:.1f} | "
+              f"{r['peak_rss_mb']:.0f} | {r['peak_tmp_mb']:.1f} |")
+    print(f"machine: {machine()}")
+    if args.json:
+        args.json.write_text(json.dumps({"script": "scripts/bench_long.py", "machine": machine(), "rows": rows,
+                                         "growth": growth, "targets": TARGETS}, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

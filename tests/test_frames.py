@@ -1,0 +1,99 @@
+"""Frames read straight from a video: no temporary frame folder, a bounded cache, each frame decoded once a pass."""
+
+import tempfile
+from collections import Counter
+
+import numpy as np
+import pytest
+
+from conftest import DATA, require, write_video
+from sotmot.config import TrackerConfig
+from sotmot.io import FrameReader, read_seqinfo
+from sotmot.io.frames import VideoFile
+
+
+@pytest.fixture(scope="module")
+def clip_video(tmp_path_factory):
+    """MOT16-05-clip30's frames as an MPEG-4 video, and its public detections."""
+    import cv2
+
+    info = read_seqinfo(require(DATA / "MOT16-05-clip30"))
+    path = tmp_path_factory.mktemp("video") / "clip.mp4"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), info.frame_rate, (info.width, info.height))
+    reader = FrameReader(info, cache_size=1)
+    for f in range(1, info.length + 1):
+        writer.write(np.ascontiguousarray(reader(f)))
+    writer.release()
+    return path, info.det_path
+
+
+def counting(monkeypatch) -> Counter:
+    """Counts every frame a video source decodes, by frame."""
+    seen: Counter = Counter()
+    original = VideoFile.read
+
+    def read(self, frame):
+        seen[frame] += 1
+        return original(self, frame)
+
+    monkeypatch.setattr(VideoFile, "read", read)
+    return seen
+
+
+def test_frames_in_any_order_are_the_frames_read_in_order(tmp_path):
+    video = write_video(tmp_path / "walk.avi", n=40)
+    info = read_seqinfo(video)
+    in_order = [FrameReader(info, cache_size=1)(f).copy() for f in range(1, 41)]
+    reader = FrameReader(info, cache_size=1)
+    for f in [40, 3, 4, 30, 31, 1, 39, 12, 12, 2]:  # back, ahead by one, far ahead, the same frame
+        np.testing.assert_array_equal(reader(f), in_order[f - 1])
+    assert reader.source.seeks >= 4  # going back seeks; one frame ahead reads on
+
+
+def test_the_frame_cache_never_holds_more_than_its_bound(tmp_path):
+    info = read_seqinfo(write_video(tmp_path / "walk.avi", n=30))
+    reader = FrameReader(info, cache_size=3)
+    rng = np.random.default_rng(0)
+    for f in rng.integers(1, 31, 200):
+        reader(int(f))
+        assert reader.cached <= 3
+    again = FrameReader(info, cache_size=3)
+    for f in [5, 6, 7, 5, 6, 7, 8, 5]:  # 5, 6, 7 decoded once while they stay in the cache; 5 again after 8
+        again(f)
+    assert again.source.decodes == 5
+
+
+def test_a_video_tracks_with_no_temporary_frame_folder(clip_video, model_0288, tmp_path, monkeypatch):
+    from sotmot.cli import main
+
+    video, det = clip_video
+    made: list = []
+    real = tempfile.mkdtemp
+
+    def mkdtemp(*args, **kwargs):
+        made.append((args, kwargs))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(tempfile, "mkdtemp", mkdtemp)  # TemporaryDirectory makes its folder with it
+    out = tmp_path / "out"
+    assert main(["track", str(video), "--det", str(det), "--out", str(out), "--reid-model", str(model_0288),
+                 "-q"]) == 0
+    assert made == []
+    assert sorted(p.name for p in out.iterdir()) == ["clip.flags.csv", "clip.run.json", "clip.txt"]
+
+
+def test_with_sot_each_frame_of_a_video_is_decoded_once_before_association(clip_video, model_0288, monkeypatch):
+    from sotmot.pipeline import finish_sequence, prepare_sequence
+
+    video, det = clip_video
+    config = (TrackerConfig().replace("appearance", model=str(model_0288)).replace("detection", file=str(det))
+              .replace("sot", variant="template"))
+    decodes = counting(monkeypatch)
+    prepared = prepare_sequence(video, config)
+    length = prepared.info.length
+    assert prepared.detections.from_sot.any()  # the SOT step ran and found boxes
+    assert decodes == Counter(range(1, length + 1))  # detections' features and SOT from one decode a frame
+    decodes.clear()
+    result = finish_sequence(prepared, config)  # the end extension reads frames near the trajectories' ends
+    assert result.tracks.from_sot.any() or not decodes
+    assert max(decodes.values(), default=0) <= 2 and sum(decodes.values()) <= length
