@@ -38,6 +38,8 @@ def add_fit_arguments(parser: argparse.ArgumentParser, cache: Path) -> None:
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
     parser.add_argument("--min-length", type=int, default=100,
                         help="use sequences with at least this many frames (default: %(default)s)")
+    parser.add_argument("--sequences", default="", help="comma-separated sequence names to use (default: every one "
+                        "long enough)")
     parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
     parser.add_argument("--cache", type=Path, default=cache, help="feature cache folder (default: %(default)s)")
     parser.add_argument("--json", type=Path, help="write every number here")
@@ -48,6 +50,6 @@ def fit_setup(args: argparse.Namespace) -> tuple[TrackerConfig, list[Path]]:
     exits with the error's message when there are fewer than two (nothing to hold out)."""
     config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
     try:
-        return config, fit_sequences(args.data, args.min_length)
+        return config, fit_sequences(args.data, args.min_length, args.sequences)
     except SotmotError as exc:
         sys.exit(f"{Path(sys.argv[0]).name}: error: {exc}")

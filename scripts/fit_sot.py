@@ -12,9 +12,21 @@ stopped each end (an end stops at its first box that fails a gate, so cutting
 the loose run reproduces the strict one, except that a box cut from one end
 no longer blocks another track's end), and scored with TrackEval. Each grid
 point is chosen leave-one-sequence-out: for each sequence, the point with the
-best mean HOTA on the *other* sequences; the table gives what it does on the
-held-out sequence, beside no extension. ``extend_seconds`` is capped by
-``--max-seconds``.
+best mean HOTA on the sequences of the *other* videos (MOT16-09 and MOT17-09-FRCNN/-SDP
+are one video, left out together); the table gives what it does on the
+held-out sequence, beside no extension.
+
+With ``--verify`` the person detector (``--detector-model``) checks every box the extension
+finds (``[sot] verify = "detector"``): a box that a detector box supports is
+replaced by it and gated by ``extend_supported_affinity``
+(``--supported-affinities``), one without support by ``extend_min_affinity``
+(``--affinities``; 1 drops every unsupported box). ``--extend-by detections`` is the simplest alternative that uses the same
+weak boxes: trajectories extended by the detector's boxes alone (ByteTrack's
+second association at trajectory ends), no SOT. With ``--private`` the
+sequences are tracked from that detector's boxes (MOTChallenge's private
+detections) instead of their public ``det.txt``. The rows give the added
+boxes and how many of them are right (matched to ground truth by the CLEAR
+rule).
 
     python scripts/fit_sot.py --model ../shared/models/person-reidentification-retail-0288.onnx --json fit_sot.json
 """
@@ -22,24 +34,34 @@ held-out sequence, beside no extension. ``extend_seconds`` is capped by
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import itertools
 import json
+import re
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from sotmot.appearance import make_embedder
 from common import add_fit_arguments, fit_setup
-from sotmot.benchmarks import cached_features, machine
+from sotmot.appearance import make_embedder
+from sotmot.benchmarks import cached_features, machine, private_config
+from sotmot.detection import make_detector
+from sotmot.fitting.confidence import box_labels
 from sotmot.evaluate import evaluate_files
-from sotmot.sot.extend import extend_ends, gated, with_added
+from sotmot.sot.extend import DetectorSupport, extend_ends, gated, with_added
 from sotmot.io import FrameReader, results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 
 ROOT = Path(__file__).resolve().parents[1]
 SHOWN = ("HOTA", "MOTA", "IDF1", "FP", "FN", "IDSW")
+
+
+def video_of(name: str) -> str:
+    """The video a sequence shows: MOT16-09 and MOT17-09-FRCNN / -SDP are one video under three detectors."""
+    match = re.match(r"MOT1[67]-(\d+)", name)
+    return f"MOT-{match.group(1)}" if match else name
 
 
 def floats(text: str) -> list[float]:
@@ -54,29 +76,60 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--affinities", default="0.5,0.6,0.7",
                         help="candidate extend_min_affinity values (default: %(default)s)")
     parser.add_argument("--seconds", default="0.5,1.0", help="candidate extend_seconds values (default: %(default)s)")
+    parser.add_argument("--detector-model", metavar="PATH.xml",
+                        help="the person detector of --verify, --extend-by detections and --private")
+    parser.add_argument("--verify", action="store_true",
+                        help="check the found boxes with the detector ([sot] verify = detector)")
+    parser.add_argument("--supported-affinities", default="0.3,0.4,0.5",
+                        help="with --verify: candidate extend_supported_affinity values (default: %(default)s)")
+    parser.add_argument("--extend-by", choices=["sot", "detections"], default="sot",
+                        help="detections: the weak-box baseline, trajectories extended by the detector's boxes "
+                             "alone, no SOT ([sot] extend_by; implies --verify)")
+    parser.add_argument("--private", action="store_true",
+                        help="track from the detector's boxes instead of each sequence's det/det.txt")
+    parser.add_argument("--det-cache", type=Path, default=ROOT / ".cache" / "detections",
+                        help="with --private: where the detector's boxes are kept (default: %(default)s)")
     args = parser.parse_args(argv)
+    args.verify = args.verify or args.extend_by == "detections"
+    if (args.private or args.verify) and not args.detector_model:
+        parser.error("--private, --verify and --extend-by detections need --detector-model")
 
     config, seq_dirs = fit_setup(args)
-    grid = list(itertools.product(floats(args.confidences), floats(args.affinities), floats(args.seconds)))
-    loosest = config.replace("sot", extend_min_confidence=0.0, extend_min_affinity=min(g[1] for g in grid),
-                             extend_seconds=max(g[2] for g in grid)).sot
+    supported = floats(args.supported_affinities) if args.verify else [None]
+    grid = list(itertools.product(floats(args.confidences), floats(args.affinities), supported,
+                                  floats(args.seconds)))
+    loosest = config.replace("sot", extend_min_confidence=0.0,
+                             extend_min_affinity=min(g[1] for g in grid),
+                             extend_supported_affinity=min(g[2] if g[2] is not None else g[1] for g in grid),
+                             extend_seconds=max(g[3] for g in grid)).sot
+    support = None
+    if args.detector_model:
+        config = config.replace("detection", model=args.detector_model)
+    if args.verify:
+        loosest = dataclasses.replace(loosest, verify="detector", extend_by=args.extend_by)
     embedder_box: list = []
     traced: dict[str, tuple] = {}
     for seq_dir in seq_dirs:
-        prepared = prepare_sequence(seq_dir, config, features=cached_features(seq_dir, config, args.cache,
-                                                                                embedder_box))
-        run = finish_sequence(prepared, config.replace("sot", extend_seconds=0.0))
+        seq_config = private_config(config, seq_dir, args.detector_model, args.det_cache) if args.private else config
+        prepared = prepare_sequence(seq_dir, seq_config, features=cached_features(seq_dir, seq_config, args.cache,
+                                                                                    embedder_box))
+        run = finish_sequence(prepared, seq_config.replace("sot", extend_seconds=0.0))
         info = prepared.info
         identity = run.identities()
         if not embedder_box:
             embedder_box.append(make_embedder(config.appearance))
+        if args.verify:
+            detector = make_detector(config.replace("detection", min_score=loosest.verify_min_score).detection)
+            support = DetectorSupport(detector, loosest.verify_min_score)
         trace: list[dict] = []
         extend_ends(run.tracks, identity, FrameReader(info, cache_size=8), info.length, info.frame_rate,
-                    embedder_box[0], loosest, trace=trace)
+                    embedder_box[0], loosest, trace=trace, support=support)
         traced[info.name] = (info, run.tracks, trace)
-        print(f"{info.name}: {len(trace)} end boxes at the loosest gates", file=sys.stderr, flush=True)
+        print(f"{info.name}: {len(trace)} end boxes at the loosest gates, {sum(b['supported'] for b in trace)} "
+              f"supported by a detector box", file=sys.stderr, flush=True)
     names = list(traced)
-    runs = {"none": None, **{f"conf>={c:g} aff>={a:g} {s:g}s": (c, a, s) for c, a, s in grid}}
+    runs = {"none": None, **{(f"conf>={c:g} aff>={a:g} {s:g}s" if sup is None else
+                              f"conf>={c:g} aff>={a:g}/{sup:g} {s:g}s"): (c, a, sup, s) for c, a, sup, s in grid}}
     rows: dict[str, dict[str, dict]] = {name: {} for name in names}
     files: dict[str, list] = {run: [] for run in runs}
     with tempfile.TemporaryDirectory(prefix="sotmot-fit-sot-") as tmp:
@@ -86,17 +139,18 @@ def main(argv: list[str] | None = None) -> int:
                 if gates is None:
                     out = tracks
                 else:
-                    c, a, s = gates
-                    strict = config.replace("sot", extend_min_confidence=c, extend_min_affinity=a, extend_seconds=s)
+                    c, a, sup, s = gates
+                    strict = dataclasses.replace(loosest, extend_min_confidence=c, extend_min_affinity=a,
+                                                 extend_seconds=s, extend_supported_affinity=a if sup is None else sup)
                     out = with_added(tracks, [(b["frame"], b["track"], b["box"])
-                                              for b in gated(trace, info.frame_rate, strict.sot)])
+                                              for b in gated(trace, info.frame_rate, strict)])
                 path = results_path(Path(tmp) / f"run{index}", name)
                 write_results(path, out)
-                files[run].append((path, info.gt_path, info.length, name))
+                files[run].append((path, info.gt_path, info.length, name, out))
                 rows[name][run] = {"added": int(out.from_sot.sum())}
         combined = {}
         for run in runs:
-            report = evaluate_files(files[run])
+            report = evaluate_files([f[:4] for f in files[run]])
             for name, scores in report.sequences.items():
                 rows[name][run].update(scores)
             combined[run] = dict(report.combined)
@@ -107,32 +161,46 @@ def main(argv: list[str] | None = None) -> int:
 
         held_out, chosen_files = {}, []
         for name in names:
-            train = [s for s in names if s != name]
+            train = [s for s in names if video_of(s) != video_of(name)]  # leave the whole video out
             best = max(candidates, key=lambda r: (mean_hota(r, train), -candidates.index(r)))
             held_out[name] = best
-            rows[name]["held out"] = dict(rows[name][best], chosen=best)
-            chosen_files.append(next(f for f in files[best] if f[3] == name))
+            chosen = next(f for f in files[best] if f[3] == name)
+            info, out = traced[name][0], chosen[4]
+            labels = box_labels(out, info, Path(tmp) / "labels" / name)[out.from_sot]
+            rows[name]["held out"] = dict(rows[name][best], chosen=best, added_right=int((labels == 1).sum()))
+            chosen_files.append(chosen[:4])
         combined["held out"] = dict(evaluate_files(chosen_files).combined)
         combined["held out"]["added"] = sum(rows[n]["held out"]["added"] for n in names)
-        combined["none"]["added"] = 0
+        combined["held out"]["added_right"] = sum(rows[n]["held out"]["added_right"] for n in names)
+        combined["none"]["added"] = combined["none"]["added_right"] = 0
+        for name in names:
+            rows[name]["none"]["added_right"] = 0
         fitted_on_all = max(candidates, key=lambda r: (mean_hota(r, names), -candidates.index(r)))
         combined[fitted_on_all]["added"] = sum(rows[n][fitted_on_all]["added"] for n in names)
-    head = f"  {'gates':<28}" + "".join(f"{c:>8}" for c in SHOWN + ("added",))
+        for name in names:
+            out = next(f for f in files[fitted_on_all] if f[3] == name)[4]
+            labels = box_labels(out, traced[name][0], Path(tmp) / "labels-all" / name)[out.from_sot]
+            rows[name][fitted_on_all]["added_right"] = int((labels == 1).sum())
+        combined[fitted_on_all]["added_right"] = sum(rows[n][fitted_on_all]["added_right"] for n in names)
+    head = f"  {'gates':<34}" + "".join(f"{c:>8}" for c in SHOWN + ("added", "right"))
     for name in names:
         print(f"\n{name} (held out: {held_out[name]})\n{head}")
         for run in ("none", "held out", fitted_on_all):
             v = rows[name][run]
-            print(f"  {run:<28}" + "".join(f"{v[c]:8.2f}" if c in ("HOTA", "MOTA", "IDF1") else f"{v[c]:8.0f}"
-                                           for c in SHOWN + ("added",)))
+            print(f"  {run:<34}" + "".join(f"{v[c]:8.2f}" if c in ("HOTA", "MOTA", "IDF1") else f"{v[c]:8.0f}"
+                                           for c in SHOWN + ("added", "added_right")))
     print(f"\nall {len(names)} sequences, TrackEval combined\n{head}")
     for run in ("none", "held out", fitted_on_all):
         v = combined[run]
-        print(f"  {run:<28}" + "".join(f"{v[c]:8.2f}" if c in ("HOTA", "MOTA", "IDF1") else f"{v[c]:8.0f}"
-                                       for c in SHOWN + ("added",)))
+        print(f"  {run:<34}" + "".join(f"{v[c]:8.2f}" if c in ("HOTA", "MOTA", "IDF1") else f"{v[c]:8.0f}"
+                                       for c in SHOWN + ("added", "added_right")))
     print(f"fitted on all sequences: {fitted_on_all}")
     print(f"machine: {machine()}")
     if args.json:
         write_text_atomic(args.json, json.dumps({"machine": machine(), "grid": grid, "rows": rows,
+                                                 "detector_model": args.detector_model, "verify": args.verify,
+                                                 "private": args.private,
+                                                 "extend_by": args.extend_by,
                                                  "combined": combined, "held_out": held_out,
                                                  "fitted_on_all": fitted_on_all}, indent=1, default=float) + "\n")
     return 0

@@ -131,15 +131,16 @@ def private_config(config: TrackerConfig, seq: Path, detector_model: str, cache:
     return out
 
 
-def fit_sequences(data: Path, min_length: int) -> list[Path]:
-    """The sequences with frames under ``data`` of at least ``min_length`` frames, for a leave-one-sequence-out fit.
+def fit_sequences(data: Path, min_length: int, only: str = "") -> list[Path]:
+    """The sequences with frames under ``data`` of at least ``min_length`` frames (``only``: a comma-separated list of
+    names, those alone), for a leave-one-sequence-out fit.
 
     Raises
     ------
     InputError
         Fewer than two (nothing to hold out).
     """
-    found = [p for p in sequences(data) if read_seqinfo(p).length >= min_length]
+    found = [p for p in sequences(data, only) if read_seqinfo(p).length >= min_length]
     if len(found) < 2:
         raise InputError(data, f"a leave-one-sequence-out fit needs at least two sequences of >= {min_length} "
                                f"frames here, found {len(found)}")

@@ -131,6 +131,11 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--refine-gaps", action="store_true",
                    help="SOT after association: replace interpolated boxes by boxes found in the frames where "
                         "template and re-ID agree (default: off)")
+    p.add_argument("--verify-sot", choices=["none", "detector"],
+                   help="check the boxes SOT finds after association with the person detector (--detector-model, "
+                        "run on the frames it visits): a box a detector box supports is replaced by it, one none "
+                        "supports needs [sot] extend_min_affinity; tracks still start only from the detections "
+                        "tracked (default: the config's, none)")
     p.add_argument("--sot", choices=["none", "template", "deep"],
                    help="single-object-tracking step that adds missed boxes (paper Algorithm 1): template = "
                         "OpenCV correlation, deep = re-ID re-ranking (default: the config's, see docs)")
@@ -174,6 +179,8 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("sot", variant=args.sot)
     if args.sot_rules:
         config = config.replace("sot", rules=args.sot_rules)
+    if args.verify_sot:
+        config = config.replace("sot", verify=args.verify_sot)
     if getattr(args, "refine_gaps", False):
         config = config.replace("sot", refine_gaps=True)
     if args.extend_ends is not None:

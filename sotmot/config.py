@@ -297,6 +297,30 @@ class SotConfig:
         stops where its candidate overlaps a box of someone else (another
         trajectory, another detection) at IoU above this: a lagging duplicate
         of a detection overlaps it at 0.3-0.5.
+    verify
+        ``"detector"``: the boxes SOT finds after association (end extension,
+        gap refinement) are checked by the person detector (``[detection]
+        model``), run on the frames the search visits: a found box that
+        overlaps a detector box scoring at least ``verify_min_score`` at IoU
+        ``verify_iou`` or more is replaced by that box (the paper's box
+        regression on SOT results) and needs a re-ID affinity of only
+        ``extend_supported_affinity``; a box no detector box supports needs
+        ``extend_min_affinity``. Only trajectories that exist are extended, so
+        tracks still start from the detections tracked (MOTChallenge's public
+        rule holds with public detections). ``"none"``: no detector check.
+    verify_min_score, verify_iou
+        The detector boxes that count as support: score and overlap.
+    extend_supported_affinity
+        The re-ID affinity a detector-supported box needs (``verify``).
+    extend_by
+        Where the boxes that extend a trajectory come from: ``"sot"`` (the
+        template search, re-ranked by re-ID; checked by the detector with
+        ``verify``), or ``"detections"``: the detector's boxes alone (scoring
+        at least ``verify_min_score``, overlapping the trajectory's motion
+        prior at IoU ``verify_iou`` or more, re-ranked by re-ID and gated by
+        ``extend_supported_affinity``), the simplest use of weak boxes
+        (ByteTrack's second association, here at trajectory ends), with no
+        SOT; it needs the detector.
     """
 
     variant: Literal["none", "template", "deep"] = "none"
@@ -317,6 +341,11 @@ class SotConfig:
     refine_gaps: bool = False
     extend_min_affinity: float = 0.5
     stop_iou: float = 0.3
+    verify: Literal["none", "detector"] = "none"
+    verify_min_score: float = 0.1
+    verify_iou: float = 0.5
+    extend_supported_affinity: float = 0.5
+    extend_by: Literal["sot", "detections"] = "sot"
 
     def __post_init__(self) -> None:
         _check(self.variant in ("none", "template", "deep"), "sot",
@@ -332,7 +361,13 @@ class SotConfig:
         _check(1 <= self.rerank <= 64, "sot", "rerank must be between 1 and 64")
         _check(0 <= self.window <= 100_000, "sot", "window must be between 0 and 100,000 frames")
         _check(0.0 <= self.extend_seconds <= 60.0, "sot", "extend_seconds must be in [0, 60]")
-        for name in ("seed_min_confidence", "extend_min_affinity", "extend_min_confidence", "stop_iou"):
+        _check(self.verify in ("none", "detector"), "sot", f"verify must be 'none' or 'detector'; got {self.verify!r}")
+        _check(self.extend_by in ("sot", "detections"), "sot",
+               f"extend_by must be 'sot' or 'detections'; got {self.extend_by!r}")
+        _check(self.extend_by == "sot" or self.verify == "detector", "sot",
+               "extend_by = 'detections' takes the detector's boxes: it needs verify = 'detector'")
+        for name in ("seed_min_confidence", "extend_min_affinity", "extend_min_confidence", "stop_iou",
+                     "verify_min_score", "verify_iou", "extend_supported_affinity"):
             _check(0.0 <= getattr(self, name) <= 1.0, "sot", f"{name} must be in [0, 1]")
 
 

@@ -275,18 +275,26 @@ def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tra
     """SOT after association (:mod:`sotmot.sot.extend`) on the output ``tracks`` (``identity``: track id -> mean
     feature): interpolated boxes replaced by boxes found in the frames (``[sot] refine_gaps``), then the ends
     extended (``[sot] extend_seconds``)."""
-    from sotmot.sot.extend import extend_ends, refine_gaps
+    from sotmot.sot.extend import DetectorSupport, extend_ends, refine_gaps
 
     info = prepared.info
     reader, embedder = FrameReader(info, cache_size=8), embedder_for(config.appearance, embedder)
+    support = None
+    if config.sot.verify == "detector":  # its own low threshold: weak boxes count as support, never as tracks
+        detector = make_detector(config.replace("detection", min_score=config.sot.verify_min_score).detection)
+        support = DetectorSupport(detector, config.sot.verify_min_score)
     if config.sot.refine_gaps:
         tracks = refine_gaps(tracks, identity, reader, embedder, config.sot,
-                             progress=lambda items: as_progress(progress)(items, f"{info.name}: refine gaps"))
+                             progress=lambda items: as_progress(progress)(items, f"{info.name}: refine gaps"),
+                             support=support)
     if config.sot.extend_seconds > 0:
         before = len(tracks)
         tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, config.sot,
-                             progress=lambda items: as_progress(progress)(items, f"{info.name}: extend ends"))
+                             progress=lambda items: as_progress(progress)(items, f"{info.name}: extend ends"),
+                             support=support)
         log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
+    if support is not None:
+        log.info("%s: the detector checked the SOT boxes on %d frames", info.name, support.frames_detected)
     return tracks
 
 

@@ -87,7 +87,7 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
     calibration = config.confirm.calibration
     packaged = resources.files("sotmot").joinpath("data", "confidence.json")
     source, det_file = detection_source(config.detection, info)
-    detector = config.detection.model if source == "model" else None
+    detector = config.detection.model if source == "model" or config.sot.verify == "detector" else None
     return {
         "sotmot": sotmot_version(),
         "sequence": info.name,

@@ -271,6 +271,10 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     config = resolve_paths(config)
     # the backend "auto" picks, decided here once: the run record and every worker see the one that runs
     config = config.replace("appearance", backend=resolve_backend(config.appearance).backend)
+    if config.sot.verify == "detector":  # the check of SOT boxes needs the detector: said now, not after tracking
+        from sotmot.detection import resolve_detector_path
+
+        resolve_detector_path(config.detection.model)
     seq_dirs = [str(s) for s in seq_dirs]
     out_dir = str(check_output_dir(out_dir))  # a file, a read-only folder: said now, not after the work
     report = report or (lambda outcome: None)

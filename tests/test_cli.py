@@ -120,3 +120,12 @@ def test_graph_and_explain_commands_run_to_the_end(tmp_path, model_0288, capsys)
     assert nodes and "taken by greedy" in capsys.readouterr().out
     assert main(["explain", str(seq), "--ids", "1,2", "--reid-model", str(model_0288), "-q"]) == 0
     assert "tracks 1 and 2" in capsys.readouterr().out
+
+
+def test_verifying_sot_boxes_without_a_detector_fails_before_tracking(tmp_path, model_0288, capsys, monkeypatch):
+    monkeypatch.delenv("SOTMOT_DETECTOR_MODEL", raising=False)
+    seq = require(DATA / "MOT16-05-clip30")
+    assert main(["track", str(seq), "--out", str(tmp_path / "out"), "--reid-model", str(model_0288),
+                 "--verify-sot", "detector", "-q"]) == 2
+    assert "no person detector given: pass --detector-model" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

@@ -123,3 +123,102 @@ def test_an_interpolated_box_off_the_person_is_replaced_by_the_box_found_there()
     assert np.array_equal(out.boxes[~interpolated], tracks.boxes[~interpolated])
     kept = refine_gaps(tracks, {1: -LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig())
     assert np.array_equal(kept.boxes, tracks.boxes) and kept.interpolated.tolist() == interpolated.tolist()
+
+
+class StubDetector:
+    """A person detector that sees the walker in some frames only, a box 2 px off the truth, with a weak score."""
+
+    def __init__(self, images: dict[int, np.ndarray], frames: range) -> None:
+        self.seen = {images[f].tobytes(): f for f in frames}
+
+    def detect(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        frame = self.seen.get(image.tobytes())
+        if frame is None:
+            return np.zeros((0, 4)), np.zeros(0)
+        return np.array([[walker_x(frame) + 2.0, 41.0, 20.0, 40.0], [0.0, 0.0, 20.0, 40.0]]), np.array([0.15, 0.05])
+
+
+def test_the_detector_checks_sot_boxes_replaces_them_and_gates_the_unsupported():
+    """[sot] verify: where a (weak) detector box supports the found box, it takes its place and a low re-ID
+    affinity suffices; where none does, the strict gate applies."""
+    from sotmot.sot.extend import DetectorSupport
+
+    images = frames_with_walker()
+    detected = range(1, 21)
+    tracks = Tracks(list(detected), [1] * 20, [[walker_x(f), 40, 20, 40] for f in detected], [0.9] * 20)
+    # the identity a little off the walker's look: affinity about 0.9, below a strict unsupported gate of 0.95
+    identity = GeometryEmbedder().embed(None, np.array([[0.0, 0.0, 21.0, 41.0]]))[0]
+    affinity = float(identity @ LOOK)
+    assert 0.5 < affinity < 0.95
+    strict = SotConfig(extend_seconds=1.5, verify="detector", extend_min_affinity=0.95, extend_supported_affinity=0.5,
+                       verify_min_score=0.1)
+    support = DetectorSupport(StubDetector(images, range(21, 25)), strict.verify_min_score)
+    trace: list[dict] = []
+    out = extend_ends(tracks, {1: identity}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), strict,
+                      trace=trace, support=support)
+    added = out.subset(out.from_sot & (out.frames > 20))
+    assert added.frames.tolist() == [21, 22, 23, 24]  # supported from 21 to 24; frame 25 has no detector box
+    np.testing.assert_allclose(added.boxes, [[walker_x(f) + 2.0, 41.0, 20.0, 40.0] for f in range(21, 25)])
+    assert [b["supported"] for b in trace] == [True] * 4
+    assert support.frames_detected >= 5  # it looked at frame 25 too, and found nothing there
+    # the same run without the detector: nothing passes the strict gate; with the usual gate, template boxes
+    nothing = extend_ends(tracks, {1: identity}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), strict)
+    assert not nothing.from_sot.any()
+    usual = extend_ends(tracks, {1: identity}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(),
+                        SotConfig(extend_seconds=1.5))
+    assert usual.frames[usual.from_sot & (usual.frames > 20)].tolist()[:7] == list(range(21, 28))
+
+
+def test_the_weak_box_baseline_extends_by_the_detector_boxes_alone():
+    """[sot] extend_by = "detections": the detector's boxes near the motion prior, no template search."""
+    from sotmot.sot.extend import DetectorSupport
+
+    images = frames_with_walker()
+    detected = range(1, 21)
+    tracks = Tracks(list(detected), [1] * 20, [[walker_x(f), 40, 20, 40] for f in detected], [0.9] * 20)
+    config = SotConfig(extend_seconds=1.5, verify="detector", extend_by="detections", verify_iou=0.5,
+                       extend_supported_affinity=0.5)
+    support = DetectorSupport(StubDetector(images, [21, 22, 23, 26]), config.verify_min_score)
+    out = extend_ends(tracks, {1: LOOK}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), config,
+                      support=support)
+    added = out.subset(out.from_sot)
+    assert added.frames.tolist() == [21, 22, 23]  # frame 24 has no box: the end stops there, 26 is never reached
+    np.testing.assert_allclose(added.boxes, [[walker_x(f) + 2.0, 41.0, 20.0, 40.0] for f in (21, 22, 23)])
+
+
+def test_under_the_public_protocol_no_track_starts_from_a_detector_box(tmp_path, monkeypatch):
+    """With [sot] verify the detector only checks boxes that extend trajectories the given detections started:
+    a person the detector sees in every frame, but who is in no det.txt line, never becomes a track."""
+    import cv2
+
+    import sotmot.pipeline as pipeline
+    from sotmot.pipeline import track_sequence
+
+    images = frames_with_walker()
+    ghost = [100.0, 0.0, 20.0, 38.0]  # someone standing in the top rows, never in det.txt
+    texture = np.random.default_rng(1).integers(0, 256, size=(38, 20, 3), dtype=np.uint8)
+    seq = tmp_path / "SYN"
+    (seq / "img1").mkdir(parents=True)
+    (seq / "det").mkdir()
+    for f, img in images.items():
+        img[0:38, 100:120] = texture
+        cv2.imwrite(str(seq / "img1" / f"{f:06d}.png"), img)
+    (seq / "seqinfo.ini").write_text(f"[Sequence]\nname=SYN\nimDir=img1\nframeRate=10\nseqLength={LENGTH}\n"
+                                     f"imWidth={WIDTH}\nimHeight={HEIGHT}\nimExt=.png\n")
+    (seq / "det" / "det.txt").write_text("".join(f"{f},-1,{walker_x(f)},40,20,40,0.9\n" for f in range(1, 21)))
+
+    class SeesEveryone:
+        def detect(self, image):
+            frame = next(f for f, img in images.items() if np.array_equal(img[40:80], image[40:80]))
+            return np.array([[walker_x(frame), 40.0, 20.0, 40.0], ghost]), np.array([0.3, 0.3])
+
+    monkeypatch.setattr(pipeline, "make_detector", lambda config: SeesEveryone())
+    config = (TrackerConfig().replace("confirm", enabled=False)
+              .replace("sot", verify="detector", extend_seconds=0.5, extend_supported_affinity=0.3))
+    result = track_sequence(seq, config, embedder=GeometryEmbedder())
+    tracks = result.tracks
+    assert set(tracks.ids.tolist()) == {1}
+    assert tracks.frames[tracks.from_sot].tolist() == [21, 22, 23, 24, 25]  # the walker, followed half a second
+    from sotmot.boxes import iou_matrix
+
+    assert iou_matrix(np.array(ghost), tracks.boxes).max() < 0.1

@@ -1,4 +1,4 @@
-"""Deep person re-ID features from an ONNX model run with onnxruntime (the default backend).
+"""Deep person re-ID features from an ONNX model run with onnxruntime (the backend where OpenVINO is missing).
 
 Made for Intel's Open Model Zoo person-reidentification-retail models; the
 input contract and everything shared with the other backends is in

@@ -82,12 +82,14 @@ def mean_confidence(confidence: np.ndarray) -> float:
 
 
 def passes_end_gates(config: SotConfig, track_confidence: float = 1.0, affinity: float = 1.0, step: int = 1,
-                     steps: int | None = None) -> bool:
+                     steps: int | None = None, supported: bool = False) -> bool:
     """The end extension's gates, stated once: the track's mean confirmation confidence is at least
-    ``extend_min_confidence``, the found box's re-ID affinity with the track at least ``extend_min_affinity``,
-    and the box at most ``steps`` frames from the end (None: no limit). :func:`extend_ends` checks each where it
-    knows the number; :func:`gated` applies all three to a trace (``scripts/fit_sot.py``)."""
-    return (not track_confidence < config.extend_min_confidence and not affinity < config.extend_min_affinity
+    ``extend_min_confidence``, the found box's re-ID affinity with the track at least ``extend_min_affinity``
+    (``extend_supported_affinity`` for a box a detector box ``supported``, ``[sot] verify``), and the box at
+    most ``steps`` frames from the end (None: no limit). :func:`extend_ends` checks each where it knows the
+    number; :func:`gated` applies all of them to a trace (``scripts/fit_sot.py``)."""
+    needed = config.extend_supported_affinity if supported else config.extend_min_affinity
+    return (not track_confidence < config.extend_min_confidence and not affinity < needed
             and (steps is None or step <= steps))
 
 
@@ -102,19 +104,42 @@ def gated(trace: list[dict], frame_rate: float, config: SotConfig) -> list[dict]
     stopped, kept = set(), []
     for box in trace:  # in the order they were added: each end's boxes one step after another
         end = (box["track"], box["direction"])
-        if end in stopped or not passes_end_gates(config, box["track_confidence"], box["affinity"], box["step"], steps):
+        if end in stopped or not passes_end_gates(config, box["track_confidence"], box["affinity"], box["step"], steps,
+                                                  box.get("supported", False)):
             stopped.add(end)
             continue
         kept.append(box)
     return kept
 
 
+class DetectorSupport:
+    """The person detector as a verifier of SOT boxes (``[sot] verify = "detector"``): its boxes scoring at least
+    ``verify_min_score`` in a frame, detected once per frame the search visits."""
+
+    def __init__(self, detector, min_score: float) -> None:
+        self.detector = detector
+        self.min_score = min_score
+        self._boxes: dict[int, np.ndarray] = {}
+        self.frames_detected = 0
+
+    def __call__(self, frame: int, image: np.ndarray) -> np.ndarray:
+        """``(K, 4)`` ``x, y, w, h`` boxes of ``frame`` (its ``image``)."""
+        if frame not in self._boxes:
+            boxes, scores = self.detector.detect(image)
+            keep = np.asarray(scores) >= self.min_score
+            self._boxes[frame] = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)[keep]
+            self.frames_detected += 1
+        return self._boxes[frame]
+
+
 class _Finder:
     """The search both uses share: template proposals around a prior, re-ranked by re-ID against an identity."""
 
     def __init__(self, tracks: Tracks, read_frame: Callable[[int], np.ndarray], embedder: Embedder,
-                 config: SotConfig) -> None:
-        self.read_frame, self.embedder, self.config = read_frame, embedder, config
+                 config: SotConfig, support: DetectorSupport | None = None) -> None:
+        self.read_frame, self.embedder, self.config, self.support = read_frame, embedder, config, support
+        if config.extend_by == "detections" and support is None:
+            raise ValueError("[sot] extend_by = 'detections' needs the detector's boxes (a DetectorSupport)")
         self.search = TemplateSearch(config)
         self.occupied: dict[int, list[tuple[int, np.ndarray]]] = {}  # frame -> (track id, box) of every box there
         for f, i, b in zip(tracks.frames.tolist(), tracks.ids.tolist(), tracks.boxes):
@@ -132,29 +157,45 @@ class _Finder:
         return self._greys[f]
 
     def find(self, template: np.ndarray, frame: int, prior: np.ndarray, identity: np.ndarray,
-             track_id: int) -> tuple[np.ndarray | None, float]:
-        """The best candidate for ``track_id`` in ``frame`` around ``prior``, and its re-ID affinity with ``identity``.
+             track_id: int) -> tuple[np.ndarray | None, float, bool]:
+        """The best candidate for ``track_id`` in ``frame`` around ``prior``, its re-ID affinity with ``identity``,
+        and whether a detector box supports it.
 
+        With a :class:`DetectorSupport`, a candidate that overlaps a detector
+        box at IoU ``verify_iou`` or more is replaced by that box (supported).
         The box is None when the evidence is not there: no proposal
         correlates above ``tau``, or the best re-ranked one has affinity under
-        ``extend_min_affinity``, lies less than half inside the image, or
-        overlaps a box of another track at IoU above ``stop_iou``.
+        the gate (:func:`passes_end_gates`), lies less than half inside the
+        image, or overlaps a box of another track at IoU above ``stop_iou``.
         """
         cfg = self.config
         image = self.read_frame(frame)
-        candidates, ncc = self.search.search(template, self.grey(frame), prior, top=cfg.rerank)
-        candidates = candidates[ncc > cfg.tau]
+        if cfg.extend_by == "detections":  # the weak-box baseline: the detector's boxes near the prior, no SOT
+            candidates = self.support(frame, image)
+            candidates = candidates[iou_matrix(prior, candidates)[0] >= cfg.verify_iou] if len(candidates) \
+                else candidates
+        else:
+            candidates, ncc = self.search.search(template, self.grey(frame), prior, top=cfg.rerank)
+            candidates = candidates[ncc > cfg.tau]
         if len(candidates) == 0:
-            return None, 0.0
+            return None, 0.0, False
         aff = affinity_rows(np.repeat(identity[None], len(candidates), 0), self.embedder.embed(image, candidates))
         best = int(np.argmax(aff))
-        found = candidates[best]
-        if not passes_end_gates(cfg, affinity=aff[best]) or inside_fraction(found, image.shape[1], image.shape[0]) < 0.5:
-            return None, float(aff[best])
+        found, affinity, supported = candidates[best], float(aff[best]), cfg.extend_by == "detections"
+        if self.support is not None and not supported:
+            boxes = self.support(frame, image)
+            if len(boxes):
+                overlap = iou_matrix(found, boxes)[0]
+                k = int(np.argmax(overlap))
+                if overlap[k] >= cfg.verify_iou:
+                    found, supported = boxes[k], True  # the paper's box regression on a SOT result
+        if not passes_end_gates(cfg, affinity=affinity, supported=supported) \
+                or inside_fraction(found, image.shape[1], image.shape[0]) < 0.5:
+            return None, affinity, supported
         others = [b for o, b in self.occupied.get(frame, []) if o != track_id]
         if others and iou_matrix(found, np.stack(others))[0].max() > cfg.stop_iou:
-            return None, float(aff[best])
-        return found, float(aff[best])
+            return None, affinity, supported
+        return found, affinity, supported
 
     def claim(self, frame: int, track_id: int, box: np.ndarray) -> None:
         """``box`` of ``track_id`` now stands in ``frame``: later searches of other tracks avoid it."""
@@ -168,7 +209,8 @@ def _track_rows(tracks: Tracks, track_id: int) -> np.ndarray:
 
 def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Callable[[int], np.ndarray],
                 n_frames: int, frame_rate: float, embedder: Embedder, config: SotConfig,
-                progress: Callable | None = None, trace: list[dict] | None = None) -> Tracks:
+                progress: Callable | None = None, trace: list[dict] | None = None,
+                support: DetectorSupport | None = None) -> Tracks:
     """``tracks`` with boxes added before the first and after the last box of each track.
 
     Parameters
@@ -194,11 +236,14 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
         If given, one dict per added box is appended: ``frame``, ``track``,
         ``direction`` (+1 after the last box, -1 before the first), ``step``
         (frames from the end), ``box``, ``affinity`` (re-ID, with the track's
-        identity) and ``track_confidence``. ``scripts/fit_sot.py`` fits the gates
-        from it; it shows why an end grew as far as it did.
+        identity), ``track_confidence`` and ``supported`` (a detector box took
+        its place). ``scripts/fit_sot.py`` fits the gates from it; it shows why
+        an end grew as far as it did.
+    support
+        The detector that checks each found box (``[sot] verify``), or None.
     """
     steps = end_steps(config.extend_seconds, frame_rate)
-    finder = _Finder(tracks, read_frame, embedder, config)
+    finder = _Finder(tracks, read_frame, embedder, config, support)
     added: list[tuple[int, int, np.ndarray]] = []
     ids = np.unique(tracks.ids).tolist()
     for track_id in (progress(ids) if progress else ids):
@@ -216,14 +261,15 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
                 g = start + direction * k
                 if not 1 <= g <= n_frames:
                     break
-                found, affinity = finder.find(template, g, box + np.r_[velocity, 0.0, 0.0], identity, track_id)
+                found, affinity, supported = finder.find(template, g, box + np.r_[velocity, 0.0, 0.0], identity,
+                                                         track_id)
                 if found is None:
                     break
                 finder.claim(g, track_id, found)
                 added.append((g, track_id, found))
                 if trace is not None:
                     trace.append({"frame": g, "track": track_id, "direction": direction, "step": k, "box": found,
-                                  "affinity": affinity, "track_confidence": confidence})
+                                  "affinity": affinity, "track_confidence": confidence, "supported": supported})
                 box = found
     log.info("end extension added %d boxes to %d tracks", len(added), len(ids))
     return with_added(tracks, added)
@@ -245,7 +291,8 @@ def with_added(tracks: Tracks, added: list[tuple[int, int, np.ndarray]]) -> Trac
 
 
 def refine_gaps(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Callable[[int], np.ndarray],
-                embedder: Embedder, config: SotConfig, progress: Callable | None = None) -> Tracks:
+                embedder: Embedder, config: SotConfig, progress: Callable | None = None,
+                support: DetectorSupport | None = None) -> Tracks:
     """``tracks`` with interpolated boxes replaced by boxes found in the frames where the evidence supports them.
 
     Interpolation puts a box on the straight line between the two detector
@@ -257,7 +304,7 @@ def refine_gaps(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
     ``interpolated``) only when :meth:`_Finder.find` accepts a candidate, else
     the interpolated box stays. Boxes are ``x, y, w, h`` pixels, frames 1-based.
     """
-    finder = _Finder(tracks, read_frame, embedder, config)
+    finder = _Finder(tracks, read_frame, embedder, config, support)
     boxes = tracks.boxes.copy()
     interpolated, from_sot = tracks.interpolated.copy(), tracks.from_sot.copy()
     ids = np.unique(tracks.ids[tracks.interpolated]).tolist()
@@ -274,7 +321,7 @@ def refine_gaps(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
             if nearest not in templates:
                 templates[nearest] = TemplateSearch.template(read_frame(int(tracks.frames[nearest])),
                                                              tracks.boxes[nearest])
-            found, _ = finder.find(templates[nearest], f, tracks.boxes[r], identity, track_id)
+            found, _, _ = finder.find(templates[nearest], f, tracks.boxes[r], identity, track_id)
             if found is not None:
                 boxes[r], interpolated[r], from_sot[r] = found, False, True
     log.info("gap refinement replaced %d of %d interpolated boxes", int((from_sot & tracks.interpolated).sum()),
