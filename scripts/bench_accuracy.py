@@ -69,7 +69,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
     parser.add_argument("--model", required=True, help="ONNX re-ID model")
-    parser.add_argument("--solver", "--merger", dest="solver", default="greedy", help="long-term association solver (default: %(default)s)")
+    parser.add_argument("--solver", "--merger", dest="solver", default="greedy",
+                        help="long-term association solver (default: %(default)s)")
     parser.add_argument("--config", type=Path, help="tracker configuration file for 'after' (default: the defaults)")
     parser.add_argument("--min-hits", default="3,5,10",
                         help="comparison rows: the online trackers' rule, a trajectory is kept once it has this "

@@ -85,7 +85,8 @@ def peak_mb(solver, tracklets, config) -> float:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--labels", type=Path, default=DEFAULT_LABELS, help="MOT16-labels folder (default: %(default)s)")
-    parser.add_argument("--solvers", "--mergers", dest="solvers", default="greedy,flow", help="solvers to time (default: %(default)s)")
+    parser.add_argument("--solvers", "--mergers", dest="solvers", default="greedy,flow",
+                        help="solvers to time (default: %(default)s)")
     parser.add_argument("--sequences", default="", help="comma-separated subset, e.g. MOT16-04")
     parser.add_argument("--repeat", type=int, default=3, help="timing runs per point (best is kept)")
     parser.add_argument("--tile", type=int, default=0,

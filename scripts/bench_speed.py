@@ -78,7 +78,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
     parser.add_argument("--model", required=True)
     parser.add_argument("--sot", default="none", choices=["none", "template", "deep"])
-    parser.add_argument("--solver", "--merger", dest="solver", default="greedy", help="long-term association solver (default: %(default)s)")
+    parser.add_argument("--solver", "--merger", dest="solver", default="greedy",
+                        help="long-term association solver (default: %(default)s)")
     parser.add_argument("--appearance", default="auto", choices=["auto", *sorted(BACKENDS)],
                         help="appearance backend (default: %(default)s, as sotmot track)")
     parser.add_argument("--no-flip", action="store_true", help="embed each crop once, without its mirror image")

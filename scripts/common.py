@@ -25,7 +25,8 @@ DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data
 def add_confirmation_fit_arguments(parser: argparse.ArgumentParser) -> None:
     """What the confirmation fits share (``scripts/fit_confidence.py``, ``scripts/fit_detector_confidence.py``):
     the solver, the candidate confirmation thresholds and the box model's L2 penalty."""
-    parser.add_argument("--solver", "--merger", dest="solver", default="greedy", help="long-term association solver (default: %(default)s)")
+    parser.add_argument("--solver", "--merger", dest="solver", default="greedy",
+                        help="long-term association solver (default: %(default)s)")
     parser.add_argument("--thresholds", default="0.2,0.25,0.3,0.35,0.4,0.45,0.5,0.55,0.6",
                         help="candidate confirmation thresholds; 0 (keep all) is always tried (default: %(default)s)")
     parser.add_argument("--l2", type=float, default=1000.0, help="L2 penalty of the box model (default: %(default)s)")

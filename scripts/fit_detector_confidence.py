@@ -123,8 +123,8 @@ def main(argv: list[str] | None = None) -> int:
                     cfg = base_config.replace("detection", file=str(found)).replace("preprocess", score_threshold=s)
                     kept = preprocess_indices(raw, cfg.preprocess)
                     prepared = prepare_sequence(seq, cfg, features=features[kept])
-                    labelled[s][info.name] = label_sequence(prepared, raw.scores, cfg.replace("association", solver=args.solver), work,
-                                                                 FAMILY)
+                    solved = cfg.replace("association", solver=args.solver)
+                    labelled[s][info.name] = label_sequence(prepared, raw.scores, solved, work, FAMILY)
                     samples[s][info.name] = detection_labels(seq, cfg, work, FAMILY)
                 video_of[info.name] = video
                 print(f"{info.name} [{video}]: {len(raw)} detector boxes", file=sys.stderr, flush=True)

@@ -16,13 +16,14 @@ best mean HOTA on the sequences of the *other* videos (MOT16-09 and MOT17-09-FRC
 are one video, left out together); the table gives what it does on the
 held-out sequence, beside no extension.
 
-With ``--verify`` the person detector (``--detector-model``) checks every box the extension
-finds (``[sot] verify = "detector"``): a box that a detector box supports is
-replaced by it and gated by ``extend_supported_affinity``
+With ``--verify`` the person detector (``--detector-model``) checks every box
+the extension finds (``[sot] verify = "detector"``): a box that a detector box
+supports is replaced by it and gated by ``extend_supported_affinity``
 (``--supported-affinities``), one without support by ``extend_min_affinity``
-(``--affinities``; 1 drops every unsupported box). ``--extend-by detections`` is the simplest alternative that uses the same
-weak boxes: trajectories extended by the detector's boxes alone (ByteTrack's
-second association at trajectory ends), no SOT. With ``--private`` the
+(``--affinities``; 1 drops every unsupported box). ``--extend-by detections``
+is the simplest alternative that uses the same weak boxes: trajectories
+extended by the detector's boxes alone (ByteTrack's second association at
+trajectory ends), no SOT. With ``--private`` the
 sequences are tracked from that detector's boxes (MOTChallenge's private
 detections) instead of their public ``det.txt``. The rows give the added
 boxes and how many of them are right (matched to ground truth by the CLEAR

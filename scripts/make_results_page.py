@@ -76,7 +76,8 @@ def accuracy_section(title: str, accuracy: dict | None, peers: dict | None, how:
                  f"full-length sequences combined as one benchmark. Machine: {accuracy['machine']}.")
     if peers is not None:
         names = sorted(t for t in peers["table"] if not t.startswith("sotmot"))
-        lines.append(f"Peers (`scripts/bench_peers.py`, {peers['detections']} detections; machine: {peers['machine']}): "
+        lines.append(f"Peers (`scripts/bench_peers.py`, {peers['detections']} detections; "
+                     f"machine: {peers['machine']}): "
                      f"{', '.join(names)}, each fed the same boxes and the same re-ID embeddings; the best on each "
                      f"metric is named, which may be a different tracker per metric.")
     return [*lines, ""]
@@ -108,7 +109,8 @@ def long_section(data: dict | None) -> list[str]:
     lines = ["## Long videos", "", "Each sequence played k times in a row as one MPEG-4 video, its public "
              "detections shifted to match, tracked by `sotmot track VIDEO --det DET` in a child process (peak "
              "resident memory from `/usr/bin/time -v`; temporary disk sampled every 0.1 s).", "",
-             "| video | frames | size | wall s | fps | peak RSS MB | peak temp disk MB |", "|---|---|---|---|---|---|---|"]
+             "| video | frames | size | wall s | fps | peak RSS MB | peak temp disk MB |",
+             "|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
         lines.append(f"| {r['sequence']} x{r['factor']} | {r['frames']} | {r['size']} | {r['seconds']:.0f} | "
                      f"{r['fps']:.1f} | {r['peak_rss_mb']:.0f} | {r['peak_tmp_mb']:.1f} |")

@@ -69,7 +69,8 @@ class OpenVinoDetector:
         try:
             self._model = self._core.read_model(str(self.path))
         except Exception as exc:  # OpenVINO raises its own untyped errors
-            raise ModelError(f"{self.path}: cannot be loaded by OpenVINO as a detector: {runtime_message(exc)}") from exc
+            raise ModelError(f"{self.path}: cannot be loaded by OpenVINO as a detector: "
+                             f"{runtime_message(exc)}") from exc
         inputs, outputs = self._model.inputs, self._model.outputs
         in_shape = [d.get_length() if d.is_static else -1 for d in inputs[0].get_partial_shape()] if inputs else []
         out_shape = [d.get_length() if d.is_static else -1 for d in outputs[0].get_partial_shape()] if outputs else []

@@ -45,7 +45,8 @@ def tracklet_identities(tracklets: Sequence[Tracklet], info: SeqInfo, workdir: P
 
 def lifted_pair_samples(tracklets: Sequence[Tracklet], identities: np.ndarray,
                         config: AssociationConfig) -> tuple[np.ndarray, np.ndarray]:
-    """The learned lifted costs' training pairs of one sequence: :data:`~sotmot.association.objective.PAIR_FEATURES` and labels.
+    """The learned lifted costs' training pairs of one sequence: features
+    (:data:`~sotmot.association.objective.PAIR_FEATURES`) and labels.
 
     Every pair of tracklets with known identities, one ending 1 to ``H``
     frames (the lifted horizon) before the other starts: the pairs a

@@ -29,7 +29,8 @@ from sotmot.io import results_path, write_results
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracklet
 
-#: ``lifted_obj``: the lifted objective of the solver's grouping (:func:`sotmot.association.objective.lifted_objective`, higher is
+#: ``lifted_obj``: the lifted objective of the solver's grouping
+#: (:func:`sotmot.association.objective.lifted_objective`, higher is
 #: better), the one objective every solver is scored on. ``window_gap``: for the lifted solver, the summed gap
 #: between CP-SAT's proved bound and its solution over the windows not proven optimal (0: every window optimal;
 #: NaN for solvers without a bound). ``flow_net_cost``: the flow network's own cost (lower is better for that

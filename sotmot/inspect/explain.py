@@ -162,7 +162,8 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
                 continue
             found += 1
             data = graph.edges[x, y]
-            state = (f"TAKEN by {config.association.solver}" + (f" in round {data['round']}" if data["round"] else "")) \
+            rounds = f" in round {data['round']}" if data["round"] else ""
+            state = (f"TAKEN by {config.association.solver}" + rounds) \
                 if data["taken"] else ("allowed, not taken" if data["allowed"] else
                                        f"REJECTED by {data['failed'].replace(',', ', ')}")
             out.append(f"candidate {x} -> {y}: {state}")
