@@ -59,10 +59,15 @@ def accuracy_table(accuracy: dict, peers: dict | None) -> list[str]:
     after = accuracy["after"]["all"]["sequences"]
     head = "| sequence | " + " | ".join(SHOWN) + " | best peer HOTA / MOTA / IDF1 |"
     lines = [head, "|" + "---|" * (len(SHOWN) + 2)]
-    for name in [*names, "combined"]:
-        values = accuracy["after"]["full"]["combined"] if name == "combined" else after[name]
-        key = "full-length" if name == "combined" else name
-        best = [best_peer(peers, key, m) for m in ("HOTA", "MOTA", "IDF1")]
+    compared = [n for n in names if peers is not None and n in peers["table"].get("sotmot", {})]
+    rows = [(n, after[n], n) for n in names]
+    if peers is not None and compared != names:  # the peers ran on fewer sequences: compare like with like
+        rows += [("combined", accuracy["after"]["full"]["combined"], None),
+                 (f"combined, the peers' {len(compared)}", peers["table"]["sotmot"]["full-length"], "full-length")]
+    else:
+        rows.append(("combined", accuracy["after"]["full"]["combined"], "full-length"))
+    for name, values, key in rows:
+        best = [best_peer(peers, key, m) for m in ("HOTA", "MOTA", "IDF1")] if key else [None]
         peer = " / ".join(f"{v:.1f} ({n})" for n, v in best) if all(best) else "not measured"
         lines.append(f"| {name} | " + " | ".join(number(m, values[m]) for m in SHOWN) + f" | {peer} |")
     return lines
