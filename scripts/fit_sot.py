@@ -48,7 +48,6 @@ import numpy as np
 from common import add_fit_arguments, fit_setup
 from sotmot.appearance import make_embedder
 from sotmot.benchmarks import cached_features, machine, private_config
-from sotmot.detection import make_detector
 from sotmot.fitting.confidence import box_labels
 from sotmot.evaluate import evaluate_files
 from sotmot.sot.extend import DetectorSupport, extend_ends, gated, with_added
@@ -120,8 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         if not embedder_box:
             embedder_box.append(make_embedder(config.appearance))
         if args.verify:
-            detector = make_detector(config.replace("detection", min_score=loosest.verify_min_score).detection)
-            support = DetectorSupport(detector, loosest.verify_min_score)
+            support = DetectorSupport.from_config(config.detection, loosest.verify_min_score)  # boxes per sequence
         trace: list[dict] = []
         extend_ends(run.tracks, identity, FrameReader(info, cache_size=8), info.length, info.frame_rate,
                     embedder_box[0], loosest, trace=trace, support=support)

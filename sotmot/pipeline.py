@@ -281,8 +281,7 @@ def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tra
     reader, embedder = FrameReader(info, cache_size=8), embedder_for(config.appearance, embedder)
     support = None
     if config.sot.verify == "detector":  # its own low threshold: weak boxes count as support, never as tracks
-        detector = make_detector(config.replace("detection", min_score=config.sot.verify_min_score).detection)
-        support = DetectorSupport(detector, config.sot.verify_min_score)
+        support = DetectorSupport.from_config(config.detection, config.sot.verify_min_score)
     if config.sot.refine_gaps:
         tracks = refine_gaps(tracks, identity, reader, embedder, config.sot,
                              progress=lambda items: as_progress(progress)(items, f"{info.name}: refine gaps"),

@@ -191,7 +191,7 @@ def test_under_the_public_protocol_no_track_starts_from_a_detector_box(tmp_path,
     a person the detector sees in every frame, but who is in no det.txt line, never becomes a track."""
     import cv2
 
-    import sotmot.pipeline as pipeline
+    import sotmot.detection as detection
     from sotmot.pipeline import track_sequence
 
     images = frames_with_walker()
@@ -212,7 +212,7 @@ def test_under_the_public_protocol_no_track_starts_from_a_detector_box(tmp_path,
             frame = next(f for f, img in images.items() if np.array_equal(img[40:80], image[40:80]))
             return np.array([[walker_x(frame), 40.0, 20.0, 40.0], ghost]), np.array([0.3, 0.3])
 
-    monkeypatch.setattr(pipeline, "make_detector", lambda config: SeesEveryone())
+    monkeypatch.setattr(detection, "make_detector", lambda config: SeesEveryone())
     config = (TrackerConfig().replace("confirm", enabled=False)
               .replace("sot", verify="detector", extend_seconds=0.5, extend_supported_affinity=0.3))
     result = track_sequence(seq, config, embedder=GeometryEmbedder())

@@ -29,6 +29,7 @@ pixels, frames 1-based.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable
 
@@ -36,7 +37,7 @@ import numpy as np
 
 from sotmot.appearance import Embedder, affinity_rows
 from sotmot.boxes import centers, iou_matrix
-from sotmot.config import SotConfig
+from sotmot.config import DetectionConfig, SotConfig
 from sotmot.sot.search import TemplateSearch
 from sotmot.types import Tracks
 
@@ -121,6 +122,14 @@ class DetectorSupport:
         self.min_score = min_score
         self._boxes: dict[int, np.ndarray] = {}
         self.frames_detected = 0
+
+    @classmethod
+    def from_config(cls, detection: DetectionConfig, min_score: float) -> DetectorSupport:
+        """The detector ``detection`` names, run at the verifier's own low threshold ``min_score`` (its tracking
+        threshold, ``[detection] min_score``, would hide the weak boxes)."""
+        from sotmot.detection import make_detector
+
+        return cls(make_detector(dataclasses.replace(detection, min_score=min_score)), min_score)
 
     def __call__(self, frame: int, image: np.ndarray) -> np.ndarray:
         """``(K, 4)`` ``x, y, w, h`` boxes of ``frame`` (its ``image``)."""
