@@ -48,6 +48,14 @@ def clip_xyxy(corners: np.ndarray, width: float, height: float) -> np.ndarray:
     return np.clip(c, 0.0, [width, height, width, height])
 
 
+def inside_share(boxes: np.ndarray, width: float, height: float) -> np.ndarray:
+    """``(N,)`` share of each ``x, y, w, h`` box's area inside a ``width`` x ``height`` image (0: wholly outside)."""
+    b = as_boxes(boxes) if len(boxes) else np.zeros((0, 4))
+    ix = np.maximum(0.0, np.minimum(b[:, 0] + b[:, 2], width) - np.maximum(b[:, 0], 0.0))
+    iy = np.maximum(0.0, np.minimum(b[:, 1] + b[:, 3], height) - np.maximum(b[:, 1], 0.0))
+    return ix * iy / np.maximum(b[:, 2] * b[:, 3], 1e-9)
+
+
 def pixel_bounds(boxes: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Integer pixel bounds ``x1, y1, x2, y2`` (``(N,)`` each, ``x2``/``y2`` exclusive) of ``(N, 4)``
     ``x, y, w, h`` boxes clipped to a ``width`` x ``height`` image: the one rule every crop uses.

@@ -605,6 +605,38 @@ class ConfirmConfig:
 
 
 @dataclass(frozen=True)
+class MotionConfig:
+    """Camera motion compensation (``sotmot.motion``): positions compared in one reference frame.
+
+    Attributes
+    ----------
+    compensation
+        ``"auto"``: estimate the camera's motion when frames half a second
+        apart moved (a still camera changes nothing: results are identical to
+        ``"off"``); ``"on"``: always estimate and compensate; ``"off"``: never.
+    still_pixels
+        ``auto`` calls the camera still when no corner of any frame moved
+        farther than this (pixels) between frames half a second apart (the
+        still cameras of the shared data: at most 1.4 px, MOT16-09; a camera
+        drifting 3 px a half second moves a box 12 px over the longest
+        interpolated gap of 2 s).
+    min_confidence
+        A frame pair's estimate is used when at least this share of the tracked
+        corners agreed with it; below, the pair counts as no motion.
+    """
+
+    compensation: Literal["auto", "on", "off"] = "auto"
+    still_pixels: float = 3.0
+    min_confidence: float = 0.2
+
+    def __post_init__(self) -> None:
+        _check(self.compensation in ("auto", "on", "off"), "motion",
+               f"compensation must be 'auto', 'on' or 'off'; got {self.compensation!r}")
+        _check(0.0 < self.still_pixels <= 1000.0, "motion", "still_pixels must be in (0, 1000]")
+        _check(0.0 <= self.min_confidence <= 1.0, "motion", "min_confidence must be in [0, 1]")
+
+
+@dataclass(frozen=True)
 class TrackerConfig:
     """The whole tracker: one section per stage."""
 
@@ -617,6 +649,7 @@ class TrackerConfig:
     association: AssociationConfig = field(default_factory=AssociationConfig)
     postprocess: PostprocessConfig = field(default_factory=PostprocessConfig)
     confirm: ConfirmConfig = field(default_factory=ConfirmConfig)
+    motion: MotionConfig = field(default_factory=MotionConfig)
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Plain nested dict, the same layout a config file uses."""
@@ -640,6 +673,7 @@ SECTIONS: dict[str, type] = {
     "association": AssociationConfig,
     "postprocess": PostprocessConfig,
     "confirm": ConfirmConfig,
+    "motion": MotionConfig,
 }
 
 

@@ -15,7 +15,7 @@ FLOORS = {
     "sotmot": 0,  # the package's __init__
     "sotmot.config": 1,
     "sotmot.io": 2, "sotmot.evaluate": 2,
-    "sotmot.appearance": 3, "sotmot.detection": 3, "sotmot.postprocess": 3,
+    "sotmot.appearance": 3, "sotmot.detection": 3, "sotmot.postprocess": 3, "sotmot.motion": 3,
     "sotmot.confidence": 4, "sotmot.provenance": 4, "sotmot.passes": 4, "sotmot.sot": 4, "sotmot.tracklets": 4,
     "sotmot.preprocess": 5, "sotmot.confirm": 5, "sotmot.association": 5,
     "solvers": 6,

@@ -26,6 +26,11 @@ from sotmot.io.mot import SeqInfo
 SKIP_AHEAD = 24
 
 
+def reduced_size(height: int, width: int, factor: int) -> tuple[int, int]:
+    """``(height, width)`` of an image read ``factor`` times smaller on each side (rounded up, as JPEG does)."""
+    return -(-height // factor), -(-width // factor)
+
+
 class FrameSource(Protocol):
     """Decodes one frame of a sequence; :attr:`decodes` counts the frames it decoded (tests, benchmarks)."""
 
@@ -33,6 +38,11 @@ class FrameSource(Protocol):
 
     def read(self, frame: int) -> np.ndarray:
         """The image of 1-based ``frame``; :class:`InputError` when it cannot be decoded."""
+        ...
+
+    def read_grey(self, frame: int, factor: int) -> np.ndarray:
+        """``frame`` in grey, ``factor`` (1, 2, 4 or 8) times smaller on each side (rounded up), as cheaply as
+        the source allows; the camera-motion estimate reads frames this way."""
         ...
 
     def close(self) -> None:
@@ -50,6 +60,19 @@ class JpegFolder:
     def read(self, frame: int) -> np.ndarray:
         import cv2
 
+        return self._decode(frame, cv2.IMREAD_COLOR, 1)
+
+    def read_grey(self, frame: int, factor: int) -> np.ndarray:
+        import cv2
+
+        # JPEG decodes straight to a smaller size (DCT scaling): a 1080p frame at 1/4 costs a fraction of a full one
+        flags = {1: cv2.IMREAD_GRAYSCALE, 2: cv2.IMREAD_REDUCED_GRAYSCALE_2, 4: cv2.IMREAD_REDUCED_GRAYSCALE_4,
+                 8: cv2.IMREAD_REDUCED_GRAYSCALE_8}
+        return self._decode(frame, flags[factor], factor)
+
+    def _decode(self, frame: int, flags: int, factor: int) -> np.ndarray:
+        import cv2
+
         path = self.info.frame_path(frame)
         if not path.is_file():
             raise InputError(path, f"frame {frame} is missing from {self.info.im_dir}/")
@@ -58,13 +81,13 @@ class JpegFolder:
             data = np.fromfile(path, dtype=np.uint8)
         except OSError as exc:
             raise InputError(path, f"frame {frame} cannot be read: {exc.strerror}") from exc
-        image = cv2.imdecode(data, cv2.IMREAD_COLOR) if len(data) else None
+        image = cv2.imdecode(data, flags) if len(data) else None
         self.decodes += 1
         if image is None:
             raise InputError(path, f"frame {frame} cannot be decoded as an image")
-        if image.shape[:2] != (self.info.height, self.info.width):
-            raise InputError(path, f"frame {frame} is {image.shape[1]} x {image.shape[0]} px but seqinfo.ini says "
-                             f"imWidth={self.info.width}, imHeight={self.info.height}")
+        if image.shape[:2] != reduced_size(self.info.height, self.info.width, factor):
+            raise InputError(path, f"frame {frame} is {image.shape[1] * factor} x {image.shape[0] * factor} px but "
+                             f"seqinfo.ini says imWidth={self.info.width}, imHeight={self.info.height}")
         return image
 
     def close(self) -> None:
@@ -114,6 +137,15 @@ class VideoFile:
             raise InputError(self.info.video, f"frame {frame} is {image.shape[1]} x {image.shape[0]} px, not "
                              f"{self.info.width} x {self.info.height} as the first frame")
         return image
+
+    def read_grey(self, frame: int, factor: int) -> np.ndarray:
+        import cv2
+
+        grey = cv2.cvtColor(self.read(frame), cv2.COLOR_BGR2GRAY)
+        if factor == 1:
+            return grey
+        height, width = reduced_size(self.info.height, self.info.width, factor)
+        return cv2.resize(grey, (width, height), interpolation=cv2.INTER_AREA)
 
     def _seek(self, frame: int) -> None:
         import cv2
