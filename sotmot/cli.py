@@ -136,6 +136,11 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                         "run on the frames it visits): a box a detector box supports is replaced by it, one none "
                         "supports needs [sot] extend_min_affinity; tracks still start only from the detections "
                         "tracked (default: the config's, none)")
+    p.add_argument("--camera-motion", choices=["auto", "on", "off"],
+                   help="camera-motion compensation: estimate the camera's motion from the frames and compare "
+                        "positions (tracklets, association, interpolation, end extension) in frame 1's pixels; "
+                        "auto does so only when frames half a second apart moved (a still camera's results do not "
+                        "change) (default: the config's, auto)")
     p.add_argument("--sot", choices=["none", "template", "deep"],
                    help="single-object-tracking step that adds missed boxes (paper Algorithm 1): template = "
                         "OpenCV correlation, deep = re-ID re-ranking (default: the config's, see docs)")
@@ -187,6 +192,8 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("sot", extend_seconds=args.extend_ends)
     if getattr(args, "solver", None):
         config = config.replace("association", solver=args.solver)
+    if getattr(args, "camera_motion", None):
+        config = config.replace("motion", compensation=args.camera_motion)
     return config
 
 

@@ -1,10 +1,14 @@
 """The tracker's stages wired together; each stage is also callable on its own.
 
-    detect (a model) or read (a det.txt) -> preprocess (score threshold, NMS) -> embed -> tracklets
+    detect (a model) or read (a det.txt) -> preprocess (score threshold, NMS) -> embed
+         -> camera motion (``sotmot.motion``) -> tracklets
          -> long-term association (a solver named in ``sotmot.plugins.SOLVERS``)
          -> post-processing -> confirmation (``sotmot.confidence``) -> results
 
-Boxes are ``x, y, w, h`` pixels, frames 1-based throughout.
+Boxes are ``x, y, w, h`` pixels, frames 1-based throughout. With a moving
+camera (``[motion]``), tracklets, association and post-processing see the
+boxes in the reference frame's pixels (frame 1), and the results are mapped
+back into each frame's own.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import Embedder, embedder_for
+from sotmot.boxes import inside_share
 from sotmot.association import Association, get_solver
 from sotmot.association.merge import merge_group
 from sotmot.confidence import confidence_knots, detection_confidence, load_calibration, model_kind
@@ -25,6 +30,7 @@ from sotmot.config import TrackerConfig
 from sotmot.confirm import box_scorer, confirm
 from sotmot.detection import Detector, detection_source, known_family, make_detector
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
+from sotmot.motion import CameraMotion, estimate_motion
 from sotmot.passes import detect_sequence, embed_detections
 from sotmot.postprocess import output_ids, to_tracks
 from sotmot.preprocess import nms_per_frame, preprocess_indices, resolve_nms
@@ -37,7 +43,8 @@ log = logging.getLogger(__name__)
 def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, embedder: Embedder,
             config: TrackerConfig, progress: "bool | Progress" = False,
             confidence: np.ndarray | None = None,
-            timings: dict[str, float] | None = None) -> tuple[Detections, np.ndarray, np.ndarray, int]:
+            timings: dict[str, float] | None = None,
+            motion: CameraMotion | None = None) -> tuple[Detections, np.ndarray, np.ndarray, int]:
     """The SOT step, then NMS on the enlarged set (paper Sec. 3.3 and 6.1).
 
     ``features`` of ``detections``, or None: the SOT step computes them from
@@ -65,7 +72,7 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, 
         return run
 
     tracker = SotTracker(config.sot, timed("decode", FrameReader(info, cache_size=1)), info.length,
-                         embed=timed("appearance", embedder.embed), det_features=features)
+                         embed=timed("appearance", embedder.embed), det_features=features, motion=motion)
     seeds = None if confidence is None else confidence >= config.sot.seed_min_confidence
     show = as_progress(progress)
     result = tracker.run(detections, progress=lambda items: show(items, f"{info.name}: SOT ({config.sot.variant})"),
@@ -116,6 +123,11 @@ class TrackResult:
     track_ids
         The output track id of each of ``trajectories`` (None: dropped as too
         short), as :func:`~sotmot.postprocess.output_ids` numbers them.
+    motion
+        The camera's motion (``[motion]``). When ``motion.moving``, the boxes of
+        ``tracklets`` and ``trajectories`` are in the reference frame's pixels
+        (frame 1), where association judged them; ``detections`` and ``tracks``
+        are in each frame's own.
     """
 
     info: SeqInfo
@@ -130,6 +142,7 @@ class TrackResult:
     dropped: Tracks = field(default_factory=Tracks.empty)
     detected: Detections | None = None
     track_ids: list[int | None] = field(default_factory=list)
+    motion: CameraMotion | None = None
 
     def identities(self) -> dict[int, np.ndarray]:
         """Output track id -> the mean appearance feature of its trajectory (its identity)."""
@@ -160,6 +173,7 @@ class Prepared:
     confidence: np.ndarray = field(default_factory=lambda: np.zeros(0))
     confidence_method: str = "raw"
     detected: Detections | None = None
+    motion: CameraMotion | None = None
 
 
 class _Clock:
@@ -214,6 +228,9 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
     clock.lap("appearance")
     links, steps = np.zeros((0, 2), np.int64), 0
+    motion = estimate_motion(info, dets, config.motion, progress)
+    if config.motion.compensation != "off":
+        clock.lap("motion")
     method, knots = confidence_knots(config.preprocess.confidence, raw.scores,
                                      load_calibration(config.confirm.calibration),
                                      known_family(config.detection, info))
@@ -222,7 +239,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         embedder = embedder_for(config.appearance, embedder)
         inside: dict[str, float] = {}
         dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress,
-                                               detection_confidence(dets.scores, knots), inside)
+                                               detection_confidence(dets.scores, knots), inside, motion)
         log.info("%s: SOT added %d boxes (after NMS)", info.name, int(dets.from_sot.sum()))
         clock.lap("sot")
         # the re-ID inside the SOT step (the detections' features too, when it computed them) counts as appearance;
@@ -230,11 +247,12 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         timings["sot"] -= inside["appearance"]
         timings["appearance"] += inside["appearance"]
         timings["decode"] = timings.get("decode", 0.0) + inside["decode"]
-    tracklets = build_tracklets(dets, features, info.frame_rate, config.tracklets,
+    # tracklets hold their boxes in the reference frame when the camera moved (the same detections otherwise)
+    tracklets = build_tracklets(motion.to_ref_detections(dets), features, info.frame_rate, config.tracklets,
                                 must_link=links if config.sot.must_link else None)
     clock.lap("tracklets")
     confidence = detection_confidence(dets.scores, knots)  # the SOT step's boxes too
-    return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected)
+    return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected, motion)
 
 
 def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
@@ -254,6 +272,11 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
                             prepared.info.frame_rate)
     ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate)
     tracks = to_tracks(trajectories, prepared.detections, config.postprocess, scorer, prepared.info.frame_rate, ids)
+    motion = prepared.motion
+    if motion is not None and motion.moving:  # interpolated and smoothed in the reference frame; written in each own
+        tracks = tracks.with_boxes(motion.from_ref(tracks.frames, tracks.boxes))
+        # a person the camera turned away from is still filled in where the world says they were, out of the frame
+        tracks = tracks.subset(inside_share(tracks.boxes, prepared.info.width, prepared.info.height) > 0)
     clock.lap("postprocess")
     tracks, dropped = (confirm(tracks, config, prepared.confidence_method) if config.confirm.enabled
                        else (tracks, Tracks.empty()))
@@ -267,7 +290,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
              len(dropped), config.association.solver)
     return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
                        association, trajectories, tracks, timings, prepared.confidence, dropped, prepared.detected,
-                       ids)
+                       ids, motion)
 
 
 def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tracks: Tracks, config: TrackerConfig,
@@ -290,7 +313,7 @@ def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tra
         before = len(tracks)
         tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, config.sot,
                              progress=lambda items: as_progress(progress)(items, f"{info.name}: extend ends"),
-                             support=support)
+                             support=support, motion=prepared.motion)
         log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
     if support is not None:
         log.info("%s: the detector checked the SOT boxes on %d frames", info.name, support.frames_detected)

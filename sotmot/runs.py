@@ -218,6 +218,8 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
         result = track_sequence(seq_dir, config, embedder=embedder, progress=progress)
         text = format_results(result.tracks)
         record["results_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()  # --resume checks it
+        if result.motion is not None and result.motion.moving:
+            record["camera_motion"] = result.motion.summary()
         written: list[Path] = []
         try:
             if low_confidence_path(out) in outputs:

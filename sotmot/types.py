@@ -219,6 +219,10 @@ class Tracks:
         return Tracks(self.frames[index], self.ids[index], self.boxes[index], self.scores[index],
                       self.interpolated[index], self.from_sot[index], self.confidence[index])
 
+    def with_boxes(self, boxes: np.ndarray) -> "Tracks":
+        """The same rows with other ``(N, 4)`` boxes (e.g. mapped to another frame of reference)."""
+        return Tracks(self.frames, self.ids, boxes, self.scores, self.interpolated, self.from_sot, self.confidence)
+
     @property
     def n_tracks(self) -> int:
         """Number of distinct identities."""

@@ -6,7 +6,8 @@ import numpy as np
 
 from conftest import GeometryEmbedder
 from sotmot.config import SotConfig, TrackerConfig
-from sotmot.sot.extend import end_velocity, extend_ends, inside_fraction, refine_gaps
+from sotmot.boxes import inside_share
+from sotmot.sot.extend import end_velocity, extend_ends, refine_gaps
 from sotmot.types import Tracks
 
 WIDTH, HEIGHT, LENGTH = 200, 120, 34
@@ -74,12 +75,13 @@ def test_a_different_looking_candidate_is_refused():
     assert not out.from_sot.any()
 
 
-def test_velocity_and_inside_fraction():
+def test_velocity_and_inside_share():
     frames = np.array([1, 2, 3])
     boxes = np.array([[0, 0, 10, 10], [3, 0, 10, 10], [6, 0, 10, 10]], float)
     assert end_velocity(frames, boxes, 1).tolist() == [3.0, 0.0]
     assert end_velocity(frames, boxes, -1).tolist() == [-3.0, 0.0]
-    assert inside_fraction(np.array([95.0, 0, 10, 10]), 100, 100) == 0.5
+    np.testing.assert_array_equal(inside_share(np.array([[95.0, 0, 10, 10], [200, 0, 10, 10], [10, 10, 5, 5]]), 100,
+                                               100), [0.5, 0.0, 1.0])
 
 
 def test_pipeline_extends_ends_by_default_and_not_when_turned_off(tmp_path):

@@ -87,7 +87,7 @@ def test_with_sot_each_frame_of_a_video_is_decoded_once_before_association(clip_
 
     video, det = clip_video
     config = (TrackerConfig().replace("appearance", model=str(model_0288)).replace("detection", file=str(det))
-              .replace("sot", variant="template"))
+              .replace("sot", variant="template").replace("motion", compensation="off"))  # motion: the test below
     decodes = counting(monkeypatch)
     prepared = prepare_sequence(video, config)
     length = prepared.info.length
@@ -97,3 +97,20 @@ def test_with_sot_each_frame_of_a_video_is_decoded_once_before_association(clip_
     result = finish_sequence(prepared, config)  # the end extension reads frames near the trajectories' ends
     assert result.tracks.from_sot.any() or not decodes
     assert max(decodes.values(), default=0) <= 2 and sum(decodes.values()) <= length
+
+
+def test_the_camera_motion_estimate_decodes_each_frame_of_a_video_at_most_twice(clip_video, monkeypatch):
+    """MOT16-05 is filmed walking: auto's still check reads a frame per half second, finds the camera moving, and
+    the estimate reads every frame once (small and grey; the stages that need colour read them again)."""
+    from sotmot.config import MotionConfig
+    from sotmot.io import read_detections
+    from sotmot.motion import estimate_motion, still_check_pairs
+
+    video, det = clip_video
+    info = read_seqinfo(video)
+    decodes = counting(monkeypatch)
+    motion = estimate_motion(info, read_detections(det, info.length), MotionConfig())
+    assert motion.moving
+    checked = {f for pair in still_check_pairs(info.length, info.frame_rate) for f in pair}
+    assert set(decodes) == set(range(1, info.length + 1)) and max(decodes.values()) <= 2
+    assert {f for f, n in decodes.items() if n == 2} <= checked  # the check stops at the first pair that moved

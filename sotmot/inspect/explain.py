@@ -40,12 +40,16 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
     :func:`~sotmot.association.candidates.build_graph` plus ``taken`` and ``round`` (greedy
     merge order, 0 when not taken or for solvers that decide at once), and on
     taken edges ``lifted_gain`` and ``lifted_pairs`` (see the module docstring).
+    Graph attribute ``compensated`` (only when the camera moved): every
+    position was compared in the reference frame (``[motion]``).
     """
     tracklets = result.tracklets
     if frames is not None:
         a, b = frames
         tracklets = [t for t in tracklets if t.end >= a and t.start <= b]
     graph = build_graph(tracklets, config.association, include_rejected=True)
+    if result.motion is not None and result.motion.moving:  # a still camera's graph stays as it was
+        graph.graph["compensated"] = True
     track_of = {}
     for group, track in zip(result.association.groups, result.track_ids):
         for t in group:
@@ -149,6 +153,9 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
     out = []
     same = track_a == track_b
     out.append(f"track {track_a}: tracklets {members[track_a]}; track {track_b}: tracklets {members[track_b]}")
+    if graph.graph.get("compensated"):
+        out.append("  the camera moved: IoU, velocity and gaps below are measured after camera-motion compensation, "
+                   "in frame 1's pixels")
     for t in members[track_a] + ([] if same else members[track_b]):
         d = graph.nodes[t]
         out.append(f"  tracklet {t}: frames {d['start']}-{d['end']}, {d['length']} boxes "

@@ -184,6 +184,8 @@ def html_page(graph: nx.DiGraph, crops: dict | None = None, title: str = "associ
                      f'x="{x1:.1f}" y="{y - 4}" width="{max(2.0, x2 - x1):.1f}" height="8" fill="{fill}"/>')
         parts.append(f'<text x="4" y="{y + 4}" font-size="10">{n} T{d.get("track", -1)}</text>')
     parts.append("</svg>")
+    compensated = ("<p>The camera moved: every IoU, velocity and gap here was measured after camera-motion "
+                   "compensation, in frame 1's pixels.</p>" if graph.graph.get("compensated") else "")
     filters = "".join(f'<label><input type="checkbox" class="filter" value="{c}" checked> rejected by {c}'
                       f' <span style="color:{_hex(REJECT_COLOURS[c])}">&#9473;&#9473;</span></label> '
                       for c in CONSTRAINTS)
@@ -201,7 +203,7 @@ td {{ padding: 1px 6px; }}
 <h2>{html.escape(title)}</h2>
 <p>x: frame; one lane per tracklet (its id, then its output track T). Green: links the solver took;
 grey: allowed, not taken; dashed: rejected, coloured by the first rule that failed. Dark blue bars hold
-boxes from the SOT step. Click a bar or a link for its numbers.</p>
+boxes from the SOT step. Click a bar or a link for its numbers.</p>{compensated}
 <div id="filters">{filters}</div>
 {''.join(parts)}
 <div id="panel"><b>Click a tracklet or a link.</b><div id="details"></div></div>
@@ -249,7 +251,8 @@ def tracklet_crops(result, graph: nx.DiGraph, height: int = 96) -> dict:
         pair = []
         for k in (0, -1):
             img = reader(int(t.frames[k]))
-            x1, y1, x2, y2 = (int(c[0]) for c in pixel_bounds(t.boxes[k][None], img.shape[1], img.shape[0]))
+            box = result.detections.boxes[t.det_index[k]]  # the frame's own pixels (tracklets may be compensated)
+            x1, y1, x2, y2 = (int(c[0]) for c in pixel_bounds(box[None], img.shape[1], img.shape[0]))
             crop = img[y1:y2, x1:x2]
             crop = cv2.resize(crop, (max(1, int(height * crop.shape[1] / crop.shape[0])), height))
             pair.append(cv2.imencode(".jpg", crop, [cv2.IMWRITE_JPEG_QUALITY, 80])[1].tobytes())

@@ -52,6 +52,7 @@ import numpy as np
 from sotmot.appearance import affinity_rows
 from sotmot.boxes import centers, iou_matrix
 from sotmot.config import SotConfig
+from sotmot.motion import CameraMotion
 from sotmot.sot.search import TemplateSearch
 from sotmot.types import Detections
 
@@ -119,11 +120,15 @@ class SotTracker:
         Features of the input detections. None with ``embed``: they are
         computed window by window from the frames SOT decodes anyway, so a
         run with SOT decodes each frame once (``SotResult.det_features``).
+    motion
+        The camera's motion: when it moved, a box is carried into the next
+        frame by the camera's motion before the overlap checks, and the
+        constant-velocity prior is the person's own motion in the reference frame.
     """
 
     def __init__(self, config: SotConfig, read_frame: Callable[[int], np.ndarray], n_frames: int,
                  embed: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
-                 det_features: np.ndarray | None = None) -> None:
+                 det_features: np.ndarray | None = None, motion: CameraMotion | None = None) -> None:
         if config.variant == "deep" and embed is None:
             raise ValueError("the deep SOT variant needs an embedder")
         self.config = config
@@ -133,6 +138,13 @@ class SotTracker:
         self.det_features = det_features
         self.search = TemplateSearch(config)
         self.steps = 0
+        self.motion = motion if motion is not None and motion.moving else None
+
+    def _to_ref(self, frame: int, box: np.ndarray) -> np.ndarray:
+        return box if self.motion is None else self.motion.to_ref(np.array([frame]), box[None])[0]
+
+    def _from_ref(self, frame: int, box: np.ndarray) -> np.ndarray:
+        return box if self.motion is None else self.motion.from_ref(np.array([frame]), box[None])[0]
 
     # -- affinity of a candidate with the seed -------------------------------------------------
     def _seed_affinity(self, seed: int, frame: np.ndarray, box_ids: list[int]) -> np.ndarray:
@@ -242,9 +254,10 @@ class SotTracker:
                 if seed not in self._templates:  # both variants propose with the template
                     self._templates[seed] = TemplateSearch.template(image(self._frames[seed]), self._boxes[seed])
                 box = self._boxes[end.box_id]
+                carried = self._from_ref(g, self._to_ref(f, box))  # where the camera alone puts it in frame g
                 others = in_frame[g]
                 if others:
-                    ious = iou_matrix(box, np.stack([self._boxes[b] for b in others]))[0]
+                    ious = iou_matrix(carried, np.stack([self._boxes[b] for b in others]))[0]
                     facing = [b for b, iou in zip(others, ious) if iou > cfg.tau_I and -end.direction in ends.get(b, ())]
                     if facing:
                         aff = self._seed_affinity(seed, image(g), facing)
@@ -257,7 +270,11 @@ class SotTracker:
                             if meet in chain_of:  # two extensions met half way: both reached a box
                                 reached[chain_of[meet]] = True
                             continue
-                prior = box + np.r_[end.velocity, 0.0, 0.0] if confident else box
+                if self.motion is None:
+                    prior = box + np.r_[end.velocity, 0.0, 0.0] if confident else box
+                else:
+                    prior = self._from_ref(g, self._to_ref(f, box) + np.r_[end.velocity, 0.0, 0.0]) if confident \
+                        else carried
                 found, aff, feature = self.next(prior, seed, *cached(g))
                 if len(found) == 0 or aff < cfg.tau_a:
                     continue
@@ -272,7 +289,7 @@ class SotTracker:
                 ends[new] = {end.direction}
                 chain_of[new] = end.chain
                 links.append((end.box_id, new) if end.direction == 1 else (new, end.box_id))
-                step = centers(found[None])[0] - centers(box[None])[0]
+                step = centers(self._to_ref(g, found)[None])[0] - centers(self._to_ref(f, box)[None])[0]
                 heapq.heappush(heap, _End(-end.score * cfg.e, counter, new, seed, end.score * cfg.e,
                                           end.length + 1, end.direction, end.chain, step))
                 counter += 1

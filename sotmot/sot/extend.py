@@ -36,8 +36,9 @@ from collections.abc import Callable
 import numpy as np
 
 from sotmot.appearance import Embedder, affinity_rows
-from sotmot.boxes import centers, iou_matrix
+from sotmot.boxes import centers, inside_share, iou_matrix
 from sotmot.config import DetectionConfig, SotConfig
+from sotmot.motion import CameraMotion
 from sotmot.sot.search import TemplateSearch
 from sotmot.types import Tracks
 
@@ -45,14 +46,6 @@ log = logging.getLogger(__name__)
 
 #: How many of a trajectory's last boxes (frames) give its velocity.
 VELOCITY_FRAMES = 5
-
-
-def inside_fraction(box: np.ndarray, width: int, height: int) -> float:
-    """Share of the ``x, y, w, h`` box's area inside a ``width`` x ``height`` image."""
-    x, y, w, h = box
-    ix = max(0.0, min(x + w, width) - max(x, 0.0))
-    iy = max(0.0, min(y + h, height) - max(y, 0.0))
-    return ix * iy / max(w * h, 1e-9)
 
 
 def end_velocity(frames: np.ndarray, boxes: np.ndarray, direction: int) -> np.ndarray:
@@ -199,7 +192,7 @@ class _Finder:
                 if overlap[k] >= cfg.verify_iou:
                     found, supported = boxes[k], True  # the paper's box regression on a SOT result
         if not passes_end_gates(cfg, affinity=affinity, supported=supported) \
-                or inside_fraction(found, image.shape[1], image.shape[0]) < 0.5:
+                or inside_share(found[None], image.shape[1], image.shape[0])[0] < 0.5:
             return None, affinity, supported
         others = [b for o, b in self.occupied.get(frame, []) if o != track_id]
         if others and iou_matrix(found, np.stack(others))[0].max() > cfg.stop_iou:
@@ -219,7 +212,7 @@ def _track_rows(tracks: Tracks, track_id: int) -> np.ndarray:
 def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Callable[[int], np.ndarray],
                 n_frames: int, frame_rate: float, embedder: Embedder, config: SotConfig,
                 progress: Callable | None = None, trace: list[dict] | None = None,
-                support: DetectorSupport | None = None) -> Tracks:
+                support: DetectorSupport | None = None, motion: CameraMotion | None = None) -> Tracks:
     """``tracks`` with boxes added before the first and after the last box of each track.
 
     Parameters
@@ -250,8 +243,20 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
         an end grew as far as it did.
     support
         The detector that checks each found box (``[sot] verify``), or None.
+    motion
+        The camera's motion: when it moved, the constant-velocity prior is
+        carried in the reference frame (the track's own motion, not the
+        camera's) and mapped into the frame searched.
     """
     steps = end_steps(config.extend_seconds, frame_rate)
+    moving = motion is not None and motion.moving
+
+    def to_ref(frame: int, box: np.ndarray) -> np.ndarray:
+        return motion.to_ref(np.array([frame]), box[None])[0] if moving else box
+
+    def from_ref(frame: int, box: np.ndarray) -> np.ndarray:
+        return motion.from_ref(np.array([frame]), box[None])[0] if moving else box
+
     finder = _Finder(tracks, read_frame, embedder, config, support)
     added: list[tuple[int, int, np.ndarray]] = []
     ids = np.unique(tracks.ids).tolist()
@@ -265,13 +270,13 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
             start = int(frames[-1] if direction == 1 else frames[0])
             box = boxes[-1 if direction == 1 else 0]
             template = TemplateSearch.template(read_frame(start), box)
-            velocity = end_velocity(frames, boxes, direction)
+            velocity = end_velocity(frames, motion.to_ref(frames, boxes) if moving else boxes, direction)
             for k in range(1, steps + 1):
                 g = start + direction * k
                 if not 1 <= g <= n_frames:
                     break
-                found, affinity, supported = finder.find(template, g, box + np.r_[velocity, 0.0, 0.0], identity,
-                                                         track_id)
+                prior = from_ref(g, to_ref(g - direction, box) + np.r_[velocity, 0.0, 0.0])
+                found, affinity, supported = finder.find(template, g, prior, identity, track_id)
                 if found is None:
                     break
                 finder.claim(g, track_id, found)

@@ -1,0 +1,196 @@
+"""Camera motion: the estimate against known shifts, the reference frame, and a still camera left alone."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import GeometryEmbedder
+from sotmot.config import MotionConfig, TrackerConfig
+from sotmot.errors import InputError
+from sotmot.io import read_detections, read_seqinfo
+from sotmot.motion import CameraMotion, compose, estimate_motion, estimate_pair, invert, reduce_factor
+from sotmot.pipeline import prepare_sequence, track_sequence
+
+WORLD_H, WORLD_W = 140, 520
+
+
+def world(seed: int = 0) -> np.ndarray:
+    """A textured grey 'world' (random 6 px blocks, slightly blurred) the camera looks at."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    blocks = rng.integers(30, 225, (WORLD_H // 6 + 1, WORLD_W // 6 + 1)).astype(np.uint8)
+    image = cv2.resize(blocks, (blocks.shape[1] * 6, blocks.shape[0] * 6), interpolation=cv2.INTER_NEAREST)
+    return cv2.GaussianBlur(image[:WORLD_H, :WORLD_W], (3, 3), 0.8)
+
+
+def shifted(image: np.ndarray, dx: float, dy: float, size: tuple[int, int]) -> np.ndarray:
+    """The ``size = (w, h)`` window whose top-left corner is at ``(dx, dy)`` of ``image`` (bilinear)."""
+    import cv2
+
+    return cv2.warpAffine(image, np.array([[1.0, 0, -dx], [0, 1.0, -dy]]), size, flags=cv2.INTER_LINEAR)
+
+
+@pytest.mark.parametrize("dx, dy", [(3.0, -2.0), (7.5, 1.25), (0.0, 0.0)])
+def test_estimate_matches_a_known_shift_within_a_tenth_of_a_pixel(dx, dy):
+    base = world()
+    previous = shifted(base, 40, 20, (320, 100))
+    current = shifted(base, 40 + dx, 20 + dy, (320, 100))  # the camera moved right by dx: the image moves left
+    transform, confidence = estimate_pair(previous, current)
+    # current's pixel p shows what previous showed at p + (dx, dy)
+    assert confidence > 0.5
+    np.testing.assert_allclose(transform[:, 2], [dx, dy], atol=0.1)
+    np.testing.assert_allclose(transform[:, :2], np.eye(2), atol=0.005)
+
+
+def test_estimate_on_reduced_frames_is_in_full_size_pixels():
+    import cv2
+
+    base = world(1)
+    previous, current = shifted(base, 40, 20, (400, 112)), shifted(base, 48, 16, (400, 112))
+    small = [cv2.resize(img, (200, 56), interpolation=cv2.INTER_AREA) for img in (previous, current)]
+    transform, _ = estimate_pair(*small, factor=2)
+    np.testing.assert_allclose(transform[:, 2], [8, -4], atol=0.3)
+    assert reduce_factor(1920) == 4 and reduce_factor(640) == 2 and reduce_factor(320) == 1
+
+
+def test_people_masked_out_do_not_pull_the_estimate():
+    base = world(2)
+    previous, current = shifted(base, 40, 20, (320, 100)), shifted(base, 44, 20, (320, 100))
+    # a large "person" moving left by 10 px on its own, over half the frame
+    person = world(3)[:80, :150]
+    previous[10:90, 100:250] = person
+    current[10:90, 90:240] = person
+    transform, _ = estimate_pair(previous, current, people=np.array([[95.0, 5, 160, 90]]))
+    np.testing.assert_allclose(transform[:, 2], [4, 0], atol=0.15)
+
+
+def test_boxes_round_trip_through_the_reference_frame():
+    pair = np.tile(np.array([[1.0, 0, 0], [0, 1.0, 0]]), (6, 1, 1))
+    pair[2:, 0, 2], pair[2:, 1, 2] = 5.0, -2.0  # each frame's pixels sit 5 px right, 2 px up of the previous's
+    pair[4] = np.array([[1.02, 0, 3.0], [0, 1.02, 1.0]])  # with a zoom
+    motion = CameraMotion.from_pairs(pair, np.ones(6))
+    frames = np.array([1, 2, 3, 4, 5, 5])
+    boxes = np.array([[10.0, 20, 30, 60], [0, 0, 10, 20], [5, 5, 5, 5], [100, 50, 40, 80], [1, 2, 3, 4], [7, 7, 7, 7]])
+    ref = motion.to_ref(frames, boxes)
+    np.testing.assert_allclose(ref[0], boxes[0])  # frame 1 is the reference
+    np.testing.assert_allclose(ref[1], [5, -2, 10, 20])
+    np.testing.assert_allclose(ref[2], [15, 1, 5, 5])
+    np.testing.assert_allclose(motion.from_ref(frames, ref), boxes, atol=1e-9)
+    np.testing.assert_allclose(compose(invert(pair[4]), pair[4]), pair[0], atol=1e-12)
+
+
+def _panning_sequence(root: Path, pan: float, length: int = 8, name: str = "PAN") -> Path:
+    """A camera panning ``pan`` px a frame across the textured world, and one person standing still in it.
+
+    The person (a flat dark block 24 x 48 at world x = 250) is detected in every frame where they are fully seen.
+    8 frames a second: the whole sequence is one tracklet batch.
+    """
+    import cv2
+
+    base = world(4)
+    base[40:88, 250:274] = 20
+    seq = root / name
+    (seq / "img1").mkdir(parents=True)
+    (seq / "det").mkdir()
+    lines = []
+    for f in range(1, length + 1):
+        left = 20 + pan * (f - 1)
+        cv2.imwrite(str(seq / "img1" / f"{f:06d}.jpg"), shifted(base, left, 10, (240, 120)),
+                    [cv2.IMWRITE_JPEG_QUALITY, 98])
+        x = 250 - left
+        if 0 <= x <= 240 - 24:
+            lines.append(f"{f},-1,{x:.2f},30,24,48,0.95,-1,-1,-1")
+    (seq / "det" / "det.txt").write_text("\n".join(lines) + "\n")
+    (seq / "seqinfo.ini").write_text(f"[Sequence]\nname={name}\nimDir=img1\nframeRate=8\nseqLength={length}\n"
+                                     f"imWidth=240\nimHeight=120\nimExt=.jpg\n")
+    return seq
+
+
+def test_a_person_standing_still_while_the_camera_pans_is_one_tracklet(tmp_path):
+    seq = _panning_sequence(tmp_path, pan=28.0)  # more than the box's width a frame: no overlap in the image
+    off = TrackerConfig().replace("motion", compensation="off").replace("sot", extend_seconds=0.0)
+    prepared_off = prepare_sequence(seq, off, GeometryEmbedder())
+    prepared_on = prepare_sequence(seq, off.replace("motion", compensation="auto"), GeometryEmbedder())
+    # in the image the boxes never overlap: each stays alone (and a lone box is no tracklet, l_min = 1)
+    assert len(prepared_off.tracklets) == 0
+    assert prepared_on.motion.moving
+    assert len(prepared_on.tracklets) == 1 and len(prepared_on.tracklets[0]) == 7
+    np.testing.assert_allclose(prepared_on.motion.pair[2:, 0, 2], 28.0, atol=0.3)
+    result = track_sequence(seq, off.replace("motion", compensation="auto"), GeometryEmbedder())
+    assert result.tracks.n_tracks == 1
+    # written in each frame's own pixels: the box follows the person across the image
+    dets = read_detections(seq / "det" / "det.txt")
+    rows = np.isin(result.tracks.frames, dets.frames)
+    np.testing.assert_allclose(result.tracks.boxes[rows][:, 0], dets.boxes[:, 0], atol=1.0)
+
+
+def test_a_still_camera_gives_the_identity_and_identical_results(tmp_path):
+    seq = _panning_sequence(tmp_path, pan=0.0, name="STILL")
+    info = read_seqinfo(seq)
+    dets = read_detections(info.det_path, info.length)
+    motion = estimate_motion(info, dets, MotionConfig())
+    assert not motion.moving
+    np.testing.assert_array_equal(motion.to_reference, CameraMotion.still(info.length).to_reference)
+    base = TrackerConfig().replace("sot", extend_seconds=0.0)
+    auto = track_sequence(seq, base, GeometryEmbedder())
+    off = track_sequence(seq, base.replace("motion", compensation="off"), GeometryEmbedder())
+    for column in ("frames", "ids", "boxes", "scores", "interpolated", "from_sot"):
+        np.testing.assert_array_equal(getattr(auto.tracks, column), getattr(off.tracks, column))
+    assert auto.motion is not None and not auto.motion.moving
+
+
+def test_an_untrustworthy_pair_falls_back_to_no_motion():
+    flat = np.full((100, 320), 128, np.uint8)
+    transform, confidence = estimate_pair(flat, flat)
+    assert confidence == 0.0
+    np.testing.assert_array_equal(transform, [[1, 0, 0], [0, 1, 0]])
+
+
+def test_a_missing_frame_names_the_file(tmp_path):
+    seq = _panning_sequence(tmp_path, pan=10.0)
+    (seq / "img1" / "000003.jpg").unlink()
+    info = read_seqinfo(seq)
+    with pytest.raises(InputError, match="000003.jpg"):
+        estimate_motion(info, read_detections(info.det_path, info.length), MotionConfig(compensation="on"))
+
+
+def test_motion_config_is_checked():
+    from sotmot.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="compensation"):
+        TrackerConfig().replace("motion", compensation="sometimes")
+    with pytest.raises(ConfigError, match="still_pixels"):
+        MotionConfig(still_pixels=0.0)
+
+
+def test_explain_and_graph_say_the_positions_were_compensated(tmp_path):
+    from sotmot.inspect.explain import explain, inspection_graph
+    from sotmot.inspect.graph_view import html_page
+
+    config = TrackerConfig().replace("sot", extend_seconds=0.0)
+    moving = track_sequence(_panning_sequence(tmp_path, pan=28.0), config, GeometryEmbedder())
+    graph = inspection_graph(moving, config)
+    assert graph.graph["compensated"]
+    assert "after camera-motion compensation" in explain(graph, 1, 1, config)
+    assert "camera-motion compensation" in html_page(graph)
+    still = track_sequence(_panning_sequence(tmp_path, pan=0.0, name="STILL"), config, GeometryEmbedder())
+    assert "compensated" not in inspection_graph(still, config).graph
+
+
+def test_the_sot_step_follows_the_camera(tmp_path):
+    """Algorithm 1 on a panning camera: its overlap checks and prior follow the camera, and it runs to the end."""
+    seq = _panning_sequence(tmp_path, pan=12.0)
+    config = TrackerConfig().replace("sot", variant="template", extend_seconds=0.0)
+    result = track_sequence(seq, config, GeometryEmbedder())
+    assert result.motion.moving and result.tracks.n_tracks == 1
+
+
+def test_the_still_check_chains_short_sequences_and_samples_long_ones():
+    from sotmot.motion import STILL_CHECK_PAIRS, still_check_pairs
+
+    assert still_check_pairs(10, 4) == [(1, 3), (3, 5), (5, 7), (7, 9), (9, 10)]
+    long = still_check_pairs(30 * 3600, 30)
+    assert len(long) == STILL_CHECK_PAIRS and long[0] == (1, 16) and long[-1][1] <= 30 * 3600
+    assert all(b - a == 15 for a, b in long)
