@@ -48,8 +48,8 @@ from sotmot.benchmarks import machine, sequences
 from sotmot.config import TrackerConfig
 from sotmot.pipeline import track_sequence
 
-STAGES = ("read", "detect", "preprocess", "appearance", "decode", "sot", "tracklets", "association", "postprocess",
-          "confirm", "extend")
+STAGES = ("read", "detect", "preprocess", "appearance", "decode", "motion", "sot", "tracklets", "association",
+          "postprocess", "confirm", "extend")
 
 
 def time_peers(peers: list[str], seq: Path, result, config: TrackerConfig) -> dict[str, dict[str, float]]:

@@ -1,0 +1,169 @@
+"""A moving-camera version of a still MOTChallenge sequence, with the true camera path written beside it.
+
+Every frame is a window (``--window`` of the frame's size) cropped along a
+path: a sinusoidal pan (``--pan-x``, ``--pan-y`` pixels of amplitude, one
+period every ``--period`` seconds), random jitter (``--jitter`` pixels,
+uniform, fixed by ``--seed``) and optionally a zoom (``--zoom``: 0.05 is +-5 %).
+Without zoom the path is rounded to whole pixels (``--subpixel`` keeps the
+fractions; frames are then resampled, and the blur alone changes re-ID).
+``--still`` holds the window at the centre of the path: the same crop, size
+and box rule without motion, so the tracking cost of motion is the difference
+between the two. Detections and ground truth are mapped into the window; a
+detection is kept when at least half of it is inside, a ground-truth box when
+any part of it is (as annotators mark people partly out of the frame).
+
+Writes ``OUT/{img1/,det/det.txt,gt/gt.txt,seqinfo.ini}`` and ``OUT/path.txt``:
+one line per frame, ``frame, a11, a12, tx, a21, a22, ty``, the affine map
+from the source frame's pixels to the window's. ``OUT`` must not exist.
+
+    python scripts/make_moving.py ../shared/data/PETS09-S2L1 /tmp/moving/PETS09-S2L1-pan
+    python scripts/make_moving.py ../shared/data/PETS09-S2L1 /tmp/moving/PETS09-S2L1-still --still
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from sotmot.boxes import inside_share  # noqa: E402
+from sotmot.errors import InputError  # noqa: E402
+from sotmot.io import FrameReader, read_seqinfo, write_text_atomic  # noqa: E402
+from sotmot.progress import as_progress  # noqa: E402
+
+#: The least share of a box inside the window for a detection to be kept (a detector sees little of a person
+#: mostly outside the frame); ground truth keeps every box with any part inside, as annotators do.
+DETECTION_INSIDE = 0.5
+
+
+def window_path(length: int, frame_rate: float, width: int, height: int, args: argparse.Namespace) -> np.ndarray:
+    """``(length + 1, 2, 3)``: row ``f`` maps frame ``f``'s pixels to the window's (row 0 unused)."""
+    rng = np.random.default_rng(args.seed)
+    out_w, out_h = round(width * args.window), round(height * args.window)
+    t = np.arange(length + 1) / frame_rate
+    phase = 2 * np.pi * t / args.period
+    if args.still:
+        dx = dy = zoom = np.zeros(length + 1)
+    else:
+        dx = args.pan_x * np.sin(phase) + rng.uniform(-args.jitter, args.jitter, length + 1)
+        dy = args.pan_y * np.sin(2 * phase + 1.0) + rng.uniform(-args.jitter, args.jitter, length + 1)
+        zoom = args.zoom * np.sin(phase / 2)
+    scale = 1.0 + zoom
+    # the window's centre follows the path; source point p maps to scale * (p - centre) + window centre
+    if not args.subpixel and not args.zoom:  # no resampling: every frame holds the source's own pixels
+        left, top = (width - out_w) / 2, (height - out_h) / 2
+        dx, dy = np.round(dx + left) - left, np.round(dy + top) - top
+    cx, cy = width / 2 + dx, height / 2 + dy
+    path = np.zeros((length + 1, 2, 3))
+    path[:, 0, 0] = path[:, 1, 1] = scale
+    path[:, 0, 2] = out_w / 2 - scale * cx
+    path[:, 1, 2] = out_h / 2 - scale * cy
+    margin_x, margin_y = (width - out_w / scale.min()) / 2, (height - out_h / scale.min()) / 2
+    if np.abs(dx).max() > margin_x or np.abs(dy).max() > margin_y:
+        raise SystemExit(f"the path leaves the frame: pans of up to {np.abs(dx).max():.0f} x {np.abs(dy).max():.0f} "
+                         f"px but the window leaves {margin_x:.0f} x {margin_y:.0f} px; lower --pan-x/--pan-y/--zoom "
+                         f"or --window")
+    return path
+
+
+def map_rows(rows: np.ndarray, path: np.ndarray, out_w: int, out_h: int, min_inside: float) -> np.ndarray:
+    """MOTChallenge rows (frame, id, x, y, w, h, ...) mapped into the window; rows with less than ``min_inside``
+    of their area inside it dropped (0: rows wholly outside)."""
+    if not len(rows):
+        return rows
+    a = path[rows[:, 0].astype(np.int64)]
+    scale = a[:, 0, 0]
+    out = rows.copy()
+    out[:, 2] = scale * rows[:, 2] + a[:, 0, 2]
+    out[:, 3] = scale * rows[:, 3] + a[:, 1, 2]
+    out[:, 4:6] = rows[:, 4:6] * scale[:, None]
+    inside = inside_share(out[:, 2:6], out_w, out_h)
+    return out[(inside >= min_inside) & (inside > 0)]
+
+
+def format_rows(rows: np.ndarray, integer_columns: int) -> str:
+    """Rows as MOTChallenge text: the first ``integer_columns`` as integers, the rest with up to 6 decimals."""
+    lines = []
+    for row in rows:
+        head = [str(int(v)) for v in row[:integer_columns]]
+        tail = [f"{v:.6f}".rstrip("0").rstrip(".") if v != int(v) else str(int(v)) for v in row[integer_columns:]]
+        lines.append(",".join(head + tail))
+    return "\n".join(lines) + ("\n" if lines else "")
+
+
+def read_rows(path: Path) -> np.ndarray:
+    text = path.read_text()
+    rows = [[float(v) for v in line.split(",")] for line in text.splitlines() if line.strip()]
+    return np.array(rows) if rows else np.zeros((0, 10))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("sequence", type=Path, help="a still MOTChallenge sequence folder (img1/, det/, gt/)")
+    parser.add_argument("out", type=Path, help="the new sequence folder (must not exist)")
+    parser.add_argument("--window", type=float, default=5 / 6, help="window size as a share of the frame's")
+    parser.add_argument("--pan-x", type=float, default=None,
+                        help="horizontal pan amplitude in pixels (default: 80%% of the horizontal margin)")
+    parser.add_argument("--pan-y", type=float, default=None,
+                        help="vertical pan amplitude in pixels (default: 40%% of the vertical margin)")
+    parser.add_argument("--period", type=float, default=8.0, help="seconds per horizontal pan period")
+    parser.add_argument("--jitter", type=float, default=1.0, help="uniform jitter in pixels, each frame")
+    parser.add_argument("--zoom", type=float, default=0.0, help="zoom amplitude (0.05: +-5%%)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the jitter")
+    parser.add_argument("--still", action="store_true", help="hold the window still (the comparison)")
+    parser.add_argument("--subpixel", action="store_true",
+                        help="keep the path's fractions of a pixel (frames resampled bilinearly, as with --zoom); "
+                             "by default a path without zoom is rounded to whole pixels, so every frame holds the "
+                             "source's own pixels, as a real camera's would. Resampling blurs each frame by a "
+                             "different amount, which alone costs re-ID (PETS09-S2L1: about 6 HOTA)")
+    parser.add_argument("--quality", type=int, default=95, help="JPEG quality of the frames")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    import cv2
+
+    try:
+        info = read_seqinfo(args.sequence)
+    except InputError as exc:
+        raise SystemExit(str(exc))
+    if args.out.exists():
+        raise SystemExit(f"{args.out} exists; give a new folder")
+    out_w, out_h = round(info.width * args.window), round(info.height * args.window)
+    margin_x, margin_y = (info.width - out_w) / 2, (info.height - out_h) / 2
+    args.pan_x = 0.8 * margin_x if args.pan_x is None else args.pan_x
+    args.pan_y = 0.4 * margin_y if args.pan_y is None else args.pan_y
+    path = window_path(info.length, info.frame_rate, info.width, info.height, args)
+    partial = args.out.with_name(args.out.name + ".partial")
+    if partial.exists():
+        raise SystemExit(f"{partial} exists (a run that did not finish?); remove it or give another folder")
+    (partial / "img1").mkdir(parents=True)
+    (partial / "det").mkdir()
+    (partial / "gt").mkdir()
+    reader = FrameReader(info, cache_size=1)
+    for f in as_progress(not args.quiet)(range(1, info.length + 1), f"{info.name}: frames"):
+        image = cv2.warpAffine(reader(f), path[f], (out_w, out_h), flags=cv2.INTER_LINEAR,
+                               borderMode=cv2.BORDER_REPLICATE)
+        ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, args.quality])
+        (partial / "img1" / f"{f:06d}.jpg").write_bytes(data.tobytes())
+    det = read_rows(args.sequence / "det" / "det.txt")
+    write_text_atomic(partial / "det" / "det.txt", format_rows(map_rows(det, path, out_w, out_h, DETECTION_INSIDE), 2))
+    gt = read_rows(args.sequence / "gt" / "gt.txt")
+    write_text_atomic(partial / "gt" / "gt.txt", format_rows(map_rows(gt, path, out_w, out_h, 0.0), 2))
+    kind = "still" if args.still else "pan"
+    write_text_atomic(partial / "seqinfo.ini", "\n".join([
+        "[Sequence]", f"name={args.out.name}", "imDir=img1", f"frameRate={info.frame_rate:g}",
+        f"seqLength={info.length}", f"imWidth={out_w}", f"imHeight={out_h}", "imExt=.jpg", ""]))
+    lines = [f"{f}," + ",".join(f"{v:.6f}" for v in path[f].ravel()) for f in range(1, info.length + 1)]
+    write_text_atomic(partial / "path.txt", "\n".join(lines) + "\n")
+    partial.rename(args.out)
+    shifts = np.linalg.norm(np.diff(path[1:, :, 2], axis=0), axis=1)
+    print(f"{args.out}: {info.length} frames {out_w} x {out_h}, {kind}; camera shift per frame median "
+          f"{np.median(shifts):.1f} px, max {shifts.max():.1f} px")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
