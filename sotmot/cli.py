@@ -116,11 +116,14 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                    help="drop detections scoring below S (default: keep all)")
     p.add_argument("--nms", choices=["auto", "iou", "iom", "none"],
                    help="NMS overlap: auto = IoM for non-probability scores such as DPM's, else IoU (default: auto)")
-    p.add_argument("--confidence", choices=["auto", "raw", "quantile", "dpm", "acf", "frcnn", "pd0202"],
+    p.add_argument("--confidence",
+                   choices=["auto", "raw", "quantile", "self", "dpm", "acf", "frcnn", "sdp", "pd0202"],
                    help="how detector scores become confidences in [0, 1]: a stored map per detector family "
-                        "(dpm, acf, frcnn; pd0202 the built-in detector), the score's rank in the sequence "
-                        "(quantile), scores as they are (raw), or auto = pd0202 for the built-in detector's boxes, "
-                        "else the family guessed from the score range (default: auto)")
+                        "(dpm, acf, frcnn, sdp; pd0202 the built-in detector), the score's rank in the sequence "
+                        "(quantile), a map fitted on the sequence from what the tracker made of it (self: long "
+                        "trajectories against lone boxes), scores as they are (raw), or auto = pd0202 for the built-in detector's boxes, "
+                        "else the family the sequence's name ends with (-DPM, -FRCNN, -SDP), else the one guessed "
+                        "from the score range (default: auto)")
     p.add_argument("--unconfirmed", choices=["drop", "file", "keep"],
                    help="boxes more likely false than true after association: drop them (default), write them "
                         "to DIR/<name>.low.txt, or keep them (confirmation off); see docs/calibration.md")

@@ -52,11 +52,11 @@ from sotmot.types import Tracklet
 
 #: Detector families with a stored calibration, and the names ``[preprocess] confidence`` accepts. ``pd0202`` is
 #: the built-in detector (Intel's person-detection-0202): never guessed from scores, known from the detector run.
-FAMILIES = ("dpm", "acf", "frcnn", "pd0202")
+FAMILIES = ("dpm", "acf", "frcnn", "sdp", "pd0202")
 #: Families whose confirmation model and threshold are their own (fitted on that detector's runs only); the
 #: public detectors' families share the ``"calibrated"`` model.
 OWN_MODELS = ("pd0202",)
-METHODS = ("auto", "raw", "quantile") + FAMILIES
+METHODS = ("auto", "raw", "quantile", "self") + FAMILIES
 
 #: Names of the features :func:`box_features` computes, in column order.
 FEATURES = ("box_conf", "interpolated", "track_conf_mean", "track_conf_top", "track_interp_share",
@@ -86,15 +86,28 @@ def scores_are_probabilities(scores: np.ndarray) -> bool:
     return not len(scores) or bool(scores.min() >= 0.0 and scores.max() <= 1.0)
 
 
-def detector_family(scores: np.ndarray) -> str:
-    """The detector family that a sequence's scores look like (``"auto"`` confidence).
+#: MOTChallenge names a sequence's public detector at the end of its name (``MOT17-09-SDP``).
+NAMED_FAMILIES = {"DPM": "dpm", "FRCNN": "frcnn", "SDP": "sdp"}
 
-    All scores in [0, 1]: ``"frcnn"`` (a probability-like detector such as
-    Faster R-CNN or SDP); any score above 10: ``"acf"`` (the 2DMOT2015 ACF
-    detections reach about 127); otherwise ``"dpm"`` (MOT16's public DPM, about
-    -1 to 5). A guess from the range only: name the family in the config when
-    it is known.
+
+def family_from_name(name: str) -> str | None:
+    """The detector family a sequence's name gives (``MOT17-04-SDP`` -> ``"sdp"``), or None."""
+    return NAMED_FAMILIES.get(name.rsplit("-", 1)[-1].upper()) if "-" in name else None
+
+
+def detector_family(scores: np.ndarray, name: str = "") -> str:
+    """The detector family of a sequence's detections (``"auto"`` confidence): named, else guessed.
+
+    The sequence ``name`` says it when it ends in a MOTChallenge detector's
+    name (:data:`NAMED_FAMILIES`). Otherwise the score range decides: all in
+    [0, 1]: ``"frcnn"`` (a probability-like detector); any score above 10:
+    ``"acf"`` (the 2DMOT2015 ACF detections reach about 127); otherwise
+    ``"dpm"`` (MOT16's public DPM, about -1 to 5). Name the family in the
+    config (``[preprocess] confidence``) when it is known.
     """
+    named = family_from_name(name)
+    if named is not None:
+        return named
     if scores_are_probabilities(scores):
         return "frcnn"
     return "acf" if np.max(scores) > 10.0 else "dpm"
@@ -207,7 +220,7 @@ def model_kind(method: str) -> str:
     """
     if method in OWN_MODELS:
         return method
-    return "quantile" if method == "quantile" else "calibrated"
+    return "quantile" if method == "quantile" else "calibrated"  # "self" maps are probabilities too
 
 
 @dataclass(frozen=True)
@@ -295,31 +308,66 @@ def quantile_map(reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def confidence_knots(method: str, reference: np.ndarray, calibration: Calibration | None = None,
-                     family: str | None = None) -> tuple[str, tuple[np.ndarray, np.ndarray] | None]:
+                     family: str | None = None, name: str = "") -> tuple[str, tuple[np.ndarray, np.ndarray] | None]:
     """Resolve ``method`` for a sequence: the method actually used and its knots (None for ``"raw"``).
 
     ``reference`` are the sequence's detector scores (the quantile map and
     ``"auto"`` look at them). ``"auto"`` takes the map of ``family`` when the
-    detector is known (the built-in one), else of :func:`detector_family`, or
-    the quantile map when ``calibration`` has none for that family.
+    detector is known (the built-in one), else of :func:`detector_family` (the
+    sequence ``name``, then the scores), or ``"self"`` when ``calibration`` has
+    none for that family (held out, a detector never seen: self-fitted maps
+    tracked better than the ranks, ``scripts/transfer_confidence.py``).
     """
     if method not in METHODS:
         raise ConfigError(f"[preprocess] confidence must be one of {', '.join(METHODS)}; got {method!r}")
     if method not in ("raw", "quantile"):
         calibration = calibration or load_calibration()
     if method == "auto":
-        method = family or detector_family(reference)
-        if method not in calibration.families:  # a family the calibration never saw: rank the scores
-            method = "quantile"
+        method = family or detector_family(reference, name)
+        if method not in calibration.families:  # a family the calibration never saw: learn it from the sequence
+            method = "self"
     if method == "raw":
         return method, None
-    if method == "quantile":
+    if method in ("quantile", "self"):  # "self": the ranks until association has run (then self_knots)
         return method, quantile_map(reference)
     if method not in calibration.families:
         raise ConfigError(f"no stored calibration for detector family {method!r} (have: "
                           f"{', '.join(sorted(calibration.families))}); use confidence = 'quantile'")
     xs, ys = calibration.families[method]
     return method, (np.asarray(xs), np.asarray(ys))
+
+
+#: ``"self"`` confidence: a detection in a trajectory spanning at least this long (seconds) counts as true, one in
+#: no trajectory or in one shorter than ``SELF_SHORT_SECONDS`` as false; those between teach nothing.
+SELF_LONG_SECONDS = 2.0
+SELF_SHORT_SECONDS = 0.5
+#: The fewest detections of each kind a ``"self"`` map needs; with fewer the ranks (quantile map) stay.
+SELF_MIN_SAMPLES = 20
+
+
+def self_labels(n_detections: int, trajectories: Sequence[Tracklet], from_sot: np.ndarray,
+                frame_rate: float) -> np.ndarray:
+    """``(N,)`` pseudo-labels of a sequence's detections from its trajectories: 1 true, 0 false, -1 unknown.
+
+    The tracker's own evidence, no ground truth: a person seen for
+    :data:`SELF_LONG_SECONDS` or more is there; a box that joined no
+    trajectory (a lone box) or a trajectory shorter than
+    :data:`SELF_SHORT_SECONDS` is most likely not. SOT boxes are left out.
+    """
+    labels = np.zeros(n_detections, dtype=np.int64)
+    for t in trajectories:
+        seconds = (t.end - t.start + 1) / frame_rate
+        labels[t.det_index] = 1 if seconds >= SELF_LONG_SECONDS else (0 if seconds < SELF_SHORT_SECONDS else -1)
+    labels[np.asarray(from_sot, dtype=bool)] = -1
+    return labels
+
+
+def self_knots(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Monotone map of ``scores`` to the share of :func:`self_labels`' true ones; None with too few of either."""
+    known = labels >= 0
+    if (labels[known] == 1).sum() < SELF_MIN_SAMPLES or (labels[known] == 0).sum() < SELF_MIN_SAMPLES:
+        return None
+    return isotonic(np.asarray(scores, dtype=np.float64)[known], labels[known].astype(np.float64))
 
 
 def detection_confidence(scores: np.ndarray, knots: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:

@@ -139,20 +139,23 @@ class PreprocessConfig:
         Overlap above which the lower-scoring box is suppressed (paper: 0.6).
     confidence
         How detector scores become confidences in [0, 1] (``sotmot.confidence``):
-        ``"dpm"``, ``"acf"``, ``"frcnn"`` (a monotone map per detector family,
-        fitted once on training sequences and stored with the package),
+        ``"dpm"``, ``"acf"``, ``"frcnn"``, ``"sdp"`` (a monotone map per detector
+        family, fitted once on training sequences and stored with the package),
         ``"pd0202"`` (the built-in detector, person-detection-0202),
         ``"quantile"`` (the score's rank within the sequence), ``"raw"`` (scores
-        clipped to [0, 1]) or ``"auto"``: pd0202 for the built-in detector's
+        clipped to [0, 1]), ``"self"`` (a map fitted on the sequence itself from
+        what association made of it: detections of long trajectories against
+        lone ones; for a detector none of the families fits) or ``"auto"``: pd0202 for the built-in detector's
         boxes (run now, or a ``<name>.det.txt`` whose run record beside it says
-        so), else the family guessed from the score range (all in [0, 1]
-        frcnn, any above 10 acf, else dpm).
+        so), else the family the sequence's name ends with (MOTChallenge's
+        ``-DPM``, ``-FRCNN``, ``-SDP``), else the family guessed from the score
+        range (all in [0, 1] frcnn, any above 10 acf, else dpm).
     """
 
     score_threshold: float | None = None
     nms: Literal["auto", "iou", "iom", "none"] = "auto"
     nms_threshold: float = 0.6
-    confidence: Literal["auto", "raw", "quantile", "dpm", "acf", "frcnn", "pd0202"] = "auto"
+    confidence: Literal["auto", "raw", "quantile", "self", "dpm", "acf", "frcnn", "sdp", "pd0202"] = "auto"
 
     def __post_init__(self) -> None:
         _check(self.nms in ("auto", "iou", "iom", "none"), "preprocess",

@@ -13,6 +13,7 @@ back into each frame's own.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from collections.abc import Callable
@@ -25,7 +26,14 @@ from sotmot.appearance import Embedder, embedder_for
 from sotmot.boxes import inside_share
 from sotmot.association import Association, get_solver
 from sotmot.association.merge import merge_group
-from sotmot.confidence import confidence_knots, detection_confidence, load_calibration, model_kind
+from sotmot.confidence import (
+    confidence_knots,
+    detection_confidence,
+    load_calibration,
+    model_kind,
+    self_knots,
+    self_labels,
+)
 from sotmot.config import TrackerConfig
 from sotmot.confirm import box_scorer, confirm
 from sotmot.detection import Detector, detection_source, known_family, make_detector
@@ -233,7 +241,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         clock.lap("motion")
     method, knots = confidence_knots(config.preprocess.confidence, raw.scores,
                                      load_calibration(config.confirm.calibration),
-                                     known_family(config.detection, info))
+                                     known_family(config.detection, info), info.name)
     log.info("%s: detection confidence by %r", info.name, method)
     if sot:
         embedder = embedder_for(config.appearance, embedder)
@@ -255,6 +263,19 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected, motion)
 
 
+def with_self_confidence(prepared: Prepared, trajectories: list[Tracklet]) -> Prepared:
+    """``prepared`` with the ``"self"`` confidence (:func:`~sotmot.confidence.self_knots`) of its detections from
+    ``trajectories``; the ranks stay (with the quantile model) when the sequence teaches too little."""
+    dets = prepared.detections
+    labels = self_labels(len(dets), trajectories, dets.from_sot, prepared.info.frame_rate)
+    knots = self_knots(dets.scores, labels)
+    if knots is None:
+        log.info("%s: too few long trajectories or lone boxes for a self-fitted confidence; ranks kept",
+                 prepared.info.name)
+        return dataclasses.replace(prepared, confidence_method="quantile")
+    return dataclasses.replace(prepared, confidence=detection_confidence(dets.scores, knots))
+
+
 def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
                     embedder: Embedder | None = None,
                     progress: "bool | Progress" = False) -> TrackResult:
@@ -265,6 +286,8 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
     clock = _Clock(timings)
     association, trajectories = associate(prepared.tracklets, config)
     clock.lap("association")
+    if prepared.confidence_method == "self":  # the map from what association made of this very sequence
+        prepared = with_self_confidence(prepared, trajectories)
     scorer = None
     if config.confirm.enabled:
         model = load_calibration(config.confirm.calibration).box_models[model_kind(prepared.confidence_method)]

@@ -167,13 +167,15 @@ def test_fit_script_runs_leave_one_out_on_two_tiny_sequences(tmp_path, model_028
     assert set(fitted.box_models) == {"calibrated", "quantile"} and "frcnn" in fitted.families
 
 
-def test_auto_falls_back_to_quantiles_for_a_family_the_calibration_lacks():
+def test_auto_learns_a_family_the_calibration_lacks_from_the_sequence():
     full = load_calibration()
     partial = type(full)({k: v for k, v in full.families.items() if k != "acf"}, full.box_models,
                          full.thresholds, {})
     acf_like = np.array([-0.2, 20.0, 60.0, 120.0])
     assert confidence_knots("auto", acf_like, full)[0] == "acf"
-    assert confidence_knots("auto", acf_like, partial)[0] == "quantile"
+    used, knots = confidence_knots("auto", acf_like, partial)
+    assert used == "self"  # ranks until association has run; then the sequence's own map (self_knots)
+    np.testing.assert_array_equal(knots[1], confidence_knots("quantile", acf_like)[1][1])
     with pytest.raises(ConfigError, match="no stored calibration for detector family 'acf'"):
         confidence_knots("acf", acf_like, partial)
 
@@ -196,3 +198,45 @@ def test_the_built_in_detector_has_its_own_map_model_and_threshold_and_needs_all
     del data["box_models"]["pd0202"]
     with pytest.raises(ConfigError, match="no box model or threshold for pd0202"):
         Calibration.from_dict(data)
+
+
+def test_a_motchallenge_name_says_the_detector_before_the_scores_are_looked_at():
+    from sotmot.confidence import family_from_name
+
+    assert family_from_name("MOT17-04-SDP") == "sdp" and family_from_name("mot17-09-frcnn") == "frcnn"
+    assert family_from_name("MOT17-05-DPM") == "dpm"
+    assert family_from_name("PETS09-S2L1") is None and family_from_name("MOT16-09") is None
+    assert family_from_name("clip") is None
+    scores = np.array([0.4, 0.9, 1.0])
+    assert detector_family(scores, "MOT17-09-SDP") == "sdp" and detector_family(scores, "walk") == "frcnn"
+    assert "sdp" in load_calibration().families  # the packaged calibration has a map for it
+
+
+def test_self_labels_and_map_come_from_the_trajectories_alone():
+    from sotmot.confidence import SELF_MIN_SAMPLES, self_knots, self_labels
+
+    # detections 0..29: one person over 3 s at 10 frames/s (strong scores); 30..59: lone boxes (weak scores)
+    long = tk(1, np.arange(1, 31), np.tile([10.0, 10, 20, 40], (30, 1)), det_start=0)
+    short = tk(2, np.array([40, 41]), np.tile([200.0, 10, 20, 40], (2, 1)), det_start=60)
+    n = 62
+    labels = self_labels(n, [long, short], np.zeros(n, bool), frame_rate=10.0)
+    assert (labels[:30] == 1).all() and (labels[30:60] == 0).all() and (labels[60:] == 0).all()
+    mid = tk(3, np.arange(1, 11), np.tile([300.0, 10, 20, 40], (10, 1)), det_start=0)  # 1 s: neither
+    assert (self_labels(10, [mid], np.zeros(10, bool), 10.0) == -1).all()
+    scores = np.r_[np.linspace(0.6, 1.0, 30), np.linspace(0.1, 0.5, 32)]
+    xs, ys = self_knots(scores, labels)
+    conf = detection_confidence(scores, (xs, ys))
+    assert conf[29] == 1.0 and conf[30] == 0.0  # the strongest score is the long trajectory's, the weakest lone
+    assert conf[:30].mean() > 0.8 and conf[30:].mean() < 0.2
+    few = labels.copy()
+    few[SELF_MIN_SAMPLES // 2:30] = -1
+    assert self_knots(scores, few) is None  # too few true ones to fit anything
+
+
+def test_self_confidence_tracks_a_sequence_end_to_end(tmp_path):
+    from sotmot.pipeline import track_sequence
+
+    seq = _scene(tmp_path, short_score=-0.4, long_score=-0.1)
+    result = track_sequence(seq, TrackerConfig().replace("preprocess", confidence="self"),
+                            embedder=GeometryEmbedder())
+    assert 40 in np.unique(result.tracks.ids, return_counts=True)[1]  # the 40-frame person stays whole

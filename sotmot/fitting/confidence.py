@@ -33,6 +33,9 @@ from sotmot.confidence import (
     detector_family,
     isotonic,
     model_kind,
+    quantile_map,
+    self_knots,
+    self_labels,
 )
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import EvalReport, FrameErrors, evaluate_files, frame_errors
@@ -79,7 +82,7 @@ def detection_labels(seq_dir: str | Path, config: TrackerConfig, workdir: Path,
     raw = read_detections(detection_source(config.detection, info)[1] or info.det_path, info.length)
     dets = preprocess(raw, config.preprocess)
     tracks = Tracks(dets.frames, np.arange(1, len(dets) + 1), dets.boxes, dets.scores)
-    return family or detector_family(raw.scores), dets.scores, box_labels(tracks, info, workdir)
+    return family or detector_family(raw.scores, info.name), dets.scores, box_labels(tracks, info, workdir)
 
 
 @dataclass
@@ -123,8 +126,8 @@ def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerCo
     tracks = to_tracks(trajectories, prepared.detections, config.postprocess, None, prepared.info.frame_rate, ids)
     labels = box_labels(tracks, prepared.info, workdir)
     keyed = {(int(f), int(i)): int(v) for f, i, v in zip(tracks.frames, tracks.ids, labels) if v >= 0}
-    return Labelled(prepared, trajectories, family or detector_family(raw_scores), np.asarray(raw_scores), keyed,
-                    ids)
+    return Labelled(prepared, trajectories, family or detector_family(raw_scores, prepared.info.name),
+                    np.asarray(raw_scores), keyed, ids)
 
 
 def fit_families(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]]) -> dict[str, tuple[tuple, tuple]]:
@@ -149,7 +152,13 @@ def sequence_confidence(seq: Labelled, method: str, calibration: Calibration) ->
     is held out), as it does when tracking.
     """
     used, knots = confidence_knots(method, seq.raw_scores, calibration, seq.family)
-    return used, detection_confidence(seq.prepared.detections.scores, knots)
+    dets = seq.prepared.detections
+    if used == "self":  # as finish_sequence does: the map from this sequence's own trajectories
+        knots = self_knots(dets.scores, self_labels(len(dets), seq.trajectories, dets.from_sot,
+                                                    seq.prepared.info.frame_rate))
+        if knots is None:
+            used, knots = "quantile", quantile_map(seq.raw_scores)
+    return used, detection_confidence(dets.scores, knots)
 
 
 def scored_boxes(seq: Labelled, confidence: np.ndarray, config: TrackerConfig) -> tuple[np.ndarray, np.ndarray]:
