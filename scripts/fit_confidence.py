@@ -10,8 +10,8 @@ one for calibrated confidences, one for quantile ones) and their confirmation
 thresholds (the best mean MOTA over the training sequences among thresholds
 with which none of them loses more than 0.5 HOTA or IDF1) are fitted on the
 others and the held-out sequence is scored. A held-out sequence whose detector
-family appears nowhere else is mapped by its quantiles (``auto`` falls back,
-with the quantile model). Finally everything is fitted on all sequences: with
+family appears nowhere else gets a map fitted on itself (``auto`` falls back to
+``self``, with the calibrated model). Finally everything is fitted on all sequences: with
 ``--write`` that is the packaged default.
 
     .venv/bin/python scripts/fit_confidence.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
@@ -30,8 +30,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
 from common import DEFAULT_DATA, add_confirmation_fit_arguments
 from sotmot.benchmarks import before_confirmation, cached_features
 from sotmot.fitting.confidence import (
@@ -43,7 +41,7 @@ from sotmot.fitting.confidence import (
     score,
     unconfirmed_tracks,
 )
-from sotmot.confidence import model_kind
+from sotmot.confidence import OWN_MODELS, model_kind
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import METRICS
 from sotmot.io import read_detections, read_seqinfo, write_text_atomic
@@ -79,10 +77,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="use labelled sequences with at least this many frames (default: %(default)s)")
     parser.add_argument("--labels-only", type=Path, nargs="*",
                         help="sequence folders without frames whose detections and ground truth add to the "
-                             "detector-family maps (default: DATA/MOT16-labels/*)")
+                             "detector-family maps (default: DATA/MOT16-labels/* and the FRCNN and SDP ones of "
+                             "DATA/MOT17-labels/; its DPM ones hold MOT16's detections again)")
     parser.add_argument("--model", required=True, help="ONNX re-ID model")
     parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
-    parser.add_argument("--methods", default="auto,quantile",
+    parser.add_argument("--methods", default="auto,quantile,self",
                         help="[preprocess] confidence methods to compare held out, comma-separated "
                              "(default: %(default)s)")
     parser.add_argument("--cache", type=Path, default=ROOT / ".cache" / "features",
@@ -106,7 +105,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     label_dirs = args.labels_only
     if label_dirs is None:
-        label_dirs = sorted(p for p in (args.data / "MOT16-labels").glob("*") if (p / "seqinfo.ini").is_file())
+        label_dirs = sorted(p for pattern in ("MOT16-labels/*", "MOT17-labels/*-FRCNN", "MOT17-labels/*-SDP")
+                            for p in args.data.glob(pattern) if (p / "seqinfo.ini").is_file())
 
     embedder_box: list = []
     seqs: list[Labelled] = []
@@ -171,7 +171,15 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nfitted on all: thresholds {final.calibration.thresholds}, families "
           f"{', '.join(sorted(final.calibration.families))}; {time.perf_counter() - start:.0f} s")
     if args.write:
-        write_text_atomic(args.write, json.dumps(final.calibration.to_dict(), indent=1) + "\n")
+        data = final.calibration.to_dict()
+        if args.write.is_file():  # the built-in detector's family is fitted by fit_detector_confidence.py: kept
+            old = json.loads(args.write.read_text(encoding="utf-8"))
+            for family in (f for f in OWN_MODELS if f in old.get("families", {})):
+                data["families"][family] = old["families"][family]
+                for part in ("box_models", "thresholds", "provenance"):
+                    if family in old.get(part, {}):
+                        data[part][family] = old[part][family]
+        write_text_atomic(args.write, json.dumps(data, indent=1) + "\n")
         print(f"calibration written to {args.write}")
     if args.json:
         write_text_atomic(args.json, json.dumps(report, indent=1, default=float) + "\n")
