@@ -41,9 +41,10 @@ MIN_INLIERS = 20
 #: The still check reads frames at least this wide (a 1080p frame at 1/8): it only asks whether the camera moved
 #: pixels, not by how much to a tenth of one.
 STILL_CHECK_WIDTH = 160
-#: The most frame pairs the still check compares: past two minutes of video (at any rate), it looks at this many
-#: places spread over the sequence instead of every half second (an hour of video is not decoded twice).
-STILL_CHECK_PAIRS = 240
+#: The most frame pairs the still check compares in a video: past 50 s (at any rate) it looks at this many places
+#: spread over it instead of every half second, so an hour of video is not decoded twice (each place costs a
+#: seek, about 0.17 s at 1080p: 17 s for any length).
+STILL_CHECK_PAIRS = 100
 #: RANSAC's inlier distance, in pixels of the full-size frame.
 RANSAC_PIXELS = 1.5
 
@@ -261,15 +262,16 @@ def _corner_motion(transform: np.ndarray, width: int, height: int) -> float:
     return float(np.linalg.norm(corners @ transform[:, :2].T + transform[:, 2] - corners, axis=1).max())
 
 
-def still_check_pairs(length: int, frame_rate: float) -> list[tuple[int, int]]:
+def still_check_pairs(length: int, frame_rate: float, video: bool = False) -> list[tuple[int, int]]:
     """The frame pairs, half a second apart, that the still check compares: one chain through the whole
-    sequence, or beyond :data:`STILL_CHECK_PAIRS` pairs that many spread evenly over it."""
+    sequence; for a ``video`` of more than :data:`STILL_CHECK_PAIRS` pairs, that many spread evenly over it
+    (a JPEG frame is read on its own, a video's are decoded on the way to it)."""
     step = max(1, int(round(frame_rate / 2)))
     frames = list(range(1, length + 1, step))
     if frames[-1] != length:
         frames.append(length)
     pairs = list(zip(frames[:-1], frames[1:]))
-    if len(pairs) <= STILL_CHECK_PAIRS:
+    if not video or len(pairs) <= STILL_CHECK_PAIRS:
         return pairs
     starts = np.linspace(1, length - step, STILL_CHECK_PAIRS).round().astype(int)
     return [(int(a), int(a) + step) for a in starts]
@@ -280,13 +282,13 @@ def camera_is_still(source: FrameSource, info: SeqInfo, detections: Detections, 
 
     Costs one small grey decode per half second of a JPEG sequence; a video
     is decoded on the way (its frames between are grabbed), so a long one is
-    looked at in :data:`STILL_CHECK_PAIRS` places. A pair whose estimate
+    looked at in :data:`STILL_CHECK_PAIRS` places only. A pair whose estimate
     cannot be trusted counts as moving (the full estimate decides).
     """
     factor = reduce_factor(info.width, STILL_CHECK_WIDTH)
     by_frame = detections.by_frame()
     grey: dict[int, np.ndarray] = {}
-    for a, b in still_check_pairs(info.length, info.frame_rate):
+    for a, b in still_check_pairs(info.length, info.frame_rate, info.video is not None):
         previous = grey.pop(a) if a in grey else source.read_grey(a, factor)
         grey = {b: source.read_grey(b, factor)}  # a chain reads each frame once
         transform, confidence = estimate_pair(previous, grey[b], factor,

@@ -191,6 +191,7 @@ def test_the_still_check_chains_short_sequences_and_samples_long_ones():
     from sotmot.motion import STILL_CHECK_PAIRS, still_check_pairs
 
     assert still_check_pairs(10, 4) == [(1, 3), (3, 5), (5, 7), (7, 9), (9, 10)]
-    long = still_check_pairs(30 * 3600, 30)
+    assert len(still_check_pairs(30 * 3600, 30)) == 30 * 3600 // 15  # JPEG frames: every half second
+    long = still_check_pairs(30 * 3600, 30, video=True)
     assert len(long) == STILL_CHECK_PAIRS and long[0] == (1, 16) and long[-1][1] <= 30 * 3600
     assert all(b - a == 15 for a, b in long)
