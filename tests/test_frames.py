@@ -50,6 +50,19 @@ def test_frames_in_any_order_are_the_frames_read_in_order(tmp_path):
     assert reader.source.seeks >= 4  # going back seeks; one frame ahead reads on
 
 
+def test_a_video_read_backwards_seeks_once_a_block_not_once_a_frame(tmp_path):
+    video = write_video(tmp_path / "walk.avi", n=40)
+    info = read_seqinfo(video)
+    in_order = [FrameReader(info, cache_size=1)(f).copy() for f in range(1, 41)]
+    reader = FrameReader(info, cache_size=8)
+    reader(35)
+    for f in range(34, 4, -1):  # 30 steps back, as the end extension walks before a trajectory's first box
+        np.testing.assert_array_equal(reader(f), in_order[f - 1])
+        assert reader.cached <= 8
+    assert reader.source.seeks <= 6  # a block of 6 frames a seek (one frame at a time: 30 seeks)
+    assert reader.source.decodes <= 31 + 6
+
+
 def test_the_frame_cache_never_holds_more_than_its_bound(tmp_path):
     info = read_seqinfo(write_video(tmp_path / "walk.avi", n=30))
     reader = FrameReader(info, cache_size=3)

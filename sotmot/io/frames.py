@@ -31,6 +31,10 @@ def reduced_size(height: int, width: int, factor: int) -> tuple[int, int]:
     return -(-height // factor), -(-width // factor)
 
 
+#: A :class:`FrameReader` with at least this many frames of cache reads a video backwards a block at a time.
+READ_BACK_CACHE = 8
+
+
 class FrameSource(Protocol):
     """Decodes one frame of a sequence; :attr:`decodes` counts the frames it decoded (tests, benchmarks)."""
 
@@ -109,6 +113,11 @@ class VideoFile:
         self._capture = None
         self._next = 1  # the frame the capture returns on its next read
 
+    @property
+    def position(self) -> int:
+        """The frame the next forward read returns without a seek."""
+        return self._next
+
     def _open(self):
         import cv2
 
@@ -183,7 +192,10 @@ class FrameReader:
         The sequence: a MOTChallenge folder or a video file (:func:`frame_source`).
     cache_size
         How many decoded frames to keep (least recently used are dropped), so
-        stages that revisit frames do not decode them again; never more.
+        stages that revisit frames do not decode them again; never more. A
+        video read backwards fills it with the frames before the one asked
+        for (up to ``cache_size - 2``, one seek for them all) when the cache
+        holds at least :data:`READ_BACK_CACHE` frames.
     """
 
     def __init__(self, info: SeqInfo, cache_size: int = 8) -> None:
@@ -206,9 +218,20 @@ class FrameReader:
         if cached is not None:
             self._cache.move_to_end(frame)
             return cached
-        image = self.source.read(frame)
+        position = getattr(self.source, "position", None)
+        if position is not None and frame < position and self.cache_size >= READ_BACK_CACHE:
+            # a video read backwards (the end extension before a trajectory's first box): one seek, then the
+            # frames up to this one read forward into the cache, so the next steps back cost no seek each
+            first = max(1, frame - (self.cache_size - 2))
+            for earlier in range(first, frame):
+                if earlier not in self._cache:
+                    self._keep(earlier, self.source.read(earlier))
+        return self._keep(frame, self.source.read(frame))
+
+    def _keep(self, frame: int, image: np.ndarray) -> np.ndarray:
         image.setflags(write=False)
         self._cache[frame] = image
+        self._cache.move_to_end(frame)
         if len(self._cache) > self.cache_size:
             self._cache.popitem(last=False)
         return image
