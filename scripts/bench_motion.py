@@ -182,7 +182,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"estimate at {t['width']} x {t['height']}: {t['ms_per_frame']:.1f} ms a frame (target < "
           f"{TARGETS['ms_per_frame_1080p']:g}), grey frames decoded small included")
     for name, s in timing["still_check"].items():
-        print(f"still check on {name}: {s['ms_per_frame']:.2f} ms a frame, camera {'moving' if s['moving'] else 'still'}")
+        camera = "moving" if s["moving"] else "still"
+        print(f"still check on {name}: {s['ms_per_frame']:.2f} ms a frame, camera {camera}")
     if args.json:
         write_text_atomic(args.json, json.dumps({
             "machine": machine(), "model": args.model, "sequences": args.sequences, "targets": TARGETS,

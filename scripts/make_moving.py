@@ -23,6 +23,7 @@ from the source frame's pixels to the window's. ``OUT`` must not exist.
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 from pathlib import Path
 
@@ -139,26 +140,33 @@ def main(argv: list[str] | None = None) -> int:
     partial = args.out.with_name(args.out.name + ".partial")
     if partial.exists():
         raise SystemExit(f"{partial} exists (a run that did not finish?); remove it or give another folder")
-    (partial / "img1").mkdir(parents=True)
-    (partial / "det").mkdir()
-    (partial / "gt").mkdir()
-    reader = FrameReader(info, cache_size=1)
-    for f in as_progress(not args.quiet)(range(1, info.length + 1), f"{info.name}: frames"):
-        image = cv2.warpAffine(reader(f), path[f], (out_w, out_h), flags=cv2.INTER_LINEAR,
-                               borderMode=cv2.BORDER_REPLICATE)
-        ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, args.quality])
-        (partial / "img1" / f"{f:06d}.jpg").write_bytes(data.tobytes())
-    det = read_rows(args.sequence / "det" / "det.txt")
-    write_text_atomic(partial / "det" / "det.txt", format_rows(map_rows(det, path, out_w, out_h, DETECTION_INSIDE), 2))
-    gt = read_rows(args.sequence / "gt" / "gt.txt")
-    write_text_atomic(partial / "gt" / "gt.txt", format_rows(map_rows(gt, path, out_w, out_h, 0.0), 2))
-    kind = "still" if args.still else "pan"
-    write_text_atomic(partial / "seqinfo.ini", "\n".join([
-        "[Sequence]", f"name={args.out.name}", "imDir=img1", f"frameRate={info.frame_rate:g}",
-        f"seqLength={info.length}", f"imWidth={out_w}", f"imHeight={out_h}", "imExt=.jpg", ""]))
-    lines = [f"{f}," + ",".join(f"{v:.6f}" for v in path[f].ravel()) for f in range(1, info.length + 1)]
-    write_text_atomic(partial / "path.txt", "\n".join(lines) + "\n")
-    partial.rename(args.out)
+    (partial / "img1").mkdir(parents=True)  # made by this run: removed again if it fails
+    try:
+        (partial / "det").mkdir()
+        (partial / "gt").mkdir()
+        reader = FrameReader(info, cache_size=1)
+        for f in as_progress(not args.quiet)(range(1, info.length + 1), f"{info.name}: frames"):
+            image = cv2.warpAffine(reader(f), path[f], (out_w, out_h), flags=cv2.INTER_LINEAR,
+                                   borderMode=cv2.BORDER_REPLICATE)
+            ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, args.quality])
+            if not ok:
+                raise SystemExit(f"frame {f} of {args.sequence} could not be encoded as JPEG")
+            (partial / "img1" / f"{f:06d}.jpg").write_bytes(data.tobytes())
+        det = read_rows(args.sequence / "det" / "det.txt")
+        write_text_atomic(partial / "det" / "det.txt",
+                          format_rows(map_rows(det, path, out_w, out_h, DETECTION_INSIDE), 2))
+        gt = read_rows(args.sequence / "gt" / "gt.txt")
+        write_text_atomic(partial / "gt" / "gt.txt", format_rows(map_rows(gt, path, out_w, out_h, 0.0), 2))
+        kind = "still" if args.still else "pan"
+        write_text_atomic(partial / "seqinfo.ini", "\n".join([
+            "[Sequence]", f"name={args.out.name}", "imDir=img1", f"frameRate={info.frame_rate:g}",
+            f"seqLength={info.length}", f"imWidth={out_w}", f"imHeight={out_h}", "imExt=.jpg", ""]))
+        lines = [f"{f}," + ",".join(f"{v:.6f}" for v in path[f].ravel()) for f in range(1, info.length + 1)]
+        write_text_atomic(partial / "path.txt", "\n".join(lines) + "\n")
+        partial.rename(args.out)
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        raise
     shifts = np.linalg.norm(np.diff(path[1:, :, 2], axis=0), axis=1)
     print(f"{args.out}: {info.length} frames {out_w} x {out_h}, {kind}; camera shift per frame median "
           f"{np.median(shifts):.1f} px, max {shifts.max():.1f} px")
