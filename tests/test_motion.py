@@ -195,3 +195,29 @@ def test_the_still_check_chains_short_sequences_and_samples_long_ones():
     long = still_check_pairs(30 * 3600, 30, video=True)
     assert len(long) == STILL_CHECK_PAIRS and long[0] == (1, 16) and long[-1][1] <= 30 * 3600
     assert all(b - a == 15 for a, b in long)
+
+
+def test_make_moving_writes_a_panned_window_with_its_path_and_refuses_an_existing_folder(tmp_path):
+    import subprocess
+    import sys
+
+    from conftest import ROOT, write_sequence
+
+    seq = write_sequence(tmp_path, ["1,-1,10,10,12,24,0.9,-1,-1,-1", "4,-1,20,12,12,24,0.8,-1,-1,-1"], length=6,
+                         frame_rate=2, width=96, height=72, gt_lines=["1,1,10,10,12,24,1,1,1", "4,1,20,12,12,24,1,1,1"])
+    out = tmp_path / "moving"
+    script = [sys.executable, str(ROOT / "scripts" / "make_moving.py"), str(seq), str(out), "--quiet"]
+    assert subprocess.run(script, capture_output=True, text=True).returncode == 0
+    info = read_seqinfo(out)
+    assert (info.width, info.height, info.length) == (80, 60, 6)
+    path = np.loadtxt(out / "path.txt", delimiter=",")
+    assert path.shape == (6, 7) and np.allclose(path[:, [1, 5]], 1.0)
+    assert np.allclose(path[:, [3, 6]], np.round(path[:, [3, 6]]))  # whole pixels: no resampling
+    dets = read_detections(out / "det" / "det.txt")
+    for frame, box in zip(dets.frames, dets.boxes):  # every box moved with its frame's window
+        tx, ty = path[frame - 1, 3], path[frame - 1, 6]
+        source = {1: (10, 10), 4: (20, 12)}[int(frame)]
+        np.testing.assert_allclose(box[:2], (source[0] + tx, source[1] + ty))
+    again = subprocess.run(script, capture_output=True, text=True)
+    assert again.returncode != 0 and "exists" in again.stderr
+    assert not (tmp_path / "moving.partial").exists()
