@@ -9,7 +9,6 @@ confirmation off or the end extension off each break them (test_each_stage_is_se
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from conftest import DATA, MODEL_0288, require
