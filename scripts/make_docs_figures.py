@@ -120,6 +120,12 @@ def main(argv: list[str] | None = None) -> int:
              f"tracklets by the Hungarian algorithm on appearance affinity (gate {base.tracklets.min_affinity}, "
              f"IoU gate {base.tracklets.min_iou}); tracklets with <= {base.tracklets.l_min} detector box are "
              f"dropped. Result: {len(prepared.tracklets)} tracklets from {len(prepared.detections)} boxes.", ""]
+    if prepared.motion is not None and prepared.motion.moving:
+        shift = prepared.motion.summary()
+        text += [f"{info.name} is filmed by a walking camera: `[motion] compensation = auto` found it moving "
+                 f"(median {shift['median_shift_px']:.1f} px a frame, up to {shift['max_shift_px']:.1f}) and "
+                 "matched tracklets, checked the association rules and interpolated in frame 1's pixels "
+                 "(`sotmot/motion.py`); the results are written in each frame's own.", ""]
     runs = {}
     for solver in ("greedy", "flow"):
         runs[solver] = finish_sequence(prepared, base.replace("association", solver=solver), embedder)
