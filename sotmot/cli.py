@@ -121,7 +121,8 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                    help="how detector scores become confidences in [0, 1]: a stored map per detector family "
                         "(dpm, acf, frcnn, sdp; pd0202 the built-in detector), the score's rank in the sequence "
                         "(quantile), a map fitted on the sequence from what the tracker made of it (self: long "
-                        "trajectories against lone boxes), scores as they are (raw), or auto = pd0202 for the built-in detector's boxes, "
+                        "trajectories against lone boxes), scores as they are (raw), or auto = pd0202 for the "
+                        "built-in detector's boxes, "
                         "else the family the sequence's name ends with (-DPM, -FRCNN, -SDP), else the one guessed "
                         "from the score range (default: auto)")
     p.add_argument("--unconfirmed", choices=["drop", "file", "keep"],

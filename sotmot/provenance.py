@@ -25,10 +25,10 @@ from sotmot.io import SeqInfo
 
 #: Record fields that never make a resume re-run: when it ran, how fast (threads, batch size), what it
 #: found (the camera's motion), and paths whose file contents are compared by hash instead.
-IGNORED = ("time", "camera_motion", "config.appearance.threads", "config.appearance.batch_size", "config.appearance.model",
-           "config.confirm.calibration", "reid_model.path", "confidence_calibration.path", "results_sha256",
-           "config.detection.model", "config.detection.file", "config.detection.threads", "detector_model.path",
-           "inputs.detections.path")
+IGNORED = ("time", "camera_motion", "config.appearance.threads", "config.appearance.batch_size",
+           "config.appearance.model", "config.confirm.calibration", "reid_model.path", "confidence_calibration.path",
+           "results_sha256", "config.detection.model", "config.detection.file", "config.detection.threads",
+           "detector_model.path", "inputs.detections.path")
 
 
 def sotmot_version() -> str:
