@@ -130,15 +130,29 @@ class CameraMotion:
         return len(self.to_reference) - 1
 
     def to_ref(self, frames: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-        """``(N, 4)`` boxes of 1-based ``frames`` in the reference frame's pixels."""
+        """``(N, 4)`` boxes of 1-based ``frames`` in the reference frame's pixels (a still camera: ``boxes``
+        themselves, not a float round trip of them)."""
+        if not self.moving:
+            return boxes
         return warp_boxes(self.to_reference[np.asarray(frames, dtype=np.int64)], boxes)
 
     def from_ref(self, frames: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-        """``(N, 4)`` reference-frame boxes back in the pixels of their 1-based ``frames``."""
+        """``(N, 4)`` reference-frame boxes back in the pixels of their 1-based ``frames`` (a still camera:
+        ``boxes`` themselves)."""
+        if not self.moving:
+            return boxes
         frames = np.asarray(frames, dtype=np.int64)
         unique, inverse = np.unique(frames, return_inverse=True)
         back = np.stack([invert(self.to_reference[f]) for f in unique]) if len(unique) else np.zeros((0, 2, 3))
         return warp_boxes(back[inverse], boxes)
+
+    def box_to_ref(self, frame: int, box: np.ndarray) -> np.ndarray:
+        """One ``(4,)`` box of 1-based ``frame`` in the reference frame's pixels (:meth:`to_ref`)."""
+        return self.to_ref(np.array([frame]), box[None])[0]
+
+    def box_from_ref(self, frame: int, box: np.ndarray) -> np.ndarray:
+        """One ``(4,)`` reference-frame box back in the pixels of 1-based ``frame`` (:meth:`from_ref`)."""
+        return self.from_ref(np.array([frame]), box[None])[0]
 
     def to_ref_detections(self, detections: Detections) -> Detections:
         """``detections`` with their boxes in the reference frame (scores and flags unchanged)."""
@@ -147,13 +161,10 @@ class CameraMotion:
         return Detections(detections.frames, self.to_ref(detections.frames, detections.boxes), detections.scores,
                           detections.from_sot)
 
-    def shift(self, frame: int) -> float:
-        """How far (pixels) the camera moved the image centre-point from ``frame - 1`` to ``frame``."""
-        return float(np.hypot(*self.pair[frame, :, 2])) if 1 < frame <= self.length else 0.0
-
     def summary(self) -> dict[str, float | bool]:
-        """The numbers a run record keeps: moving, median and largest shift per frame, share of frames estimated."""
-        shifts = np.array([self.shift(f) for f in range(2, self.length + 1)]) if self.length > 1 else np.zeros(1)
+        """The numbers a run record keeps: moving, the median and largest shift of the image origin from one
+        frame to the next (pixels), and the share of frame pairs estimated."""
+        shifts = np.hypot(self.pair[2:, 0, 2], self.pair[2:, 1, 2]) if self.length > 1 else np.zeros(1)
         estimated = float((self.confidence[2:] > 0).mean()) if self.length > 1 else 1.0
         return {"moving": self.moving, "median_shift_px": round(float(np.median(shifts)), 3),
                 "max_shift_px": round(float(shifts.max()), 3), "estimated_share": round(estimated, 4)}

@@ -121,8 +121,8 @@ class SotTracker:
         computed window by window from the frames SOT decodes anyway, so a
         run with SOT decodes each frame once (``SotResult.det_features``).
     motion
-        The camera's motion: when it moved, a box is carried into the next
-        frame by the camera's motion before the overlap checks, and the
+        The camera's motion (None: a still camera): a box is carried into the
+        next frame by the camera's motion before the overlap checks, and the
         constant-velocity prior is the person's own motion in the reference frame.
     """
 
@@ -138,13 +138,7 @@ class SotTracker:
         self.det_features = det_features
         self.search = TemplateSearch(config)
         self.steps = 0
-        self.motion = motion if motion is not None and motion.moving else None
-
-    def _to_ref(self, frame: int, box: np.ndarray) -> np.ndarray:
-        return box if self.motion is None else self.motion.to_ref(np.array([frame]), box[None])[0]
-
-    def _from_ref(self, frame: int, box: np.ndarray) -> np.ndarray:
-        return box if self.motion is None else self.motion.from_ref(np.array([frame]), box[None])[0]
+        self.motion = motion if motion is not None else CameraMotion.still(n_frames)
 
     # -- affinity of a candidate with the seed -------------------------------------------------
     def _seed_affinity(self, seed: int, frame: np.ndarray, box_ids: list[int]) -> np.ndarray:
@@ -254,7 +248,7 @@ class SotTracker:
                 if seed not in self._templates:  # both variants propose with the template
                     self._templates[seed] = TemplateSearch.template(image(self._frames[seed]), self._boxes[seed])
                 box = self._boxes[end.box_id]
-                carried = self._from_ref(g, self._to_ref(f, box))  # where the camera alone puts it in frame g
+                carried = self.motion.box_from_ref(g, self.motion.box_to_ref(f, box))  # the camera alone moved it
                 others = in_frame[g]
                 if others:
                     ious = iou_matrix(carried, np.stack([self._boxes[b] for b in others]))[0]
@@ -270,11 +264,9 @@ class SotTracker:
                             if meet in chain_of:  # two extensions met half way: both reached a box
                                 reached[chain_of[meet]] = True
                             continue
-                if self.motion is None:
-                    prior = box + np.r_[end.velocity, 0.0, 0.0] if confident else box
-                else:
-                    prior = self._from_ref(g, self._to_ref(f, box) + np.r_[end.velocity, 0.0, 0.0]) if confident \
-                        else carried
+                # the person's own step, in the reference frame, on top of the camera's
+                prior = self.motion.box_from_ref(g, self.motion.box_to_ref(f, box) + np.r_[end.velocity, 0.0, 0.0]) \
+                    if confident else carried
                 found, aff, feature = self.next(prior, seed, *cached(g))
                 if len(found) == 0 or aff < cfg.tau_a:
                     continue
@@ -289,7 +281,8 @@ class SotTracker:
                 ends[new] = {end.direction}
                 chain_of[new] = end.chain
                 links.append((end.box_id, new) if end.direction == 1 else (new, end.box_id))
-                step = centers(self._to_ref(g, found)[None])[0] - centers(self._to_ref(f, box)[None])[0]
+                to_ref = self.motion.box_to_ref  # the person's own step: in the reference frame
+                step = centers(to_ref(g, found)[None])[0] - centers(to_ref(f, box)[None])[0]
                 heapq.heappush(heap, _End(-end.score * cfg.e, counter, new, seed, end.score * cfg.e,
                                           end.length + 1, end.direction, end.chain, step))
                 counter += 1

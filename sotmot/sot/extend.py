@@ -249,14 +249,7 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
         camera's) and mapped into the frame searched.
     """
     steps = end_steps(config.extend_seconds, frame_rate)
-    moving = motion is not None and motion.moving
-
-    def to_ref(frame: int, box: np.ndarray) -> np.ndarray:
-        return motion.to_ref(np.array([frame]), box[None])[0] if moving else box
-
-    def from_ref(frame: int, box: np.ndarray) -> np.ndarray:
-        return motion.from_ref(np.array([frame]), box[None])[0] if moving else box
-
+    motion = motion if motion is not None else CameraMotion.still(n_frames)
     finder = _Finder(tracks, read_frame, embedder, config, support)
     added: list[tuple[int, int, np.ndarray]] = []
     ids = np.unique(tracks.ids).tolist()
@@ -270,12 +263,12 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
             start = int(frames[-1] if direction == 1 else frames[0])
             box = boxes[-1 if direction == 1 else 0]
             template = TemplateSearch.template(read_frame(start), box)
-            velocity = end_velocity(frames, motion.to_ref(frames, boxes) if moving else boxes, direction)
+            velocity = end_velocity(frames, motion.to_ref(frames, boxes), direction)
             for k in range(1, steps + 1):
                 g = start + direction * k
                 if not 1 <= g <= n_frames:
                     break
-                prior = from_ref(g, to_ref(g - direction, box) + np.r_[velocity, 0.0, 0.0])
+                prior = motion.box_from_ref(g, motion.box_to_ref(g - direction, box) + np.r_[velocity, 0.0, 0.0])
                 found, affinity, supported = finder.find(template, g, prior, identity, track_id)
                 if found is None:
                     break
