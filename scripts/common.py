@@ -22,6 +22,16 @@ ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data"))
 
 
+#: The label-only sequences (detections and ground truth, no frames) whose detections the family maps learn from:
+#: MOT16's DPM sets and MOT17's Faster R-CNN and SDP sets (MOT17's DPM sets repeat MOT16's detections).
+LABEL_ONLY = ("MOT16-labels/*", "MOT17-labels/*-FRCNN", "MOT17-labels/*-SDP")
+
+
+def label_only_sequences(data: Path) -> list[Path]:
+    """The :data:`LABEL_ONLY` sequence folders under ``data``."""
+    return sorted(p for pattern in LABEL_ONLY for p in data.glob(pattern) if (p / "seqinfo.ini").is_file())
+
+
 def add_confirmation_fit_arguments(parser: argparse.ArgumentParser) -> None:
     """What the confirmation fits share (``scripts/fit_confidence.py``, ``scripts/fit_detector_confidence.py``):
     the solver, the candidate confirmation thresholds and the box model's L2 penalty."""

@@ -30,22 +30,13 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import DEFAULT_DATA, add_confirmation_fit_arguments
-from sotmot.benchmarks import before_confirmation, cached_features
-from sotmot.fitting.confidence import (
-    Labelled,
-    detection_labels,
-    fit,
-    held_out_tracks,
-    label_sequence,
-    score,
-    unconfirmed_tracks,
-)
+from common import DEFAULT_DATA, add_confirmation_fit_arguments, label_only_sequences
+from sotmot.benchmarks import before_confirmation
+from sotmot.fitting.confidence import fit, held_out_tracks, labelled_data, score, unconfirmed_tracks
 from sotmot.confidence import OWN_MODELS, model_kind
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import METRICS
-from sotmot.io import read_detections, read_seqinfo, write_text_atomic
-from sotmot.pipeline import prepare_sequence
+from sotmot.io import read_seqinfo, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
@@ -103,29 +94,10 @@ def main(argv: list[str] | None = None) -> int:
     if len(seq_dirs) < 2:
         print(f"need at least two labelled sequences under {args.data}; found {len(seq_dirs)}", file=sys.stderr)
         return 1
-    label_dirs = args.labels_only
-    if label_dirs is None:
-        label_dirs = sorted(p for pattern in ("MOT16-labels/*", "MOT17-labels/*-FRCNN", "MOT17-labels/*-SDP")
-                            for p in args.data.glob(pattern) if (p / "seqinfo.ini").is_file())
-
-    embedder_box: list = []
-    seqs: list[Labelled] = []
-    detection_samples = {}
-    extra: dict[str, list] = {}
+    label_dirs = label_only_sequences(args.data) if args.labels_only is None else args.labels_only
     with tempfile.TemporaryDirectory(prefix="sotmot-labels-") as tmp:
-        work = Path(tmp)
-        for seq_dir in seq_dirs:
-            features = cached_features(seq_dir, config, args.cache, embedder_box)
-            prepared = prepare_sequence(seq_dir, config, features=features)
-            raw = read_detections(prepared.info.det_path, prepared.info.length)
-            seqs.append(label_sequence(prepared, raw.scores, config.replace("association", solver=args.solver), work))
-            detection_samples[prepared.info.name] = detection_labels(seq_dir, config, work)
-            print(f"{prepared.info.name}: {len(prepared.detections)} detections, {len(seqs[-1].trajectories)} "
-                  f"trajectories, family {seqs[-1].family}", file=sys.stderr)
-        for seq_dir in label_dirs:
-            family, scores, labels = detection_labels(seq_dir, config, work)
-            extra.setdefault(family, []).append((scores, labels))
-            print(f"{seq_dir.name} (labels only): {len(scores)} detections, family {family}", file=sys.stderr)
+        seqs, detection_samples, extra = labelled_data(seq_dirs, label_dirs, config, args.solver, args.cache,
+                                                       Path(tmp), lambda line: print(line, file=sys.stderr))
 
     old = before_confirmation(config)
     before = score(seqs, lambda s: unconfirmed_tracks(s, old))

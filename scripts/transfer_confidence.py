@@ -16,11 +16,13 @@ Two checks, each beside the in-family fit:
    (a) on all other sequences (in family, as ``fit_confidence.py`` holds it
    out), and (b) without any sequence or label-only data of its family
    (held out detector): its family then has no map, and it is tracked with
-   ``auto`` (which falls back to the ranks), ``self`` (a map fitted on the
-   sequence from the tracker's own trajectories) and each other family's map.
-   Scores: HOTA, MOTA, IDF1, FP, FN against the in-family fit. The other
-   sequences (other detectors) are tracked with their leave-one-sequence-out
-   fit's ``auto`` and with ``self``, to see what ``self`` costs where a map fits.
+   ``auto`` (which falls back to ``self``: a map fitted on the sequence from
+   the tracker's own trajectories), ``quantile`` (the score's rank) and each
+   other family's map but ACF's (its scores run to 127: any [0, 1] score
+   maps to about 0). Scores: HOTA, MOTA, IDF1, FP, FN against the in-family
+   fit. The other sequences (other detectors) are tracked with their
+   leave-one-sequence-out fit's ``auto``, with ``self`` and with
+   ``quantile``, to see what ``self`` costs where a map fits.
 
     .venv/bin/python scripts/transfer_confidence.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --json docs/results/transfer.json
@@ -36,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from common import DEFAULT_DATA, ROOT, add_confirmation_fit_arguments
-from sotmot.benchmarks import cached_features, machine
+from common import DEFAULT_DATA, ROOT, add_confirmation_fit_arguments, label_only_sequences
+from sotmot.benchmarks import machine
 from sotmot.confidence import Calibration, detection_confidence, quantile_map
 from sotmot.config import TrackerConfig
 from sotmot.fitting.confidence import (
@@ -45,12 +47,11 @@ from sotmot.fitting.confidence import (
     fit,
     fit_families,
     held_out_tracks,
-    label_sequence,
+    labelled_data,
     score,
     unconfirmed_tracks,
 )
-from sotmot.io import read_detections, write_text_atomic
-from sotmot.pipeline import prepare_sequence
+from sotmot.io import write_text_atomic
 
 #: The video under each detector: the tracking check's held-out sequences, by family.
 VIDEO = {"dpm": "MOT16-09", "frcnn": "MOT17-09-FRCNN", "sdp": "MOT17-09-SDP"}
@@ -123,23 +124,11 @@ def main(argv: list[str] | None = None) -> int:
     config = (TrackerConfig().replace("appearance", model=args.model).replace("preprocess", confidence="quantile")
               .replace("confirm", enabled=False))
     thresholds = [float(t) for t in args.thresholds.split(",")]
-    label_dirs = sorted(p for pattern in ("MOT16-labels/*", "MOT17-labels/*-FRCNN", "MOT17-labels/*-SDP")
-                        for p in args.data.glob(pattern) if (p / "seqinfo.ini").is_file())
-    embedder_box: list = []
     with tempfile.TemporaryDirectory(prefix="sotmot-transfer-") as tmp:
         work = Path(tmp)
         detections = detection_check(args.data, config, work)
-        seqs, samples, extra = [], {}, {}
-        for name in args.sequences.split(","):
-            seq_dir = args.data / name
-            features = cached_features(seq_dir, config, args.cache, embedder_box)
-            prepared = prepare_sequence(seq_dir, config, features=features)
-            raw = read_detections(prepared.info.det_path, prepared.info.length)
-            seqs.append(label_sequence(prepared, raw.scores, config.replace("association", solver=args.solver), work))
-            samples[name] = detection_labels(seq_dir, config, work)
-        for seq_dir in label_dirs:
-            family, scores, labels = detection_labels(seq_dir, config, work)
-            extra.setdefault(family, []).append((scores, labels))
+        seqs, samples, extra = labelled_data([args.data / n for n in args.sequences.split(",")],
+                                             label_only_sequences(args.data), config, args.solver, args.cache, work)
     base = score(seqs, lambda s: unconfirmed_tracks(s, config))
     tracking: dict = {}
     for family, name in VIDEO.items():

@@ -48,7 +48,7 @@ import numpy as np
 from sotmot.appearance import unit, unit_affinity_rows
 from sotmot.errors import ConfigError
 from sotmot.postprocess import Expanded
-from sotmot.types import Tracklet
+from sotmot.types import Detections, Tracklet
 
 #: Detector families with a stored calibration, and the names ``[preprocess] confidence`` accepts. ``pd0202`` is
 #: the built-in detector (Intel's person-detection-0202): never guessed from scores, known from the detector run.
@@ -368,6 +368,13 @@ def self_knots(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.n
     if (labels[known] == 1).sum() < SELF_MIN_SAMPLES or (labels[known] == 0).sum() < SELF_MIN_SAMPLES:
         return None
     return isotonic(np.asarray(scores, dtype=np.float64)[known], labels[known].astype(np.float64))
+
+
+def self_map(detections: Detections, trajectories: Sequence[Tracklet],
+             frame_rate: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The ``"self"`` knots of a sequence's ``detections`` from what association made of them (its
+    ``trajectories``): :func:`self_labels`, then :func:`self_knots`; None when the sequence teaches too little."""
+    return self_knots(detections.scores, self_labels(len(detections), trajectories, detections.from_sot, frame_rate))
 
 
 def detection_confidence(scores: np.ndarray, knots: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:

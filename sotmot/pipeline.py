@@ -31,8 +31,7 @@ from sotmot.confidence import (
     detection_confidence,
     load_calibration,
     model_kind,
-    self_knots,
-    self_labels,
+    self_map,
 )
 from sotmot.config import TrackerConfig
 from sotmot.confirm import box_scorer, confirm
@@ -264,11 +263,10 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
 
 
 def with_self_confidence(prepared: Prepared, trajectories: list[Tracklet]) -> Prepared:
-    """``prepared`` with the ``"self"`` confidence (:func:`~sotmot.confidence.self_knots`) of its detections from
+    """``prepared`` with the ``"self"`` confidence (:func:`~sotmot.confidence.self_map`) of its detections from
     ``trajectories``; the ranks stay (with the quantile model) when the sequence teaches too little."""
     dets = prepared.detections
-    labels = self_labels(len(dets), trajectories, dets.from_sot, prepared.info.frame_rate)
-    knots = self_knots(dets.scores, labels)
+    knots = self_map(dets, trajectories, prepared.info.frame_rate)
     if knots is None:
         log.info("%s: too few long trajectories or lone boxes for a self-fitted confidence; ranks kept",
                  prepared.info.name)

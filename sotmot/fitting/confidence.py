@@ -34,8 +34,7 @@ from sotmot.confidence import (
     isotonic,
     model_kind,
     quantile_map,
-    self_knots,
-    self_labels,
+    self_map,
 )
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import EvalReport, FrameErrors, evaluate_files, frame_errors
@@ -130,6 +129,33 @@ def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerCo
                     np.asarray(raw_scores), keyed, ids)
 
 
+def labelled_data(seq_dirs: Sequence[Path], label_dirs: Sequence[Path], config: TrackerConfig, solver: str,
+                  cache: Path, workdir: Path, report: Callable[[str], None] | None = None
+                  ) -> tuple[list[Labelled], dict[str, tuple[str, np.ndarray, np.ndarray]],
+                             dict[str, list[tuple[np.ndarray, np.ndarray]]]]:
+    """What the confidence fits learn from: each sequence with frames taken through association by ``solver`` and
+    labelled (:func:`label_sequence`; features from ``cache``), its detections' labels by name, and the label-only
+    sequences' detection labels by family (:func:`detection_labels`). ``report`` receives a line per sequence."""
+    from sotmot.benchmarks import cached_features
+    from sotmot.pipeline import prepare_sequence
+
+    say = report or (lambda line: None)
+    embedder_box: list = []
+    seqs, samples, extra = [], {}, {}
+    for seq_dir in seq_dirs:
+        prepared = prepare_sequence(seq_dir, config, features=cached_features(seq_dir, config, cache, embedder_box))
+        raw = read_detections(prepared.info.det_path, prepared.info.length)
+        seqs.append(label_sequence(prepared, raw.scores, config.replace("association", solver=solver), workdir))
+        samples[prepared.info.name] = detection_labels(seq_dir, config, workdir)
+        say(f"{prepared.info.name}: {len(prepared.detections)} detections, {len(seqs[-1].trajectories)} "
+            f"trajectories, family {seqs[-1].family}")
+    for seq_dir in label_dirs:
+        family, scores, labels = detection_labels(seq_dir, config, workdir)
+        extra.setdefault(family, []).append((scores, labels))
+        say(f"{Path(seq_dir).name} (labels only): {len(scores)} detections, family {family}")
+    return seqs, samples, extra
+
+
 def fit_families(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]]) -> dict[str, tuple[tuple, tuple]]:
     """Isotonic maps per family from ``family -> [(scores, labels), ...]`` (labels -1 left out)."""
     out = {}
@@ -147,15 +173,15 @@ def fit_families(samples: dict[str, list[tuple[np.ndarray, np.ndarray]]]) -> dic
 def sequence_confidence(seq: Labelled, method: str, calibration: Calibration) -> tuple[str, np.ndarray]:
     """The method used and the detection confidences of ``seq`` under ``calibration``.
 
-    ``"auto"`` falls back to ``"quantile"`` when the calibration has no map for
+    ``"auto"`` falls back to ``"self"`` when the calibration has no map for
     the sequence's family (as when it is the only sequence of its family and
-    is held out), as it does when tracking.
+    is held out), and ``"self"`` to ``"quantile"`` when the sequence teaches
+    too little, as they do when tracking.
     """
     used, knots = confidence_knots(method, seq.raw_scores, calibration, seq.family)
     dets = seq.prepared.detections
     if used == "self":  # as finish_sequence does: the map from this sequence's own trajectories
-        knots = self_knots(dets.scores, self_labels(len(dets), seq.trajectories, dets.from_sot,
-                                                    seq.prepared.info.frame_rate))
+        knots = self_map(dets, seq.trajectories, seq.prepared.info.frame_rate)
         if knots is None:
             used, knots = "quantile", quantile_map(seq.raw_scores)
     return used, detection_confidence(dets.scores, knots)
