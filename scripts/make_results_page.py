@@ -44,6 +44,11 @@ def number(metric: str, value: float) -> str:
     return f"{value:.1f}" if metric in ("HOTA", "MOTA", "IDF1", "DetA", "AssA") else f"{value:.0f}"
 
 
+def cells(row: dict, shown: tuple[str, ...] = SHOWN) -> str:
+    """The ``shown`` metrics of one scored ``row`` as table cells."""
+    return " | ".join(number(m, row[m]) for m in shown)
+
+
 def full_length(accuracy: dict) -> list[str]:
     return [n for n, r in accuracy["speed"].items() if r["frames"] > FULL_LENGTH]
 
@@ -72,7 +77,7 @@ def accuracy_table(accuracy: dict, peers: dict | None) -> list[str]:
     for name, values, key in rows:
         best = [best_peer(peers, key, m) for m in ("HOTA", "MOTA", "IDF1")] if key else [None]
         peer = " / ".join(f"{v:.1f} ({n})" for n, v in best) if all(best) else "not measured"
-        lines.append(f"| {name} | " + " | ".join(number(m, values[m]) for m in SHOWN) + f" | {peer} |")
+        lines.append(f"| {name} | " + cells(values) + f" | {peer} |")
     return lines
 
 
@@ -149,13 +154,13 @@ def ends_section() -> list[str]:
         if base is None:
             continue
         none = base["combined"]["none"]
-        lines.append(f"| {label} | none | " + " | ".join(number(m, none[m]) for m in shown) + " | 0 | 0 |")
+        lines.append(f"| {label} | none | " + cells(none, shown) + " | 0 | 0 |")
         for variant, name in ENDS:
             data = found[protocol, variant]
             if data is None:
                 continue
             row = data["combined"]["held out"]
-            lines.append(f"| {label} | {name} | " + " | ".join(number(m, row[m]) for m in shown)
+            lines.append(f"| {label} | {name} | " + cells(row, shown)
                          + f" | {row['added']} | {row['added_right']} |")
     machine = next(d for d in found.values() if d)["machine"]
     sequences = {p: ", ".join(next(d for (q, _), d in found.items() if q == p and d)["held_out"])
@@ -178,7 +183,7 @@ def motion_section(data: dict | None) -> list[str]:
              "| sequence | run | " + " | ".join(shown) + " |", "|" + "---|" * (len(shown) + 2)]
     for name, runs in data["synthetic"].items():
         for label, scores in runs.items():
-            lines.append(f"| {name} | {label} | " + " | ".join(number(m, scores[m]) for m in shown) + " |")
+            lines.append(f"| {name} | {label} | " + cells(scores, shown) + " |")
     lines += ["", "| sequence | camera shift px/frame (median, largest) | estimate error per frame pair, median / "
               "largest px | over 1 s, median / largest px |", "|---|---|---|---|"]
     for name, e in data["estimator"].items():
@@ -190,7 +195,7 @@ def motion_section(data: dict | None) -> list[str]:
                   "| sequence | compensation | " + " | ".join(shown) + " |", "|" + "---|" * (len(shown) + 2)]
         for name, runs in data["real"].items():
             for label, scores in runs.items():
-                lines.append(f"| {name} | {label} | " + " | ".join(number(m, scores[m]) for m in shown) + " |")
+                lines.append(f"| {name} | {label} | " + cells(scores, shown) + " |")
     t = data["timing"]["on"]
     lines += ["", f"The estimate costs {t['ms_per_frame']:.1f} ms a frame at {t['width']} x {t['height']} (every "
               "frame pair, its small grey decode included); on a still camera `auto` stops after its check: "
@@ -211,16 +216,15 @@ def confidence_section(fitted: dict | None, transfer: dict | None) -> list[str]:
                   "| sequence | run | confidence | " + " | ".join(SHOWN) + " |", "|" + "---|" * (len(SHOWN) + 3)]
         before = fitted["before"]["sequences"]
         for name in fitted["sequences"]:
-            lines.append(f"| {name} | before | | " + " | ".join(number(m, before[name][m]) for m in SHOWN) + " |")
+            lines.append(f"| {name} | before | | " + cells(before[name]) + " |")
             for method, data in fitted["methods"].items():
                 row = data["held_out"]["sequences"][name]
                 lines.append(f"| {name} | held out, `{method}` | {data['confidence_used'][name]} | "
-                             + " | ".join(number(m, row[m]) for m in SHOWN) + " |")
-        lines.append("| combined | before | | " + " | ".join(number(m, fitted["before"]["combined"][m])
-                                                           for m in SHOWN) + " |")
+                             + cells(row) + " |")
+        lines.append("| combined | before | | " + cells(fitted["before"]["combined"]) + " |")
         for method, data in fitted["methods"].items():
             lines.append(f"| combined | held out, `{method}` | | "
-                         + " | ".join(number(m, data["held_out"]["combined"][m]) for m in SHOWN) + " |")
+                         + cells(data["held_out"]["combined"]) + " |")
         lines.append("")
     if transfer is not None:
         lines += ["### A detector never seen: leave one detector family out", "",
@@ -241,7 +245,7 @@ def confidence_section(fitted: dict | None, transfer: dict | None) -> list[str]:
             for label, row in runs.items():
                 used = label.split(": ")[1] if label.endswith(" map") else row["method"]  # another family's map
                 lines.append(f"| {name} | {label} | {used} | "
-                             + " | ".join(number(m, row[m]) for m in SHOWN) + " |")
+                             + cells(row) + " |")
         lines += ["", f"Machine: {transfer['machine']}.", ""]
     return lines
 
