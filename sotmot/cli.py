@@ -135,11 +135,13 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--refine-gaps", action="store_true",
                    help="SOT after association: replace interpolated boxes by boxes found in the frames where "
                         "template and re-ID agree (default: off)")
-    p.add_argument("--verify-sot", choices=["none", "detector"],
-                   help="check the boxes SOT finds after association with the person detector (--detector-model, "
-                        "run on the frames it visits): a box a detector box supports is replaced by it, one none "
-                        "supports needs [sot] extend_min_affinity; tracks still start only from the detections "
-                        "tracked (default: the config's, none)")
+    p.add_argument("--verify-sot", choices=["auto", "none", "detector"],
+                   help="check every box SOT finds with the person detector's weak boxes (down to [sot] "
+                        "verify_min_score): a found box a detector box overlaps is replaced by it (box regression), "
+                        "and the trajectory ends are extended by the detector's boxes (ends are re-ID checked; "
+                        "[sot] extend_by); tracks still start only from the detections tracked. 'auto' (default): "
+                        "on when the detections come from the detector, off for a det.txt; 'detector' with a det.txt "
+                        "is 'public, refined' and needs --detector-model")
     p.add_argument("--camera-motion", choices=["auto", "on", "off"],
                    help="camera-motion compensation: estimate the camera's motion from the frames and compare "
                         "positions (tracklets, association, interpolation, end extension) in frame 1's pixels; "

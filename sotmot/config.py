@@ -301,16 +301,21 @@ class SotConfig:
         trajectory, another detection) at IoU above this: a lagging duplicate
         of a detection overlaps it at 0.3-0.5.
     verify
-        ``"detector"``: the boxes SOT finds after association (end extension,
-        gap refinement) are checked by the person detector (``[detection]
-        model``), run on the frames the search visits: a found box that
-        overlaps a detector box scoring at least ``verify_min_score`` at IoU
-        ``verify_iou`` or more is replaced by that box (the paper's box
-        regression on SOT results) and needs a re-ID affinity of only
-        ``extend_supported_affinity``; a box no detector box supports needs
-        ``extend_min_affinity``. Only trajectories that exist are extended, so
+        ``"detector"``: every box SOT finds (Algorithm 1's extensions, the end
+        extension, gap refinement) is checked by the person detector
+        (``[detection] model``): a found box that overlaps a detector box
+        scoring at least ``verify_min_score`` at IoU ``verify_iou`` or more is
+        replaced by that box (the paper's box regression on SOT results);
+        after association it then needs a re-ID affinity of only
+        ``extend_supported_affinity`` (an unsupported one needs
+        ``extend_min_affinity``), and in Algorithm 1 an unsupported candidate
+        ends its extension. Only trajectories that exist are extended, so
         tracks still start from the detections tracked (MOTChallenge's public
-        rule holds with public detections). ``"none"``: no detector check.
+        rule holds with public detections: "public, refined"). ``"none"``: no
+        detector check. ``"auto"`` (default): ``"detector"`` when the
+        detections come from the detector (``[detection] source``; its weak
+        boxes come from the same pass over the frames), ``"none"`` for a
+        detections file, so a public run is refined only when asked.
     verify_min_score, verify_iou
         The detector boxes that count as support: score and overlap.
     extend_supported_affinity
@@ -323,7 +328,10 @@ class SotConfig:
         prior at IoU ``verify_iou`` or more, re-ranked by re-ID and gated by
         ``extend_supported_affinity``), the simplest use of weak boxes
         (ByteTrack's second association, here at trajectory ends), with no
-        SOT; it needs the detector.
+        SOT; it needs the detector. ``"auto"`` (default): ``"detections"``
+        when ``verify`` resolves to the detector, else ``"sot"``: held out
+        (``scripts/fit_sot.py``, issue #25) the weak boxes gained more than
+        SOT checked by the detector under both protocols.
     """
 
     variant: Literal["none", "template", "deep"] = "none"
@@ -344,11 +352,11 @@ class SotConfig:
     refine_gaps: bool = False
     extend_min_affinity: float = 0.5
     stop_iou: float = 0.3
-    verify: Literal["none", "detector"] = "none"
+    verify: Literal["auto", "none", "detector"] = "auto"
     verify_min_score: float = 0.1
     verify_iou: float = 0.5
     extend_supported_affinity: float = 0.5
-    extend_by: Literal["sot", "detections"] = "sot"
+    extend_by: Literal["auto", "sot", "detections"] = "auto"
 
     def __post_init__(self) -> None:
         _check(self.variant in ("none", "template", "deep"), "sot",
@@ -364,11 +372,20 @@ class SotConfig:
         _check(1 <= self.rerank <= 64, "sot", "rerank must be between 1 and 64")
         _check(0 <= self.window <= 100_000, "sot", "window must be between 0 and 100,000 frames")
         _check(0.0 <= self.extend_seconds <= 60.0, "sot", "extend_seconds must be in [0, 60]")
-        _check(self.verify in ("none", "detector"), "sot", f"verify must be 'none' or 'detector'; got {self.verify!r}")
-        _check(self.extend_by in ("sot", "detections"), "sot",
-               f"extend_by must be 'sot' or 'detections'; got {self.extend_by!r}")
-        _check(self.extend_by == "sot" or self.verify == "detector", "sot",
-               "extend_by = 'detections' takes the detector's boxes: it needs verify = 'detector'")
+        _check(self.verify in ("auto", "none", "detector"), "sot",
+               f"verify must be one of auto, none, detector; got {self.verify!r}")
+        _check(self.extend_by in ("auto", "sot", "detections"), "sot",
+               f"extend_by must be one of auto, sot, detections; got {self.extend_by!r}")
+        _check(self.extend_by != "detections" or self.verify != "none", "sot",
+               "extend_by = 'detections' takes the detector's boxes: it needs verify = 'detector' (or 'auto' with "
+               "the detector as the source of detections)")
+
+    def resolved(self, detector_detections: bool) -> SotConfig:
+        """``verify`` and ``extend_by`` with ``"auto"`` decided: ``detector_detections`` says whether the
+        detections come from the detector (private), where its weak boxes check the SOT step by default."""
+        verify = self.verify if self.verify != "auto" else ("detector" if detector_detections else "none")
+        extend_by = self.extend_by if self.extend_by != "auto" else ("detections" if verify == "detector" else "sot")
+        return dataclasses.replace(self, verify=verify, extend_by=extend_by)
         for name in ("seed_min_confidence", "extend_min_affinity", "extend_min_confidence", "stop_iou",
                      "verify_min_score", "verify_iou", "extend_supported_affinity"):
             _check(0.0 <= getattr(self, name) <= 1.0, "sot", f"{name} must be in [0, 1]")

@@ -111,11 +111,30 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
 
 
 def detect_sequence(info: SeqInfo, detector, embedder: Embedder | None = None, progress: "bool | Progress" = False,
-                    timings: dict[str, float] | None = None) -> tuple[Detections, np.ndarray]:
+                    timings: dict[str, float] | None = None,
+                    weak: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
+                    min_score: float | None = None) -> tuple[Detections, np.ndarray]:
     """Run ``detector`` on every frame: the detections in canonical order and, with ``embedder``, their features
-    from the same decoded frames (``(N, D)``; ``(N, 0)`` without)."""
-    passed = frame_pass(info, list(range(1, info.length + 1)), lambda frame, image: detector.detect(image),
-                        embedder, f"{info.name}: detection", progress, timings)
+    from the same decoded frames (``(N, D)``; ``(N, 0)`` without).
+
+    ``min_score``, when given, keeps only boxes scoring at least this as the
+    detections (and embeds only those); ``weak``, when given, receives every
+    box the detector returned, frame -> (``(K, 4)`` ``x, y, w, h``, ``(K,)``
+    scores): run at a
+    lower threshold, one pass gives both the tracked boxes and the weak boxes
+    that check the SOT step (:class:`sotmot.sot.extend.DetectorSupport`).
+    """
+    def boxes_of(frame: int, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        boxes, scores = detector.detect(image)
+        if weak is not None:
+            weak[frame] = (np.asarray(boxes, dtype=np.float64).reshape(-1, 4), np.asarray(scores, np.float64))
+        if min_score is None:
+            return boxes, scores
+        keep = np.asarray(scores) >= min_score
+        return boxes[keep], scores[keep]
+
+    passed = frame_pass(info, list(range(1, info.length + 1)), boxes_of, embedder, f"{info.name}: detection",
+                        progress, timings)
     dim = embedder.dim if embedder is not None else 0
     frames = np.concatenate([np.full(len(found[0]), frame, np.int64) for frame, found, _ in passed] or [[]])
     raw = Detections(frames, np.concatenate([found[0] for _, found, _ in passed] or [np.zeros((0, 4))]),

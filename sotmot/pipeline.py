@@ -35,7 +35,7 @@ from sotmot.confidence import (
 )
 from sotmot.config import TrackerConfig
 from sotmot.confirm import box_scorer, confirm
-from sotmot.detection import Detector, detection_source, known_family, make_detector
+from sotmot.detection import Detector, detection_source, detector_detections, known_family, make_detector
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
 from sotmot.motion import CameraMotion, estimate_motion
 from sotmot.passes import detect_sequence, embed_detections
@@ -51,7 +51,8 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, 
             config: TrackerConfig, progress: "bool | Progress" = False,
             confidence: np.ndarray | None = None,
             timings: dict[str, float] | None = None,
-            motion: CameraMotion | None = None) -> tuple[Detections, np.ndarray, np.ndarray, int]:
+            motion: CameraMotion | None = None,
+            support=None) -> tuple[Detections, np.ndarray, np.ndarray, int]:
     """The SOT step, then NMS on the enlarged set (paper Sec. 3.3 and 6.1).
 
     ``features`` of ``detections``, or None: the SOT step computes them from
@@ -61,6 +62,10 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, 
     seed_min_confidence``. ``timings``, when given, receives ``"appearance"``
     (the seconds of re-ID inside the step: detections, candidates, added
     boxes) and ``"decode"`` (frame reading).
+
+    ``support`` (a :class:`~sotmot.sot.extend.DetectorSupport`), when given,
+    regresses each found box onto a detector box and ends extensions no
+    detector box supports (``[sot] verify``).
 
     Returns the enlarged detections (added boxes flagged ``from_sot``), their
     features, the SOT links ``(K, 2)`` as indices into them (links whose ends
@@ -79,7 +84,8 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, 
         return run
 
     tracker = SotTracker(config.sot, timed("decode", FrameReader(info, cache_size=1)), info.length,
-                         embed=timed("appearance", embedder.embed), det_features=features, motion=motion)
+                         embed=timed("appearance", embedder.embed), det_features=features, motion=motion,
+                         support=support)
     seeds = None if confidence is None else confidence >= config.sot.seed_min_confidence
     show = as_progress(progress)
     result = tracker.run(detections, progress=lambda items: show(items, f"{info.name}: SOT ({config.sot.variant})"),
@@ -181,6 +187,8 @@ class Prepared:
     confidence_method: str = "raw"
     detected: Detections | None = None
     motion: CameraMotion | None = None
+    support: object | None = None  # sotmot.sot.extend.DetectorSupport: the detector's boxes that check SOT boxes
+    private: bool = False  # the detections are the detector's own ([sot] verify = "auto" turns the check on)
 
 
 class _Clock:
@@ -206,16 +214,28 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     info = read_seqinfo(seq_dir, config.input.fps)
     sot = config.sot.variant != "none"
     source, det_file = detection_source(config.detection, info)
-    detected = raw_features = None
+    private = detector_detections(config.detection, info)
+    sot_config = config.sot.resolved(private)
+    verify = sot_config.verify == "detector"
+    detected = raw_features = support = None
     if source == "model":  # one pass over the frames: detection, and re-ID of what it found
         embed_now = features is None and not sot
         if embed_now:
             embedder = embedder_for(config.appearance, embedder)
-        detector = detector if detector is not None else make_detector(config.detection)
+        if detector is None:  # run lower than the tracking threshold, its weak boxes check the SOT step
+            low = min(config.detection.min_score, sot_config.verify_min_score) if verify else config.detection.min_score
+            detector = make_detector(dataclasses.replace(config.detection, min_score=low))
+        low = getattr(detector, "min_score", None)  # a detector without one: every box it gives is tracked
+        split = config.detection.min_score if low is not None and low < config.detection.min_score else None
+        weak = {} if verify and low is not None and low <= sot_config.verify_min_score else None
         # embedding too, the pass is the appearance stage with detection inside it (timed as "detect", like
         # "decode"); detection alone, the pass is the "detect" stage
         raw, raw_features = detect_sequence(info, detector, embedder if embed_now else None, progress,
-                                            timings if embed_now else None)
+                                            timings if embed_now else None, weak=weak, min_score=split)
+        if weak is not None:
+            from sotmot.sot.extend import DetectorSupport
+
+            support = DetectorSupport.from_pass(weak, sot_config.verify_min_score)
         detected = raw
         log.info("%s: the detector found %d boxes", info.name, len(raw))
         clock.lap("appearance" if embed_now else "detect")
@@ -242,11 +262,18 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
                                      load_calibration(config.confirm.calibration),
                                      known_family(config.detection, info), info.name)
     log.info("%s: detection confidence by %r", info.name, method)
+    if verify and support is None:  # public, refined: the detector runs on the frames the SOT step visits
+        from sotmot.sot.extend import DetectorSupport
+
+        support = (DetectorSupport(detector, sot_config.verify_min_score)
+                   if getattr(detector, "min_score", 1.0) <= sot_config.verify_min_score
+                   else DetectorSupport.from_config(config.detection, sot_config.verify_min_score))
     if sot:
         embedder = embedder_for(config.appearance, embedder)
         inside: dict[str, float] = {}
-        dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress,
-                                               detection_confidence(dets.scores, knots), inside, motion)
+        dets, features, links, steps = run_sot(info, dets, features, embedder, config.replace("sot", **{
+            "verify": sot_config.verify, "extend_by": sot_config.extend_by}), progress,
+            detection_confidence(dets.scores, knots), inside, motion, support)
         log.info("%s: SOT added %d boxes (after NMS)", info.name, int(dets.from_sot.sum()))
         clock.lap("sot")
         # the re-ID inside the SOT step (the detections' features too, when it computed them) counts as appearance;
@@ -259,7 +286,8 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
                                 must_link=links if config.sot.must_link else None)
     clock.lap("tracklets")
     confidence = detection_confidence(dets.scores, knots)  # the SOT step's boxes too
-    return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected, motion)
+    return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected, motion,
+                    support, private)
 
 
 def with_self_confidence(prepared: Prepared, trajectories: list[Tracklet]) -> Prepared:
@@ -323,21 +351,23 @@ def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tra
 
     info = prepared.info
     reader, embedder = FrameReader(info, cache_size=8), embedder_for(config.appearance, embedder)
-    support = None
-    if config.sot.verify == "detector":  # its own low threshold: weak boxes count as support, never as tracks
-        support = DetectorSupport.from_config(config.detection, config.sot.verify_min_score)
-    if config.sot.refine_gaps:
-        tracks = refine_gaps(tracks, identity, reader, embedder, config.sot,
+    sot = config.sot.resolved(prepared.private)
+    support = prepared.support if sot.verify == "detector" else None
+    if sot.verify == "detector" and support is None:  # its own low threshold: weak boxes are support, never tracks
+        support = DetectorSupport.from_config(config.detection, sot.verify_min_score)
+    if sot.refine_gaps:
+        tracks = refine_gaps(tracks, identity, reader, embedder, sot,
                              progress=lambda items: as_progress(progress)(items, f"{info.name}: refine gaps"),
                              support=support)
-    if config.sot.extend_seconds > 0:
+    if sot.extend_seconds > 0:
         before = len(tracks)
-        tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, config.sot,
+        tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, sot,
                              progress=lambda items: as_progress(progress)(items, f"{info.name}: extend ends"),
                              support=support, motion=prepared.motion)
         log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
     if support is not None:
-        log.info("%s: the detector checked the SOT boxes on %d frames", info.name, support.frames_detected)
+        log.info("%s: the detector's boxes checked the SOT boxes (%d frames detected for it alone)", info.name,
+                 support.frames_detected)
     return tracks
 
 
@@ -363,7 +393,9 @@ def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
         used by benchmarks that try several settings on the same detections).
     detector
         Person detector, when the detections come from the model (``[detection]
-        source``); built from ``config.detection`` when needed and omitted.
+        source``), or that checks SOT boxes (``[sot] verify``; used when its
+        ``min_score`` is at most ``verify_min_score``); built from
+        ``config.detection`` when needed and omitted.
     """
     get_solver(config.association.solver)  # an unknown name fails before any work is done
     return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features, detector), config,

@@ -81,13 +81,14 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
     """The record of tracking ``info`` with ``config`` (its solver included), as of now."""
     from importlib import resources
 
-    from sotmot.detection import detection_source
+    from sotmot.detection import detection_source, detector_detections
 
     model = config.appearance.model
     calibration = config.confirm.calibration
     packaged = resources.files("sotmot").joinpath("data", "confidence.json")
     source, det_file = detection_source(config.detection, info)
-    detector = config.detection.model if source == "model" or config.sot.verify == "detector" else None
+    checks = config.sot.resolved(detector_detections(config.detection, info)).verify == "detector"
+    detector = config.detection.model if source == "model" or checks else None
     return {
         "sotmot": sotmot_version(),
         "sequence": info.name,

@@ -216,7 +216,7 @@ def test_under_the_public_protocol_no_track_starts_from_a_detector_box(tmp_path,
 
     monkeypatch.setattr(detection, "make_detector", lambda config: SeesEveryone())
     config = (TrackerConfig().replace("confirm", enabled=False)
-              .replace("sot", verify="detector", extend_seconds=0.5, extend_supported_affinity=0.3))
+              .replace("sot", verify="detector", extend_by="sot", extend_seconds=0.5, extend_supported_affinity=0.3))
     result = track_sequence(seq, config, embedder=GeometryEmbedder())
     tracks = result.tracks
     assert set(tracks.ids.tolist()) == {1}
@@ -224,3 +224,54 @@ def test_under_the_public_protocol_no_track_starts_from_a_detector_box(tmp_path,
     from sotmot.boxes import iou_matrix
 
     assert iou_matrix(np.array(ghost), tracks.boxes).max() < 0.1
+
+
+def test_with_the_detectors_own_boxes_its_weak_boxes_come_from_the_same_pass_and_extend_the_ends(tmp_path,
+                                                                                                monkeypatch):
+    """Private detections (issue #25): the detector runs once per frame at the lower of its two thresholds; boxes
+    at [detection] min_score or above are tracked, the weaker ones only extend trajectory ends ([sot] verify and
+    extend_by "auto"), and the detector is never run again for them."""
+    import cv2
+
+    import sotmot.pipeline as pipeline
+    from sotmot.config import DetectionConfig
+
+    images = frames_with_walker()
+    seq = tmp_path / "SYN"
+    (seq / "img1").mkdir(parents=True)
+    for f, img in images.items():
+        img[HEIGHT - 1, 0] = f  # each frame says its number in a corner pixel
+        cv2.imwrite(str(seq / "img1" / f"{f:06d}.png"), img)
+    (seq / "seqinfo.ini").write_text(f"[Sequence]\nname=SYN\nimDir=img1\nframeRate=10\nseqLength={LENGTH}\n"
+                                     f"imWidth={WIDTH}\nimHeight={HEIGHT}\nimExt=.png\n")
+    calls, thresholds = [], []
+
+    class Fading:  # sees the walker strongly until frame 20, weakly in 21-24, then not at all
+        def __init__(self, config: DetectionConfig) -> None:
+            self.min_score = config.min_score
+            thresholds.append(config.min_score)
+
+        def detect(self, image):
+            frame = int(image[HEIGHT - 1, 0, 0])
+            calls.append(frame)
+            score = 0.9 if frame <= 20 else 0.15 if frame <= 24 else 0.0
+            keep = score >= self.min_score
+            return np.array([[walker_x(frame), 40.0, 20.0, 40.0]])[:int(keep)], np.array([score])[:int(keep)]
+
+    monkeypatch.setattr(pipeline, "make_detector", Fading)
+    config = (TrackerConfig().replace("detection", source="model", model="/models/fading.xml")
+              .replace("confirm", enabled=False).replace("postprocess", smooth_window=0)
+              .replace("sot", extend_seconds=1.0, extend_supported_affinity=0.3))
+    result = pipeline.track_sequence(seq, config, embedder=GeometryEmbedder())
+    assert thresholds == [config.sot.verify_min_score]  # one detector, at the weak boxes' threshold
+    assert sorted(calls) == list(range(1, LENGTH + 1))  # each frame detected once
+    assert result.detections.frames.tolist() == list(range(1, 21))  # the weak boxes are not tracked
+    assert result.detected.frames.tolist() == list(range(1, 21))  # nor written to <name>.det.txt
+    added = result.tracks.subset(result.tracks.from_sot)
+    assert added.frames.tolist() == [21, 22, 23, 24]
+    np.testing.assert_array_equal(added.boxes, [[walker_x(f), 40.0, 20.0, 40.0] for f in range(21, 25)])
+    calls.clear()
+    off = pipeline.track_sequence(seq, config.replace("sot", verify="none"), embedder=GeometryEmbedder())
+    assert thresholds[-1] == config.detection.min_score and sorted(calls) == list(range(1, LENGTH + 1))
+    # without the check the template search extends the end (and runs on past the detector's last weak box)
+    assert off.tracks.frames[off.tracks.from_sot].max() > 24

@@ -202,3 +202,43 @@ def test_with_sot_each_frame_is_decoded_once_and_the_features_are_those_of_the_s
     assert max(reads.values()) == 1 and len(reads) == info.length
     assert np.array_equal(once.detections.boxes, before.detections.boxes)
     assert np.allclose(once.features, before.features, atol=1e-6)
+
+
+@pytest.mark.parametrize("rules", ["paper", "confident"])
+def test_a_sot_box_is_regressed_onto_the_weak_detector_box_that_supports_it(rules):
+    """[sot] verify (issue #25, the paper's box regression on SOT results): the patch is in no detection in
+    frames 4-6, a weak detector box 2 px off covers it there; Algorithm 1's boxes are the detector's boxes."""
+    frames, truth = scene()
+    d = dets(truth, [1, 2, 3, 7, 8, 9])
+    weak = {f: truth[f] + [2.0, 1.0, 0.0, 0.0] for f in (4, 5, 6)}
+    asked = []
+
+    def support(frame, image):
+        asked.append(frame)
+        return weak[frame][None] if frame in weak else np.zeros((0, 4))
+
+    cfg = SotConfig(variant="template", rules=rules)
+    result = SotTracker(cfg, frames.__getitem__, 9, support=support).run(d)
+    added = result.detections.subset(np.flatnonzero(result.detections.from_sot))
+    assert sorted(added.frames.tolist()) == [4, 5, 6]
+    for f, box in zip(added.frames, added.boxes):
+        np.testing.assert_array_equal(box, weak[f])  # the detector's box, not the template's
+    assert set(asked) <= set(range(1, 10))
+    plain = SotTracker(cfg, frames.__getitem__, 9).run(d)  # without the detector the template's own boxes
+    plain_added = plain.detections.subset(np.flatnonzero(plain.detections.from_sot))
+    assert 4 in plain_added.frames.tolist()
+    assert not any(np.array_equal(b, weak[4]) for b in plain_added.boxes)
+
+
+def test_a_sot_box_no_weak_detector_box_supports_is_dropped():
+    """The patch leaves after frame 5; the template drifts onto the background there, and a detector that sees
+    nothing but the real patch ends every extension at the patch's last frame."""
+    frames, truth = scene(n_frames=9, gone_after=5)
+    d = dets(truth, [1, 2])
+    cfg = SotConfig(variant="template", rules="paper", tau=0.0, tau_a=0.0, L=15)  # the loosest: follows anything
+    loose = SotTracker(cfg, frames.__getitem__, 9).run(d)
+    assert loose.detections.frames[loose.detections.from_sot].max() > 5  # it drifts on without the detector
+    seen = {f: truth[f][None] for f in range(1, 6)}
+    checked = SotTracker(cfg, frames.__getitem__, 9,
+                         support=lambda f, image: seen.get(f, np.zeros((0, 4)))).run(d)
+    assert checked.detections.frames[checked.detections.from_sot].tolist() == [3, 4, 5]

@@ -93,31 +93,42 @@ def detection_source(config: DetectionConfig, info) -> tuple[str, Path | None]:
 KNOWN_FAMILIES = {"person-detection-0202": "pd0202"}
 
 
-def known_family(config: DetectionConfig, info) -> str | None:
-    """The confidence family of sequence ``info``'s detections when the detector that made them is known.
-
-    Detections from the model are of its family (:data:`KNOWN_FAMILIES`); a
-    detections file is of the model's family when it is a ``<name>.det.txt``
-    that ``sotmot track`` wrote, with the run record beside it naming the
-    detector, so that replaying it (``--det``) repeats the run. None: the
-    family is guessed from the scores.
-    """
+def detector_model_of(config: DetectionConfig, info) -> str | None:
+    """The detector model that made sequence ``info``'s detections, when it is known: the model itself with
+    ``source = model``, or the one named in the run record beside a ``<name>.det.txt`` that ``sotmot track``
+    wrote (so that replaying it with ``--det`` repeats the run); None for any other detections file."""
     source, path = detection_source(config, info)
-    model = None
     if source == "model":
-        model = model_given(config.model, ENV_VAR)
-    elif path is not None and path.name.endswith(".det.txt"):
+        return model_given(config.model, ENV_VAR)
+    if path is not None and path.name.endswith(".det.txt"):
         record = path.with_name(path.name.removesuffix(".det.txt") + ".run.json")
         try:
             made = json.loads(record.read_text(encoding="utf-8"))
             if made["inputs"]["detections"]["source"] == "model":
-                model = made["detector_model"]["path"]
+                return made["detector_model"]["path"]
         except (OSError, ValueError, KeyError, TypeError):
             return None
+    return None
+
+
+def known_family(config: DetectionConfig, info) -> str | None:
+    """The confidence family of sequence ``info``'s detections when the detector that made them is known
+    (:func:`detector_model_of`): its family in :data:`KNOWN_FAMILIES`. None: the family is guessed from the
+    scores."""
+    model = detector_model_of(config, info)
     if not model:
         return None
     name = Path(model).name
     return next((family for start, family in KNOWN_FAMILIES.items() if name.startswith(start)), None)
+
+
+def detector_detections(config: DetectionConfig, info) -> bool:
+    """Whether the detector's own judgement is at hand for ``info``'s detections (what ``[sot] verify = "auto"``
+    turns on): they come from the model now, or they are a replayed ``<name>.det.txt`` of it and the detector
+    is given (so its weak boxes can be found again, and the replay repeats the run)."""
+    source, _ = detection_source(config, info)
+    return source == "model" or (detector_model_of(config, info) is not None
+                                 and model_given(config.model, ENV_VAR) is not None)
 
 
 def rounded(boxes: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -124,11 +124,19 @@ class SotTracker:
         The camera's motion (None: a still camera): a box is carried into the
         next frame by the camera's motion before the overlap checks, and the
         constant-velocity prior is the person's own motion in the reference frame.
+    support
+        ``(frame, image) -> (K, 4)`` the person detector's boxes in a frame
+        (:class:`sotmot.sot.extend.DetectorSupport`, ``[sot] verify``), or
+        None. With it, a candidate is replaced by the detector box it overlaps
+        at IoU ``verify_iou`` or more (the paper's box regression on SOT
+        results, Sec. 6.1), and an extension ends where no detector box
+        supports its candidate.
     """
 
     def __init__(self, config: SotConfig, read_frame: Callable[[int], np.ndarray], n_frames: int,
                  embed: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
-                 det_features: np.ndarray | None = None, motion: CameraMotion | None = None) -> None:
+                 det_features: np.ndarray | None = None, motion: CameraMotion | None = None,
+                 support: Callable[[int, np.ndarray], np.ndarray] | None = None) -> None:
         if config.variant == "deep" and embed is None:
             raise ValueError("the deep SOT variant needs an embedder")
         self.config = config
@@ -139,6 +147,8 @@ class SotTracker:
         self.search = TemplateSearch(config)
         self.steps = 0
         self.motion = motion if motion is not None else CameraMotion.still(n_frames)
+        self.support = support
+        self.regressed = self.unsupported = 0
 
     # -- affinity of a candidate with the seed -------------------------------------------------
     def _seed_affinity(self, seed: int, frame: np.ndarray, box_ids: list[int]) -> np.ndarray:
@@ -270,9 +280,27 @@ class SotTracker:
                 found, aff, feature = self.next(prior, seed, *cached(g))
                 if len(found) == 0 or aff < cfg.tau_a:
                     continue
-                if others and iou_matrix(found, np.stack([self._boxes[b] for b in others]))[0].max() > overlap:
+
+                def runs_into(candidate: np.ndarray) -> bool:
+                    return bool(others) and iou_matrix(candidate, np.stack([self._boxes[b] for b in others]))[0].max() \
+                        > overlap
+
+                if runs_into(found):
                     reached[end.chain] = True  # it ran into a box: someone is already there
                     continue
+                if self.support is not None:  # box regression on the SOT result: a detector box takes its place
+                    weak = self.support(g, image(g))
+                    ious = iou_matrix(found, weak)[0] if len(weak) else np.zeros(1)
+                    if ious.max() < cfg.verify_iou:
+                        self.unsupported += 1
+                        continue  # no detector box supports it: the extension ends here
+                    found = weak[int(np.argmax(ious))]
+                    self.regressed += 1
+                    if runs_into(found):
+                        reached[end.chain] = True
+                        continue
+                    # deep: the regressed box's own feature (another end may meet it); template: embedded later
+                    feature = self.embed(image(g), found[None])[0] if cfg.variant == "deep" else None
                 new = len(self._boxes)
                 self._boxes.append(found)
                 self._frames.append(g)
@@ -306,6 +334,9 @@ class SotTracker:
             feats = np.stack(self._features[n:]) if added else np.zeros((0, dim), np.float32)
             det_feats = np.stack(self._features[:n]) if n else np.zeros((0, dim), np.float32)
         log.info("SOT (%s) added %d boxes to %d detections in %d steps", cfg.variant, added, n, self.steps)
+        if self.support is not None:
+            log.info("SOT: %d candidates regressed onto a detector box, %d ended unsupported", self.regressed,
+                     self.unsupported)
         return SotResult(enlarged, np.asarray(links, dtype=np.int64).reshape(-1, 2), feats, self.steps, det_feats)
 
 

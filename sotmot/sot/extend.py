@@ -117,6 +117,17 @@ class DetectorSupport:
         self.frames_detected = 0
 
     @classmethod
+    def from_pass(cls, found: dict[int, tuple[np.ndarray, np.ndarray]], min_score: float,
+                  detector=None) -> DetectorSupport:
+        """The boxes one detection pass already found (frame -> (boxes, scores), run at a threshold no higher
+        than ``min_score``: :func:`sotmot.passes.detect_sequence`'s ``weak``); a frame the pass did not see is
+        detected by ``detector`` (None: it has no boxes)."""
+        support = cls(detector, min_score)
+        for frame, (boxes, scores) in found.items():
+            support._boxes[frame] = boxes[scores >= min_score]
+        return support
+
+    @classmethod
     def from_config(cls, detection: DetectionConfig, min_score: float) -> DetectorSupport:
         """The detector ``detection`` names, run at the verifier's own low threshold ``min_score`` (its tracking
         threshold, ``[detection] min_score``, would hide the weak boxes)."""
@@ -127,6 +138,8 @@ class DetectorSupport:
     def __call__(self, frame: int, image: np.ndarray) -> np.ndarray:
         """``(K, 4)`` ``x, y, w, h`` boxes of ``frame`` (its ``image``)."""
         if frame not in self._boxes:
+            if self.detector is None:
+                return np.zeros((0, 4))
             boxes, scores = self.detector.detect(image)
             keep = np.asarray(scores) >= self.min_score
             self._boxes[frame] = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)[keep]
