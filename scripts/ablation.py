@@ -1,29 +1,47 @@
 #!/usr/bin/env python3
 """The paper's Table 3, on our data: what does the SOT step add to the MOT part?
 
-Rows per sequence (``--rows``; default: the paper's Table 3 under both rules, with and without interpolation):
-MOT only; SOT(template)+MOT and SOT(deep)+MOT with Algorithm 1 as published
+Rows per sequence (``--rows``; default: :data:`TABLE3`): MOT only;
+SOT(template)+MOT and SOT(deep)+MOT with Algorithm 1 as published
 (``[sot] rules = "paper"``) and with the confident rules (``"confident"``:
-only extensions that reach another box, issue #12); SOT after association,
-"+ends" (trajectory ends extended, ``[sot] extend_seconds`` as configured,
-the default since issue #12; every other row extends nothing) and
-"+gaps" (interpolated boxes replaced by boxes found in the frames, ``[sot]
-refine_gaps``); every row also "no-interp", without interpolation, to see
-whether SOT boxes only fill gaps that interpolation fills anyway.
-Columns: TrackEval HOTA, MOTA, MOTP, IDF1, FP, FN, IDSW; frames per second of
-the whole pipeline (the detections' re-ID features are computed once per
-sequence and their time is added to every row); the SOT boxes in the output
-(Algorithm 1's that survived NMS and confirmation, end extensions, refined
-gap boxes) and their precision against the ground truth (IoU >= 0.5 with a
-considered pedestrian box in that frame), in all and split into "gap" boxes
-(between the first and last other box of their track) and "end" boxes.
+only extensions that reach another box, issue #12); the same checked by the
+person detector ("verified", ``[sot] verify = "detector"``, issue #25: each
+SOT box regressed onto a detector box down to ``verify_min_score``, and an
+extension ends where none supports it, the paper's box regression on SOT
+results); SOT after association, "+ends" (trajectory ends extended, ``[sot]
+extend_seconds`` as configured; every other row extends nothing), verified or
+not, and "+weak ends", the baseline that uses the same weak boxes without SOT
+(ByteTrack's second association at trajectory ends, ``extend_by =
+"detections"``); "+gaps" (interpolated boxes replaced by boxes found in the
+frames, ``[sot] refine_gaps``); every row also "no-interp", without
+interpolation, to see whether SOT boxes only fill gaps that interpolation
+fills anyway.
 
-    python scripts/ablation.py --model ../shared/models/person-reidentification-retail-0288.onnx --json ablation.json
+Two protocols, as MOTChallenge reports them: public (each sequence's
+``det/det.txt``; the rows the detector checks are "public, refined": tracks
+still start only from the given detections) and, with ``--private``, the
+detector's own boxes (``--detector-model``; run once per sequence at the weak
+boxes' threshold, boxes at ``[detection] min_score`` tracked).
+
+Columns: TrackEval HOTA, MOTA, MOTP, IDF1, FP, FN, IDSW; frames per second of
+the whole pipeline (the detections' re-ID features, and with ``--private``
+the detection, are computed once per sequence and their time is added to
+every row); the SOT boxes in the output (Algorithm 1's that survived NMS and
+confirmation, end extensions, refined gap boxes) and their precision against
+the ground truth (IoU >= 0.5 with a considered pedestrian box in that frame),
+in all and split into "gap" boxes (between the first and last other box of
+their track) and "end" boxes.
+
+    python scripts/ablation.py --model ../shared/models/person-reidentification-retail-0288.onnx \
+        --detector-model ../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml \
+        [--private] --json ablation.json
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import hashlib
 import json
 import sys
 import tempfile
@@ -38,39 +56,68 @@ from sotmot.benchmarks import machine, sequences
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import evaluate_files
-from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_path, write_results
-from sotmot.passes import embed_detections
+from sotmot.io import read_ground_truth, read_seqinfo, results_path, write_results
 from sotmot.pipeline import finish_sequence, prepare_sequence
-from sotmot.preprocess import preprocess
 
 ENDS = None  # "+ends" rows: the end extension as configured (the default's, or --config's)
+OFF = {"verify": "none", "extend_by": "sot"}  # no detector check (the default, "auto", checks private runs)
+CHECKED = {"verify": "detector", "extend_by": "sot"}
 ROWS = {
-    "MOT": {"variant": "none"},
+    "MOT": {"variant": "none", **OFF},
     # Algorithm 1 as published (``[sot] rules = "paper"``), and the confident rules (issue #12)
-    "SOT(template)+MOT": {"variant": "template", "rules": "paper"},
-    "SOT(template)+MOT+links": {"variant": "template", "rules": "paper", "must_link": True},
-    "SOT(deep)+MOT": {"variant": "deep", "rules": "paper"},
-    "SOT(template)+MOT confident": {"variant": "template", "rules": "confident"},
-    "SOT(deep)+MOT confident": {"variant": "deep", "rules": "confident"},
-    "SOT(template)+MOT seeds>=0.95": {"variant": "template", "rules": "paper", "seed_min_confidence": 0.95},
-    "SOT(deep)+MOT seeds>=0.9": {"variant": "deep", "rules": "paper", "seed_min_confidence": 0.9},
+    "SOT(template)+MOT": {"variant": "template", "rules": "paper", **OFF},
+    "SOT(template)+MOT+links": {"variant": "template", "rules": "paper", "must_link": True, **OFF},
+    "SOT(deep)+MOT": {"variant": "deep", "rules": "paper", **OFF},
+    "SOT(template)+MOT confident": {"variant": "template", "rules": "confident", **OFF},
+    "SOT(deep)+MOT confident": {"variant": "deep", "rules": "confident", **OFF},
+    "SOT(template)+MOT seeds>=0.95": {"variant": "template", "rules": "paper", "seed_min_confidence": 0.95, **OFF},
+    "SOT(deep)+MOT seeds>=0.9": {"variant": "deep", "rules": "paper", "seed_min_confidence": 0.9, **OFF},
+    # checked by the detector (issue #25): every SOT box regressed onto a detector box, unsupported ones dropped
+    "SOT(template)+MOT verified": {"variant": "template", "rules": "paper", **CHECKED},
+    "SOT(deep)+MOT verified": {"variant": "deep", "rules": "paper", **CHECKED},
+    "SOT(template)+MOT confident verified": {"variant": "template", "rules": "confident", **CHECKED},
+    "SOT(deep)+MOT confident verified": {"variant": "deep", "rules": "confident", **CHECKED},
     # SOT after association: trajectory ends, and interpolated boxes replaced by boxes found in the frames
-    "MOT+ends": {"variant": "none", "extend_seconds": ENDS},
-    "MOT+gaps": {"variant": "none", "refine_gaps": True},
-    "MOT+ends+gaps": {"variant": "none", "extend_seconds": ENDS, "refine_gaps": True},
-    "SOT(deep)+MOT+ends": {"variant": "deep", "rules": "paper", "extend_seconds": ENDS},
-    "SOT(deep)+MOT confident+ends": {"variant": "deep", "rules": "confident", "extend_seconds": ENDS},
+    "MOT+ends": {"variant": "none", "extend_seconds": ENDS, **OFF},
+    "MOT+ends verified": {"variant": "none", "extend_seconds": ENDS, **CHECKED},
+    "MOT+weak ends": {"variant": "none", "extend_seconds": ENDS, "verify": "detector", "extend_by": "detections"},
+    "MOT+gaps": {"variant": "none", "refine_gaps": True, **OFF},
+    "MOT+ends+gaps": {"variant": "none", "extend_seconds": ENDS, "refine_gaps": True, **OFF},
+    "SOT(deep)+MOT+ends": {"variant": "deep", "rules": "paper", "extend_seconds": ENDS, **OFF},
+    "SOT(deep)+MOT confident+ends": {"variant": "deep", "rules": "confident", "extend_seconds": ENDS, **OFF},
     "SOT(deep)+MOT+ends seeds>=0.9": {"variant": "deep", "rules": "paper", "seed_min_confidence": 0.9,
-                                      "extend_seconds": ENDS},
+                                      "extend_seconds": ENDS, **OFF},
+    "SOT(deep)+MOT verified+weak ends": {"variant": "deep", "rules": "paper", "extend_seconds": ENDS,
+                                         "verify": "detector", "extend_by": "detections"},
 }
 # every row also without interpolation: does SOT fill gaps that interpolation would have filled anyway? (issue #12)
 ROWS.update({f"{name} no-interp": {**spec, "postprocess": {"interpolate": False}} for name, spec in list(ROWS.items())})
-#: The default rows: the paper's Table 3 (MOT, SOT(template)+MOT, SOT(deep)+MOT) under both rules, with and
-#: without interpolation, and SOT after association.
-TABLE3 = [r for base in ("MOT", "SOT(template)+MOT", "SOT(deep)+MOT", "SOT(template)+MOT confident",
-                         "SOT(deep)+MOT confident", "MOT+ends", "MOT+gaps", "MOT+ends+gaps")
-          for r in (base, f"{base} no-interp")]
+#: The default rows: the paper's Table 3 (MOT, SOT(template)+MOT, SOT(deep)+MOT) under both rules, unchecked and
+#: checked by the detector, and SOT after association (unchecked, checked, and the weak boxes alone).
+TABLE3 = ["MOT", "SOT(template)+MOT", "SOT(deep)+MOT", "SOT(template)+MOT confident", "SOT(deep)+MOT confident",
+          "SOT(template)+MOT verified", "SOT(deep)+MOT verified", "SOT(template)+MOT confident verified",
+          "SOT(deep)+MOT confident verified", "MOT+ends", "MOT+ends verified", "MOT+weak ends"]
+#: The rows without the detector (all of them before issue #25).
+UNCHECKED = [r for r in TABLE3 if ROWS[r].get("verify") != "detector"]
 COLUMNS = ("HOTA", "MOTA", "MOTP", "IDF1", "FP", "FN", "IDSW")
+
+
+class CachedDetector:
+    """A detector that remembers what it found in each image (by content), so every row of one sequence sees the
+    detections of one pass; ``min_score`` is the inner detector's (the pipeline splits tracked and weak boxes)."""
+
+    def __init__(self, detector) -> None:
+        self.detector, self.min_score = detector, detector.min_score
+        self.found: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+        self.seconds = 0.0
+
+    def detect(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        key = hashlib.blake2b(np.ascontiguousarray(image).data, digest_size=16).digest()
+        if key not in self.found:
+            start = time.perf_counter()
+            self.found[key] = self.detector.detect(image)
+            self.seconds += time.perf_counter() - start
+        return self.found[key]
 
 
 def added_boxes(run) -> dict[str, tuple[int, float]]:
@@ -96,25 +143,48 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
     parser.add_argument("--model", required=True)
+    parser.add_argument("--detector-model",
+                        help="the person detector: checks SOT boxes in the 'verified' and 'weak' rows; with --private "
+                             "its boxes are the tracking input")
+    parser.add_argument("--private", action="store_true",
+                        help="track the detector's boxes (MOTChallenge's private detections) instead of det/det.txt")
     parser.add_argument("--config", type=Path)
-    parser.add_argument("--rows", default=",".join(TABLE3),
+    parser.add_argument("--rows", default=None,
                         help="comma-separated subset of: " + ", ".join(ROWS) + " (default: the paper's Table 3 rows, "
-                             "both rules, with and without interpolation)")
+                             "both rules, checked by the detector or not, and the trajectory ends; without "
+                             "--detector-model only the unchecked ones)")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
+    rows = [r for r in (args.rows or ",".join(TABLE3 if args.detector_model else UNCHECKED)).split(",") if r]
+    unknown = [r for r in rows if r not in ROWS]
+    if unknown:
+        parser.error(f"unknown rows: {', '.join(unknown)}")
+    if not args.detector_model and (args.private or any(ROWS[r].get("verify") == "detector" for r in rows)):
+        parser.error("--private and the rows the detector checks need --detector-model")
     base = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
+    if args.detector_model:
+        base = base.replace("detection", model=str(Path(args.detector_model).resolve()),
+                            source="model" if args.private else base.detection.source)
     embedder = make_embedder(base.appearance)
-    rows = [r for r in args.rows.split(",") if r]
     seqs = sequences(args.data, args.sequences)
+    if args.private:  # one run per video: the MOT17-09-* sequences repeat MOT16-09's frames
+        seqs = [s for s in seqs if not (s.name.startswith("MOT17-09-"))]
     results: dict[str, dict[str, dict]] = {}
     pairs: dict[str, list] = {r: [] for r in rows}
     with tempfile.TemporaryDirectory() as tmp:
         for seq in seqs:
             info = read_seqinfo(seq)
+            detector = None
+            if args.detector_model:  # one detector per sequence, at the weak boxes' threshold, for every row
+                from sotmot.detection import make_detector
+
+                detector = CachedDetector(make_detector(dataclasses.replace(
+                    base.detection, min_score=min(base.detection.min_score, base.sot.verify_min_score))))
             start = time.perf_counter()
-            dets = preprocess(read_detections(info.det_path, info.length), base.preprocess)
-            features = embed_detections(info, dets, embedder)
+            # the re-ID features (and the detections) of the rows without SOT: computed once, shared by every row
+            features = prepare_sequence(seq, base.replace("sot", **ROWS["MOT"]), embedder,
+                                        detector=detector).features
             embed_seconds = time.perf_counter() - start
             results[info.name] = {}
             for row in rows:
@@ -125,7 +195,8 @@ def main(argv: list[str] | None = None) -> int:
                 if "postprocess" in spec:
                     config = config.replace("postprocess", **spec["postprocess"])
                 start = time.perf_counter()
-                prepared = prepare_sequence(seq, config, embedder, features=features)
+                prepared = prepare_sequence(seq, config, embedder, detector=detector,
+                                            features=None if spec["variant"] != "none" else features)
                 run = finish_sequence(prepared, config, embedder=embedder)
                 seconds = time.perf_counter() - start + embed_seconds
                 path = results_path(Path(tmp) / row, info.name)
@@ -166,7 +237,8 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(lines))
     print(f"machine: {machine()}")
     if args.json:
-        args.json.write_text(json.dumps({"machine": machine(), "config": base.to_dict(), "rows": results,
+        args.json.write_text(json.dumps({"machine": machine(), "config": base.to_dict(), "private": args.private,
+                                         "detector_model": args.detector_model, "rows": results,
                                          "combined": combined}, indent=2, default=float) + "\n")
     return 0
 
