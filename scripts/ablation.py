@@ -154,6 +154,9 @@ def main(argv: list[str] | None = None) -> int:
                              "both rules, checked by the detector or not, and the trajectory ends; without "
                              "--detector-model only the unchecked ones)")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
+    parser.add_argument("--min-length", type=int, default=100,
+                        help="only sequences of at least this many frames: the full-length ones (default: "
+                             "%(default)s; 0 takes the 30-frame clips too)")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
     rows = [r for r in (args.rows or ",".join(TABLE3 if args.detector_model else UNCHECKED)).split(",") if r]
@@ -167,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
         base = base.replace("detection", model=str(Path(args.detector_model).resolve()),
                             source="model" if args.private else base.detection.source)
     embedder = make_embedder(base.appearance)
-    seqs = sequences(args.data, args.sequences)
+    seqs = [s for s in sequences(args.data, args.sequences) if read_seqinfo(s).length >= args.min_length]
     if args.private:  # one run per video: the MOT17-09-* sequences repeat MOT16-09's frames
         seqs = [s for s in seqs if not (s.name.startswith("MOT17-09-"))]
     results: dict[str, dict[str, dict]] = {}
