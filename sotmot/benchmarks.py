@@ -120,14 +120,17 @@ def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
 def private_config(config: TrackerConfig, seq: Path, detector_model: str, cache: Path) -> TrackerConfig:
     """``config`` for tracking ``seq`` from a detector's boxes (MOTChallenge's private detections): the boxes
     from :func:`model_detections`, and, with ``auto`` confidence, the detector's family when it is a known
-    one, as ``sotmot track --detections model`` would take it."""
+    one, and with ``auto`` verification, the detector's weak boxes checking the SOT step (found again on the
+    frames it visits), as ``sotmot track --detections model`` would take them."""
     from sotmot.detection import known_family
 
     detection = config.replace("detection", source="model", model=detector_model)
     family = known_family(detection.detection, read_seqinfo(seq))
-    out = config.replace("detection", file=str(model_detections(seq, detection, cache)))
+    out = config.replace("detection", file=str(model_detections(seq, detection, cache)), model=detector_model)
     if family and config.preprocess.confidence == "auto":
         out = out.replace("preprocess", confidence=family)
+    if config.sot.verify == "auto":
+        out = out.replace("sot", verify="detector")
     return out
 
 
