@@ -152,8 +152,8 @@ def test_the_detector_checks_sot_boxes_replaces_them_and_gates_the_unsupported()
     identity = GeometryEmbedder().embed(None, np.array([[0.0, 0.0, 21.0, 41.0]]))[0]
     affinity = float(identity @ LOOK)
     assert 0.5 < affinity < 0.95
-    strict = SotConfig(extend_seconds=1.5, verify="detector", extend_by="sot", extend_min_affinity=0.95, extend_supported_affinity=0.5,
-                       verify_min_score=0.1)
+    strict = SotConfig(extend_seconds=1.5, verify="detector", extend_by="sot", extend_min_affinity=0.95,
+                       extend_supported_affinity=0.5, verify_min_score=0.1)
     support = DetectorSupport(StubDetector(images, range(21, 25)), strict.verify_min_score)
     trace: list[dict] = []
     out = extend_ends(tracks, {1: identity}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), strict,
