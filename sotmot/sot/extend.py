@@ -152,7 +152,7 @@ class _Finder:
 
     def __init__(self, tracks: Tracks, read_frame: Callable[[int], np.ndarray], embedder: Embedder,
                  config: SotConfig, support: DetectorSupport | None = None) -> None:
-        if config.extend_by == "auto":  # as [sot] extend_by = "auto" resolves: the weak boxes where a detector is at hand
+        if config.extend_by == "auto":  # as [sot] extend_by = "auto" resolves: weak boxes where a detector is at hand
             config = dataclasses.replace(config, extend_by="detections" if support is not None else "sot")
         self.read_frame, self.embedder, self.config, self.support = read_frame, embedder, config, support
         if config.extend_by == "detections" and support is None:
