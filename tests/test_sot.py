@@ -242,3 +242,32 @@ def test_a_sot_box_no_weak_detector_box_supports_is_dropped():
     checked = SotTracker(cfg, frames.__getitem__, 9,
                          support=lambda f, image: seen.get(f, np.zeros((0, 4)))).run(d)
     assert checked.detections.frames[checked.detections.from_sot].tolist() == [3, 4, 5]
+
+
+def test_ablation_runs_table_3_under_the_private_protocol_and_refuses_checked_rows_without_a_detector(tmp_path,
+                                                                                                     model_0288):
+    """scripts/ablation.py (issue #25): the detector's boxes tracked (--private), rows checked by it beside the
+    unchecked ones; a checked row without --detector-model is an argument error before any work."""
+    import json
+    import subprocess
+    import sys
+
+    from conftest import MODELS, ROOT
+
+    pytest.importorskip("openvino")
+    detector = require(MODELS / "person-detection-0202" / "person-detection-0202.FP16-INT8.xml")
+    script = [sys.executable, str(ROOT / "scripts" / "ablation.py"), "--data", str(DATA), "--model", str(model_0288),
+              "--sequences", "MOT16-02-clip30", "--min-length", "0"]
+    refused = subprocess.run(script + ["--rows", "MOT,MOT+weak ends"], capture_output=True, text=True, timeout=120)
+    assert refused.returncode == 2 and "need --detector-model" in refused.stderr
+    out = tmp_path / "ablation.json"
+    rows = ["MOT", "SOT(template)+MOT", "SOT(template)+MOT verified", "MOT+weak ends"]
+    done = subprocess.run(script + ["--detector-model", str(detector), "--private", "--rows", ",".join(rows),
+                                    "--json", str(out)], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    report = json.loads(out.read_text())
+    assert report["private"] and list(report["combined"]) == rows
+    combined = report["combined"]
+    assert combined["MOT"]["added"] == 0 and all(0 <= combined[r]["MOTA"] <= 100 for r in rows)
+    # checked by the detector, Algorithm 1 adds no more boxes than unchecked (each must be supported)
+    assert combined["SOT(template)+MOT verified"]["added"] <= combined["SOT(template)+MOT"]["added"]
