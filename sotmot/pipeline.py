@@ -188,7 +188,7 @@ class Prepared:
     detected: Detections | None = None
     motion: CameraMotion | None = None
     support: object | None = None  # sotmot.sot.extend.DetectorSupport: the detector's boxes that check SOT boxes
-    private: bool = False  # the detections are the detector's own ([sot] verify = "auto" turns the check on)
+    checked: bool = False  # the detector checks SOT boxes: "auto" of [sot] verify resolved so (or asked for)
 
 
 class _Clock:
@@ -214,8 +214,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     info = read_seqinfo(seq_dir, config.input.fps)
     sot = config.sot.variant != "none"
     source, det_file = detection_source(config.detection, info)
-    private = detector_detections(config.detection, info)
-    sot_config = config.sot.resolved(private)
+    sot_config = config.sot.resolved(detector_detections(config.detection, info))
     verify = sot_config.verify == "detector"
     detected = raw_features = support = None
     if source == "model":  # one pass over the frames: detection, and re-ID of what it found
@@ -287,7 +286,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     clock.lap("tracklets")
     confidence = detection_confidence(dets.scores, knots)  # the SOT step's boxes too
     return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected, motion,
-                    support, private)
+                    support, verify)
 
 
 def with_self_confidence(prepared: Prepared, trajectories: list[Tracklet]) -> Prepared:
@@ -351,7 +350,7 @@ def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tra
 
     info = prepared.info
     reader, embedder = FrameReader(info, cache_size=8), embedder_for(config.appearance, embedder)
-    sot = config.sot.resolved(prepared.private)
+    sot = config.sot.resolved(prepared.checked)
     support = prepared.support if sot.verify == "detector" else None
     if sot.verify == "detector" and support is None:  # its own low threshold: weak boxes are support, never tracks
         support = DetectorSupport.from_config(config.detection, sot.verify_min_score)
