@@ -40,7 +40,6 @@ their track) and "end" boxes.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import hashlib
 import json
 import sys
@@ -57,7 +56,7 @@ from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import evaluate_files
 from sotmot.io import read_ground_truth, read_seqinfo, results_path, write_results
-from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.pipeline import finish_sequence, pass_detector, prepare_sequence
 
 ENDS = None  # "+ends" rows: the end extension as configured (the default's, or --config's)
 OFF = {"verify": "none", "extend_by": "sot"}  # no detector check (the default, "auto", checks private runs)
@@ -180,10 +179,7 @@ def main(argv: list[str] | None = None) -> int:
             info = read_seqinfo(seq)
             detector = None
             if args.detector_model:  # one detector per sequence, at the weak boxes' threshold, for every row
-                from sotmot.detection import make_detector
-
-                detector = CachedDetector(make_detector(dataclasses.replace(
-                    base.detection, min_score=min(base.detection.min_score, base.sot.verify_min_score))))
+                detector = CachedDetector(pass_detector(base, verify=True))
             start = time.perf_counter()
             # the re-ID features (and the detections) of the rows without SOT: computed once, shared by every row
             features = prepare_sequence(seq, base.replace("sot", **ROWS["MOT"]), embedder,

@@ -46,7 +46,7 @@ from sotmot.plugins import BACKENDS
 from common import DEFAULT_DATA
 from sotmot.benchmarks import machine, sequences
 from sotmot.config import TrackerConfig
-from sotmot.pipeline import track_sequence
+from sotmot.pipeline import pass_detector, track_sequence
 
 STAGES = ("read", "detect", "preprocess", "appearance", "decode", "motion", "sot", "tracklets", "association",
           "postprocess", "confirm", "extend")
@@ -100,10 +100,9 @@ def main(argv: list[str] | None = None) -> int:
     config = config.replace("sot", variant=args.sot)
     detector = None
     if args.detector_model:
-        from sotmot.detection import make_detector
-
         config = config.replace("detection", source="model", model=args.detector_model)
-        detector = make_detector(config.detection)  # loaded once, outside the clock, like the re-ID model
+        # loaded once, outside the clock, like the re-ID model; at the weak boxes' threshold, as sotmot track runs it
+        detector = pass_detector(config, config.sot.resolved(True).verify == "detector")
     config = config.replace("appearance", backend=resolve_backend(config.appearance).backend)  # the one that runs
     embedder = make_embedder(config.appearance)
     rows = {}

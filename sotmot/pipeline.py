@@ -202,6 +202,14 @@ class _Clock:
         self.last = now
 
 
+def pass_detector(config: TrackerConfig, verify: bool) -> Detector:
+    """The detector of a run on the detector's own boxes: with ``verify`` (``[sot] verify`` resolved to the
+    detector) run at the lower of ``[detection] min_score`` and ``[sot] verify_min_score``, so one pass gives the
+    boxes tracked and the weak boxes that check the SOT step (:func:`prepare_sequence` splits them)."""
+    low = min(config.detection.min_score, config.sot.verify_min_score) if verify else config.detection.min_score
+    return make_detector(dataclasses.replace(config.detection, min_score=low))
+
+
 def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
                      embedder: Embedder | None = None, progress: "bool | Progress" = False,
                      features: np.ndarray | None = None, detector: Detector | None = None) -> Prepared:
@@ -221,9 +229,8 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         embed_now = features is None and not sot
         if embed_now:
             embedder = embedder_for(config.appearance, embedder)
-        if detector is None:  # run lower than the tracking threshold, its weak boxes check the SOT step
-            low = min(config.detection.min_score, sot_config.verify_min_score) if verify else config.detection.min_score
-            detector = make_detector(dataclasses.replace(config.detection, min_score=low))
+        if detector is None:
+            detector = pass_detector(config, verify)
         low = getattr(detector, "min_score", None)  # a detector without one: every box it gives is tracked
         split = config.detection.min_score if low is not None and low < config.detection.min_score else None
         weak = {} if verify and low is not None and low <= sot_config.verify_min_score else None
