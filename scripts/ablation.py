@@ -88,6 +88,9 @@ ROWS = {
                                       "extend_seconds": ENDS, **OFF},
     "SOT(deep)+MOT verified+weak ends": {"variant": "deep", "rules": "paper", "extend_seconds": ENDS,
                                          "verify": "detector", "extend_by": "detections"},
+    "SOT(template)+MOT confident verified+weak ends": {"variant": "template", "rules": "confident",
+                                                       "extend_seconds": ENDS, "verify": "detector",
+                                                       "extend_by": "detections"},
 }
 # every row also without interpolation: does SOT fill gaps that interpolation would have filled anyway? (issue #12)
 ROWS.update({f"{name} no-interp": {**spec, "postprocess": {"interpolate": False}} for name, spec in list(ROWS.items())})
