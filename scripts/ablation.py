@@ -95,10 +95,11 @@ ROWS = {
 # every row also without interpolation: does SOT fill gaps that interpolation would have filled anyway? (issue #12)
 ROWS.update({f"{name} no-interp": {**spec, "postprocess": {"interpolate": False}} for name, spec in list(ROWS.items())})
 #: The default rows: the paper's Table 3 (MOT, SOT(template)+MOT, SOT(deep)+MOT) under both rules, unchecked and
-#: checked by the detector, and SOT after association (unchecked, checked, and the weak boxes alone).
+#: checked by the detector, SOT after association (unchecked, checked, and the weak boxes alone), and both checked.
 TABLE3 = ["MOT", "SOT(template)+MOT", "SOT(deep)+MOT", "SOT(template)+MOT confident", "SOT(deep)+MOT confident",
           "SOT(template)+MOT verified", "SOT(deep)+MOT verified", "SOT(template)+MOT confident verified",
-          "SOT(deep)+MOT confident verified", "MOT+ends", "MOT+ends verified", "MOT+weak ends"]
+          "SOT(deep)+MOT confident verified", "MOT+ends", "MOT+ends verified", "MOT+weak ends",
+          "SOT(deep)+MOT verified+weak ends", "SOT(template)+MOT confident verified+weak ends"]
 #: The rows without the detector (all of them before issue #25).
 UNCHECKED = [r for r in TABLE3 if ROWS[r].get("verify") != "detector"]
 COLUMNS = ("HOTA", "MOTA", "MOTP", "IDF1", "FP", "FN", "IDSW")

@@ -187,7 +187,8 @@ def ablation_section(public: dict | None, private: dict | None) -> list[str]:
              "output that SOT or the ends added, `right`: the share matched to a ground-truth pedestrian at IoU "
              ">= 0.5; `gap` boxes lie between two boxes of their track, `end` boxes before or after them. Public "
              "rows the detector checks are \"public, refined\": tracks still start only from the given "
-             "detections.", ""]
+             "detections. `fps`: the whole pipeline, the first pass over the frames (re-ID; detection too, "
+             "private) counted in every row.", ""]
     for label, data in (("Public detections", public), ("Private detections", private)):
         if data is None:
             continue
