@@ -379,6 +379,9 @@ class SotConfig:
         _check(self.extend_by != "detections" or self.verify != "none", "sot",
                "extend_by = 'detections' takes the detector's boxes: it needs verify = 'detector' (or 'auto' with "
                "the detector as the source of detections)")
+        for name in ("seed_min_confidence", "extend_min_affinity", "extend_min_confidence", "stop_iou",
+                     "verify_min_score", "verify_iou", "extend_supported_affinity"):
+            _check(0.0 <= getattr(self, name) <= 1.0, "sot", f"{name} must be in [0, 1]")
 
     def resolved(self, detector_detections: bool) -> SotConfig:
         """``verify`` and ``extend_by`` with ``"auto"`` decided: ``detector_detections`` says whether the
@@ -386,9 +389,6 @@ class SotConfig:
         verify = self.verify if self.verify != "auto" else ("detector" if detector_detections else "none")
         extend_by = self.extend_by if self.extend_by != "auto" else ("detections" if verify == "detector" else "sot")
         return dataclasses.replace(self, verify=verify, extend_by=extend_by)
-        for name in ("seed_min_confidence", "extend_min_affinity", "extend_min_confidence", "stop_iou",
-                     "verify_min_score", "verify_iou", "extend_supported_affinity"):
-            _check(0.0 <= getattr(self, name) <= 1.0, "sot", f"{name} must be in [0, 1]")
 
 
 @dataclass(frozen=True)

@@ -120,9 +120,9 @@ def detect_sequence(info: SeqInfo, detector, embedder: Embedder | None = None, p
     ``min_score``, when given, keeps only boxes scoring at least this as the
     detections (and embeds only those); ``weak``, when given, receives every
     box the detector returned, frame -> (``(K, 4)`` ``x, y, w, h``, ``(K,)``
-    scores): run at a
-    lower threshold, one pass gives both the tracked boxes and the weak boxes
-    that check the SOT step (:class:`sotmot.sot.extend.DetectorSupport`).
+    scores): run at a lower threshold, one pass gives both the tracked boxes
+    and the weak boxes that check the SOT step
+    (:class:`sotmot.sot.extend.DetectorSupport`).
     """
     def boxes_of(frame: int, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         boxes, scores = detector.detect(image)

@@ -2,7 +2,7 @@ import json
 
 import pytest
 
-from sotmot.config import TrackerConfig, config_from_dict, load_config
+from sotmot.config import SotConfig, TrackerConfig, config_from_dict, load_config
 from sotmot.errors import ConfigError
 
 
@@ -66,3 +66,20 @@ def test_importing_the_config_imports_no_plug_in_and_no_numeric_library():
                   "ortools", "cv2", "scipy", "networkx"):
         assert f"'{heavy}'" not in loaded, f"importing sotmot.config imported {heavy}"
     assert "'sotmot.plugins'" in loaded
+
+
+@pytest.mark.parametrize("name", ["seed_min_confidence", "extend_min_affinity", "extend_min_confidence", "stop_iou",
+                                  "verify_min_score", "verify_iou", "extend_supported_affinity"])
+def test_every_sot_share_is_checked_to_lie_in_0_1(name):
+    with pytest.raises(ConfigError, match=f"{name} must be in"):
+        SotConfig(**{name: 1.5})
+
+
+def test_sot_auto_checks_with_the_detector_only_when_its_boxes_are_tracked():
+    auto = SotConfig()
+    assert (auto.resolved(True).verify, auto.resolved(True).extend_by) == ("detector", "detections")
+    assert (auto.resolved(False).verify, auto.resolved(False).extend_by) == ("none", "sot")
+    asked = SotConfig(verify="detector", extend_by="sot")  # public, refined, SOT at the ends
+    assert asked.resolved(False) == asked
+    with pytest.raises(ConfigError, match="needs verify"):
+        SotConfig(verify="none", extend_by="detections")
