@@ -117,12 +117,11 @@ class DetectorSupport:
         self.frames_detected = 0
 
     @classmethod
-    def from_pass(cls, found: dict[int, tuple[np.ndarray, np.ndarray]], min_score: float,
-                  detector=None) -> DetectorSupport:
+    def from_pass(cls, found: dict[int, tuple[np.ndarray, np.ndarray]], min_score: float) -> DetectorSupport:
         """The boxes one detection pass already found (frame -> (boxes, scores), run at a threshold no higher
-        than ``min_score``: :func:`sotmot.passes.detect_sequence`'s ``weak``); a frame the pass did not see is
-        detected by ``detector`` (None: it has no boxes)."""
-        support = cls(detector, min_score)
+        than ``min_score``: :func:`sotmot.passes.detect_sequence`'s ``weak``); a frame the pass did not see has
+        none (the detector is not run again)."""
+        support = cls(None, min_score)
         for frame, (boxes, scores) in found.items():
             support._boxes[frame] = boxes[scores >= min_score]
         return support
