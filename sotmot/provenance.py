@@ -24,8 +24,9 @@ from sotmot.config import TrackerConfig
 from sotmot.io import SeqInfo
 
 #: Record fields that never make a resume re-run: when it ran, how fast (threads, batch size), what it
-#: found (the camera's motion), and paths whose file contents are compared by hash instead.
-IGNORED = ("time", "camera_motion", "config.appearance.threads", "config.appearance.batch_size",
+#: found (the camera's motion), what the configuration's "auto" choices became (they follow from the
+#: configuration and inputs, which are compared), and paths whose file contents are compared by hash instead.
+IGNORED = ("time", "camera_motion", "sot_checks", "config.appearance.threads", "config.appearance.batch_size",
            "config.appearance.model", "config.confirm.calibration", "reid_model.path", "confidence_calibration.path",
            "results_sha256", "config.detection.model", "config.detection.file", "config.detection.threads",
            "detector_model.path", "inputs.detections.path")
@@ -87,8 +88,8 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
     calibration = config.confirm.calibration
     packaged = resources.files("sotmot").joinpath("data", "confidence.json")
     source, det_file = detection_source(config.detection, info)
-    checks = config.sot.resolved(detector_detections(config.detection, info)).verify == "detector"
-    detector = config.detection.model if source == "model" or checks else None
+    sot = config.sot.resolved(detector_detections(config.detection, info))
+    detector = config.detection.model if source == "model" or sot.verify == "detector" else None
     return {
         "sotmot": sotmot_version(),
         "sequence": info.name,
@@ -102,6 +103,9 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
                                   "sha256": None if det_file is None else file_sha256(det_file)},
                    "frames (names, sizes)": frames_fingerprint(info)},
         "detector_model": {"path": detector, "sha256": file_sha256(detector) if detector else None},
+        # [sot] verify and extend_by as "auto" resolved them: whether the detector checked the SOT boxes, and
+        # where the boxes that extend trajectory ends came from
+        "sot_checks": {"verify": sot.verify, "extend_by": sot.extend_by},
         "time": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
 

@@ -275,3 +275,23 @@ def test_with_the_detectors_own_boxes_its_weak_boxes_come_from_the_same_pass_and
     assert thresholds[-1] == config.detection.min_score and sorted(calls) == list(range(1, LENGTH + 1))
     # without the check the template search extends the end (and runs on past the detector's last weak box)
     assert off.tracks.frames[off.tracks.from_sot].max() > 24
+
+
+def test_the_run_record_says_whether_the_detector_checked_the_sot_boxes(tmp_path):
+    """[sot] verify / extend_by "auto" resolved, in <name>.run.json: private runs check, a det.txt does not
+    unless asked; the resolved values never make --resume re-run (they follow from what is compared)."""
+    from conftest import write_sequence
+    from sotmot.io import read_seqinfo
+    from sotmot.provenance import IGNORED, run_record
+
+    info = read_seqinfo(write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False))
+    model = tmp_path / "detector.xml"
+    model.write_bytes(b"<net/>")
+    public = TrackerConfig().replace("detection", model=str(model))
+    assert run_record(info, public)["sot_checks"] == {"verify": "none", "extend_by": "sot"}
+    refined = public.replace("sot", verify="detector")
+    assert run_record(info, refined)["sot_checks"] == {"verify": "detector", "extend_by": "detections"}
+    private = public.replace("detection", source="model")
+    record = run_record(info, private)
+    assert record["sot_checks"] == {"verify": "detector", "extend_by": "detections"}
+    assert record["detector_model"]["path"] == str(model) and "sot_checks" in IGNORED
