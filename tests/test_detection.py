@@ -231,3 +231,23 @@ def test_a_video_asked_to_read_a_det_file_it_does_not_have_says_so_before_decodi
     assert main(["track", str(video), "--detections", "file", "--out", str(tmp_path / "out"), "-q"]) == 2
     err = capsys.readouterr().err
     assert "a video has no det.txt: give its detections with --det FILE" in err and "sotmot-video-" not in err
+
+
+def test_a_replayed_det_txt_is_checked_by_the_detector_only_when_that_same_detector_is_given(tmp_path):
+    import json
+
+    from conftest import write_sequence
+    from sotmot.detection import detector_detections
+    from sotmot.io import read_seqinfo
+
+    info = read_seqinfo(write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False))
+    replay = tmp_path / "out" / "SYN.det.txt"
+    replay.parent.mkdir()
+    replay.write_text("1,-1,10,10,5,8,0.9\n")
+    ours, other = tmp_path / "a.xml", tmp_path / "b.xml"
+    record = {"inputs": {"detections": {"source": "model"}}, "detector_model": {"path": str(ours)}}
+    (tmp_path / "out" / "SYN.run.json").write_text(json.dumps(record))
+    assert detector_detections(DetectionConfig(file=str(replay), model=str(ours)), info)
+    assert not detector_detections(DetectionConfig(file=str(replay), model=str(other)), info)
+    assert not detector_detections(DetectionConfig(model=str(ours)), info)  # a public det.txt
+    assert detector_detections(DetectionConfig(source="model", model=str(ours)), info)

@@ -124,11 +124,14 @@ def known_family(config: DetectionConfig, info) -> str | None:
 
 def detector_detections(config: DetectionConfig, info) -> bool:
     """Whether the detector's own judgement is at hand for ``info``'s detections (what ``[sot] verify = "auto"``
-    turns on): they come from the model now, or they are a replayed ``<name>.det.txt`` of it and the detector
-    is given (so its weak boxes can be found again, and the replay repeats the run)."""
+    turns on): they come from the model now, or they are a replayed ``<name>.det.txt`` of it and that same
+    detector is given (so its weak boxes can be found again, and the replay repeats the run)."""
     source, _ = detection_source(config, info)
-    return source == "model" or (detector_model_of(config, info) is not None
-                                 and model_given(config.model, ENV_VAR) is not None)
+    if source == "model":
+        return True
+    made_by, given = detector_model_of(config, info), model_given(config.model, ENV_VAR)
+    return made_by is not None and given is not None and \
+        Path(made_by).expanduser().resolve() == Path(given).expanduser().resolve()
 
 
 def rounded(boxes: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
