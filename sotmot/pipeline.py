@@ -187,8 +187,9 @@ class Prepared:
     confidence_method: str = "raw"
     detected: Detections | None = None
     motion: CameraMotion | None = None
-    support: object | None = None  # sotmot.sot.extend.DetectorSupport: the detector's boxes that check SOT boxes
-    checked: bool = False  # the detector checks SOT boxes: "auto" of [sot] verify resolved so (or asked for)
+    # sotmot.sot.extend.DetectorSupport: the detector's boxes that check SOT boxes, set exactly when preparation
+    # resolved [sot] verify to the detector (so finishing with an "auto" configuration keeps the check)
+    support: object | None = None
 
 
 class _Clock:
@@ -293,7 +294,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     clock.lap("tracklets")
     confidence = detection_confidence(dets.scores, knots)  # the SOT step's boxes too
     return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected, motion,
-                    support, verify)
+                    support)
 
 
 def with_self_confidence(prepared: Prepared, trajectories: list[Tracklet]) -> Prepared:
@@ -357,7 +358,7 @@ def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tra
 
     info = prepared.info
     reader, embedder = FrameReader(info, cache_size=8), embedder_for(config.appearance, embedder)
-    sot = config.sot.resolved(prepared.checked)
+    sot = config.sot.resolved(prepared.support is not None)
     support = prepared.support if sot.verify == "detector" else None
     if sot.verify == "detector" and support is None:  # its own low threshold: weak boxes are support, never tracks
         support = DetectorSupport.from_config(config.detection, sot.verify_min_score)

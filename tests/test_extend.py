@@ -224,6 +224,14 @@ def test_under_the_public_protocol_no_track_starts_from_a_detector_box(tmp_path,
     from sotmot.boxes import iou_matrix
 
     assert iou_matrix(np.array(ghost), tracks.boxes).max() < 0.1
+    # prepared with the check, finished with an "auto" configuration (bench_accuracy's private runs): kept
+    from sotmot.pipeline import finish_sequence, prepare_sequence
+
+    prepared = prepare_sequence(seq, config, embedder=GeometryEmbedder())
+    again = finish_sequence(prepared, config.replace("sot", verify="auto"), embedder=GeometryEmbedder())
+    assert prepared.support.frames_detected > 0
+    np.testing.assert_array_equal(again.tracks.boxes, tracks.boxes)
+    assert prepare_sequence(seq, config.replace("sot", verify="auto"), embedder=GeometryEmbedder()).support is None
 
 
 def test_with_the_detectors_own_boxes_its_weak_boxes_come_from_the_same_pass_and_extend_the_ends(tmp_path,
