@@ -272,9 +272,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     if verify and support is None:  # public, refined: the detector runs on the frames the SOT step visits
         from sotmot.sot.extend import DetectorSupport
 
-        support = (DetectorSupport(detector, sot_config.verify_min_score)
-                   if getattr(detector, "min_score", 1.0) <= sot_config.verify_min_score
-                   else DetectorSupport.from_config(config.detection, sot_config.verify_min_score))
+        support = DetectorSupport.from_config(config.detection, sot_config.verify_min_score, detector)
     if sot:
         embedder = embedder_for(config.appearance, embedder)
         inside: dict[str, float] = {}

@@ -127,9 +127,12 @@ class DetectorSupport:
         return support
 
     @classmethod
-    def from_config(cls, detection: DetectionConfig, min_score: float) -> DetectorSupport:
+    def from_config(cls, detection: DetectionConfig, min_score: float, detector=None) -> DetectorSupport:
         """The detector ``detection`` names, run at the verifier's own low threshold ``min_score`` (its tracking
-        threshold, ``[detection] min_score``, would hide the weak boxes)."""
+        threshold, ``[detection] min_score``, would hide the weak boxes); ``detector``, one already loaded, is
+        used instead when it runs at ``min_score`` or lower."""
+        if detector is not None and getattr(detector, "min_score", 1.0) <= min_score:
+            return cls(detector, min_score)
         from sotmot.detection import make_detector
 
         return cls(make_detector(dataclasses.replace(detection, min_score=min_score)), min_score)
