@@ -276,9 +276,8 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     if sot:
         embedder = embedder_for(config.appearance, embedder)
         inside: dict[str, float] = {}
-        dets, features, links, steps = run_sot(info, dets, features, embedder, config.replace("sot", **{
-            "verify": sot_config.verify, "extend_by": sot_config.extend_by}), progress,
-            detection_confidence(dets.scores, knots), inside, motion, support)
+        dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress,
+                                               detection_confidence(dets.scores, knots), inside, motion, support)
         log.info("%s: SOT added %d boxes (after NMS)", info.name, int(dets.from_sot.sum()))
         clock.lap("sot")
         # the re-ID inside the SOT step (the detections' features too, when it computed them) counts as appearance;
