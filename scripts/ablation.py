@@ -55,7 +55,7 @@ from sotmot.benchmarks import machine, sequences
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import evaluate_files
-from sotmot.io import read_ground_truth, read_seqinfo, results_path, write_results
+from sotmot.io import read_ground_truth, read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, pass_detector, prepare_sequence
 
 ENDS = None  # "+ends" rows: the end extension as configured (the default's, or --config's)
@@ -237,9 +237,10 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(lines))
     print(f"machine: {machine()}")
     if args.json:
-        args.json.write_text(json.dumps({"machine": machine(), "config": base.to_dict(), "private": args.private,
-                                         "detector_model": args.detector_model, "rows": results,
-                                         "combined": combined}, indent=2, default=float) + "\n")
+        write_text_atomic(args.json, json.dumps({"machine": machine(), "config": base.to_dict(),
+                                                 "private": args.private, "detector_model": args.detector_model,
+                                                 "rows": results, "combined": combined}, indent=2, default=float)
+                          + "\n")
     return 0
 
 
