@@ -181,10 +181,12 @@ def test_the_weak_box_baseline_extends_by_the_detector_boxes_alone():
     config = SotConfig(extend_seconds=1.5, verify="detector", extend_by="detections", verify_iou=0.5,
                        extend_supported_affinity=0.5)
     support = DetectorSupport(StubDetector(images, [21, 22, 23, 26]), config.verify_min_score)
-    out = extend_ends(tracks, {1: LOOK}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), config,
-                      support=support)
+    read: list[int] = []
+    out = extend_ends(tracks, {1: LOOK}, lambda f: read.append(f) or images[f], LENGTH, 10.0, GeometryEmbedder(),
+                      config, support=support)
     added = out.subset(out.from_sot)
     assert added.frames.tolist() == [21, 22, 23]  # frame 24 has no box: the end stops there, 26 is never reached
+    assert read == [21, 22, 23, 24]  # only the frames searched: no template, so the end frame 20 is not decoded
     np.testing.assert_allclose(added.boxes, [[walker_x(f) + 2.0, 41.0, 20.0, 40.0] for f in (21, 22, 23)])
 
 

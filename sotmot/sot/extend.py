@@ -175,7 +175,12 @@ class _Finder:
             self._greys[f] = cv2.cvtColor(bgr, cv2.COLOR_BGR2GRAY) if bgr.ndim == 3 else bgr
         return self._greys[f]
 
-    def find(self, template: np.ndarray, frame: int, prior: np.ndarray, identity: np.ndarray,
+    def template(self, frame: int, box: np.ndarray) -> np.ndarray | None:
+        """The template of ``box`` in ``frame``; None for the weak-box search, which uses none (so the frame is
+        not decoded for it)."""
+        return None if self.config.extend_by == "detections" else TemplateSearch.template(self.read_frame(frame), box)
+
+    def find(self, template: np.ndarray | None, frame: int, prior: np.ndarray, identity: np.ndarray,
              track_id: int) -> tuple[np.ndarray | None, float, bool]:
         """The best candidate for ``track_id`` in ``frame`` around ``prior``, its re-ID affinity with ``identity``,
         and whether a detector box supports it.
@@ -279,7 +284,7 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
         for direction in (1, -1):
             start = int(frames[-1] if direction == 1 else frames[0])
             box = boxes[-1 if direction == 1 else 0]
-            template = TemplateSearch.template(read_frame(start), box)
+            template = finder.template(start, box)
             velocity = end_velocity(frames, motion.to_ref(frames, boxes), direction)
             for k in range(1, steps + 1):
                 g = start + direction * k
@@ -343,8 +348,7 @@ def refine_gaps(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
             f = int(tracks.frames[r])
             nearest = int(real[np.argmin(np.abs(tracks.frames[real] - f))])
             if nearest not in templates:
-                templates[nearest] = TemplateSearch.template(read_frame(int(tracks.frames[nearest])),
-                                                             tracks.boxes[nearest])
+                templates[nearest] = finder.template(int(tracks.frames[nearest]), tracks.boxes[nearest])
             found, _, _ = finder.find(templates[nearest], f, tracks.boxes[r], identity, track_id)
             if found is not None:
                 boxes[r], interpolated[r], from_sot[r] = found, False, True
