@@ -10,7 +10,8 @@ Files it reads, each optional (a missing one leaves its section out):
 * ``accuracy_public.json``, ``accuracy_private.json``: ``scripts/bench_accuracy.py`` (without and with
   ``--detector-model``);
 * ``peers_public.json``, ``peers_private.json``: ``peers.json`` of ``scripts/bench_peers.py``;
-* ``speed_public.json``, ``speed_private.json``: ``scripts/bench_speed.py``;
+* ``speed_public.json``, ``speed_public_noflip.json`` (``--no-flip``), ``speed_private.json``:
+  ``scripts/bench_speed.py``;
 * ``long.json``: ``scripts/bench_long.py``;
 * ``motion.json``: ``scripts/bench_motion.py`` (a moving camera, synthetic and real);
 * ``confidence_fit.json``: ``scripts/fit_confidence.py --json`` (the packaged calibration, held out);
@@ -98,23 +99,27 @@ def accuracy_section(title: str, accuracy: dict | None, peers: dict | None, how:
     return [*lines, ""]
 
 
-def speed_section(public: dict | None, private: dict | None) -> list[str]:
-    runs = [(label, data) for label, data in (("public", public), ("private", private)) if data is not None]
+def speed_section(*runs: tuple[str, dict | None]) -> list[str]:
+    """The speed table: ``runs`` are (label, ``bench_speed.py`` JSON or None), the label naming the detections."""
+    runs = tuple((label, data) for label, data in runs if data is not None)
     if not runs:
         return []
     lines = ["## Speed", "", "Frames per second end to end in one process (reading or detecting, re-ID, "
              "tracklets, association, post-processing, confirmation, end extension; models loaded before the "
-             "clock starts), and re-ID detections per second of the appearance stage.", "",
-             "| sequence | detections | frames | fps | re-ID det/s |", "|---|---|---|---|---|"]
+             "clock starts), and re-ID detections per second of the appearance stage. `flip`: each crop is "
+             "embedded with its mirror image and the two averaged (the paper's eq. 1, the default); `--no-flip` "
+             "embeds it once, the documented speed option.", "",
+             "| sequence | detections | re-ID | frames | fps | re-ID det/s |", "|---|---|---|---|---|---|"]
     for label, data in runs:
+        features = "flip" if data["flip"] else "`--no-flip`"
         for name, row in data["rows"].items():
             if row["frames"] <= FULL_LENGTH:
                 continue
             reid = f"{row['reid_per_s']:.0f}" if label == "public" else "–"
-            lines.append(f"| {name} | {label} | {row['frames']} | {row['fps']:.1f} | {reid} |")
+            lines.append(f"| {name} | {label} | {features} | {row['frames']} | {row['fps']:.1f} | {reid} |")
     for label, data in runs:
-        lines.append(f"\n{label}: {data['detections']}; re-ID {data['appearance']} on {data['device']}, flip "
-                     f"{'on' if data['flip'] else 'off'}; machine: {data['machine']}.")
+        lines.append(f"\n{label}, flip {'on' if data['flip'] else 'off'}: {data['detections']}; re-ID "
+                     f"{data['appearance']} on {data['device']}; machine: {data['machine']}.")
     return [*lines, ""]
 
 
@@ -306,7 +311,8 @@ def page() -> str:
                               "MOT16-09, MOT17-09-FRCNN and MOT17-09-SDP are one video: here one run, scored "
                               "against MOT16's and MOT17's ground truth, and counted three times in the combined "
                               "row.")
-    lines += speed_section(load("speed_public.json"), load("speed_private.json"))
+    lines += speed_section(("public", load("speed_public.json")), ("public", load("speed_public_noflip.json")),
+                           ("private", load("speed_private.json")))
     lines += ablation_section(load("ablation_public.json"), load("ablation_private.json"))
     lines += ends_section()
     lines += long_section(load("long.json"))
