@@ -28,7 +28,7 @@ import numpy as np
 
 from sotmot.appearance import affinity_rows, make_embedder, roc_auc
 from sotmot.config import AppearanceConfig, AssociationConfig, TrackletConfig
-from sotmot.io import FrameReader, read_ground_truth, read_seqinfo
+from sotmot.io import FrameReader, read_ground_truth, read_seqinfo, write_text_atomic
 from sotmot.progress import progress_bar
 
 
@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
                             tuple(v.strip() for v in args.variants.split(",") if v.strip())))
     print(format_rows(rows))
     if args.json:
-        args.json.write_text(json.dumps({"machine": f"{platform.node()} {platform.processor()} "
+        write_text_atomic(args.json, json.dumps({"machine": f"{platform.node()} {platform.processor()} "
                                                     f"{platform.system()}", "rows": rows}, indent=2) + "\n")
     return 0
 

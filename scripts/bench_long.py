@@ -32,7 +32,7 @@ import numpy as np
 
 from common import DEFAULT_DATA, ROOT
 from sotmot.benchmarks import machine
-from sotmot.io import read_seqinfo
+from sotmot.io import read_seqinfo, write_text_atomic
 
 #: The issue's targets for the longest MOT16-09 video (8x, 4,200 frames at 1080p).
 TARGETS = {"peak_rss_mb": 1536, "peak_tmp_mb": 100, "exponent": 1.1}
@@ -161,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{r['peak_rss_mb']:.0f} | {r['peak_tmp_mb']:.1f} |")
     print(f"machine: {machine()}")
     if args.json:
-        args.json.write_text(json.dumps({"script": "scripts/bench_long.py", "machine": machine(), "rows": rows,
+        write_text_atomic(args.json, json.dumps({"script": "scripts/bench_long.py", "machine": machine(), "rows": rows,
                                          "growth": growth, "targets": TARGETS}, indent=2) + "\n")
     return 0
 

@@ -70,7 +70,7 @@ from common import DEFAULT_DATA
 from sotmot.benchmarks import machine, private_config, sequences
 from sotmot.config import TrackerConfig
 from sotmot.evaluate import evaluate_files
-from sotmot.io import results_path, write_results
+from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.peers import BOXMOT, BOXMOT_CMC, BOXMOT_ROWS, SeqInput, load, run_boxmot, run_peer
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracks
@@ -287,8 +287,8 @@ def main(argv: list[str] | None = None) -> int:
     text = "\n".join(lines) + "\n"
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "peers.md").write_text(text)
-    (args.out / "peers.json").write_text(json.dumps({
+    write_text_atomic(args.out / "peers.md", text)
+    write_text_atomic(args.out / "peers.json", json.dumps({
         "machine": machine(), "runs": args.runs, "model": str(args.model), "table": table,
         "detections": "private: " + str(args.detector_model) if args.detector_model else "public",
         "seconds": seconds, "reid_seconds": reid, "frames": frames,

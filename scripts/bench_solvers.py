@@ -36,7 +36,7 @@ from sotmot.association import get_solver
 from sotmot.appearance import normalize
 from sotmot.benchmarks import machine
 from sotmot.config import TrackerConfig
-from sotmot.io import read_detections, read_seqinfo
+from sotmot.io import read_detections, read_seqinfo, write_text_atomic
 from sotmot.preprocess import preprocess
 from sotmot.tracklets import build_tracklets
 from sotmot.types import Detections
@@ -137,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"machine: {machine()}")
     print("affinity: appearance-free box-size features (no pixels in MOT16-labels); a solver stress test")
     if args.json:
-        args.json.write_text(json.dumps({"machine": machine(), "rows": rows, "growth_exponent": fits,
+        write_text_atomic(args.json, json.dumps({"machine": machine(), "rows": rows, "growth_exponent": fits,
                                          "note": "appearance-free box-size affinity; not a tracking result"},
                                         indent=2) + "\n")
     return 0

@@ -46,6 +46,7 @@ from sotmot.plugins import BACKENDS
 from common import DEFAULT_DATA
 from sotmot.benchmarks import machine, sequences
 from sotmot.config import TrackerConfig
+from sotmot.io import write_text_atomic
 from sotmot.pipeline import pass_detector, track_sequence
 
 STAGES = ("read", "detect", "preprocess", "appearance", "decode", "motion", "sot", "tracklets", "association",
@@ -137,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"machine: {machine()}; detections: {detections}; sot: {args.sot}; solver: {args.solver}; appearance: "
           f"{config.appearance.backend} on {args.device}, flip {'off' if args.no_flip else 'on'}")
     if args.json:
-        args.json.write_text(json.dumps({"machine": machine(), "sot": args.sot, "solver": args.solver,
+        write_text_atomic(args.json, json.dumps({"machine": machine(), "sot": args.sot, "solver": args.solver,
                                          "appearance": config.appearance.backend, "device": args.device,
                                          "flip": not args.no_flip, "detections": detections,
                                          "rows": rows}, indent=2) + "\n")

@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from sotmot.config import SECTIONS
+from sotmot.io import write_text_atomic
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 TARGET = DOCS / "configuration.md"
@@ -85,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
                 stale = True
         else:
             target.parent.mkdir(exist_ok=True)
-            target.write_text(text)
+            write_text_atomic(target, text)
     return 1 if stale else 0
 
 

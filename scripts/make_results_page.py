@@ -29,6 +29,8 @@ import json
 import sys
 from pathlib import Path
 
+from sotmot.io import write_text_atomic
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
 PAGE = ROOT / "docs" / "results.md"
@@ -354,7 +356,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{path} is stale: run python scripts/make_results_page.py", file=sys.stderr)
         return 1 if stale else 0
     for path in stale:
-        path.write_text(wanted[path])
+        write_text_atomic(path, wanted[path])
         print(f"wrote {path}")
     return 0
 
