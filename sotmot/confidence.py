@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from sotmot.appearance import unit, unit_affinity_rows
+from sotmot.boxes import centers
 from sotmot.errors import ConfigError
 from sotmot.postprocess import Expanded
 from sotmot.types import Detections, Tracklet
@@ -341,6 +342,10 @@ def confidence_knots(method: str, reference: np.ndarray, calibration: Calibratio
 #: no trajectory or in one shorter than ``SELF_SHORT_SECONDS`` as false; those between teach nothing.
 SELF_LONG_SECONDS = 2.0
 SELF_SHORT_SECONDS = 0.5
+#: A long trajectory whose centre stays within this share of its median box height (both ways) stands still: a
+#: person waiting or a fixed object the detector keeps firing on, so it teaches nothing. A walker covers about
+#: 0.8 of their height a second, so even a slow one leaves this spot within :data:`SELF_LONG_SECONDS`.
+SELF_STILL_EXTENT = 0.5
 #: The fewest detections of each kind a ``"self"`` map needs; with fewer the ranks (quantile map) stay.
 SELF_MIN_SAMPLES = 20
 
@@ -349,17 +354,37 @@ def self_labels(n_detections: int, trajectories: Sequence[Tracklet], from_sot: n
                 frame_rate: float) -> np.ndarray:
     """``(N,)`` pseudo-labels of a sequence's detections from its trajectories: 1 true, 0 false, -1 unknown.
 
-    The tracker's own evidence, no ground truth: a person seen for
+    The tracker's own evidence, no ground truth: a person seen walking for
     :data:`SELF_LONG_SECONDS` or more is there; a box that joined no
     trajectory (a lone box) or a trajectory shorter than
-    :data:`SELF_SHORT_SECONDS` is most likely not. SOT boxes are left out.
+    :data:`SELF_SHORT_SECONDS` is most likely not. A long trajectory that
+    never leaves its spot (:data:`SELF_STILL_EXTENT`) teaches nothing: a
+    detector that keeps firing on a fixed object makes one (MOT16-09's DPM:
+    the longest trajectory, 17 s, is a false one that jitters in place), and
+    taking it for a person made the map trust low scores (Brier score against
+    the ground truth 0.133, 0.091 without them; ``docs/calibration.md``).
+    Positions are the trajectories' own (after camera-motion compensation,
+    when the camera moved). SOT boxes are left out.
     """
     labels = np.zeros(n_detections, dtype=np.int64)
     for t in trajectories:
         seconds = (t.end - t.start + 1) / frame_rate
-        labels[t.det_index] = 1 if seconds >= SELF_LONG_SECONDS else (0 if seconds < SELF_SHORT_SECONDS else -1)
+        if seconds >= SELF_LONG_SECONDS:
+            labels[t.det_index] = -1 if stands_still(t.boxes) else 1
+        elif seconds >= SELF_SHORT_SECONDS:
+            labels[t.det_index] = -1
     labels[np.asarray(from_sot, dtype=bool)] = -1
     return labels
+
+
+def stands_still(boxes: np.ndarray) -> bool:
+    """Whether ``(L, 4)`` ``x, y, w, h`` boxes keep their centre within :data:`SELF_STILL_EXTENT` of their median
+    height, horizontally and vertically."""
+    boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    if not len(boxes):
+        return True
+    extent = np.ptp(centers(boxes), axis=0).max()
+    return bool(extent < SELF_STILL_EXTENT * np.median(boxes[:, 3]))
 
 
 def self_knots(scores: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

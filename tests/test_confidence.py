@@ -215,14 +215,19 @@ def test_a_motchallenge_name_says_the_detector_before_the_scores_are_looked_at()
 def test_self_labels_and_map_come_from_the_trajectories_alone():
     from sotmot.confidence import SELF_MIN_SAMPLES, self_knots, self_labels
 
-    # detections 0..29: one person over 3 s at 10 frames/s (strong scores); 30..59: lone boxes (weak scores)
-    long = tk(1, np.arange(1, 31), np.tile([10.0, 10, 20, 40], (30, 1)), det_start=0)
+    # detections 0..29: one person walking for 3 s at 10 frames/s (strong scores); 30..59: lone boxes (weak scores)
+    walking = np.c_[10.0 + 2.0 * np.arange(30), np.tile([10.0, 20, 40], (30, 1))]
+    long = tk(1, np.arange(1, 31), walking, det_start=0)
     short = tk(2, np.array([40, 41]), np.tile([200.0, 10, 20, 40], (2, 1)), det_start=60)
     n = 62
     labels = self_labels(n, [long, short], np.zeros(n, bool), frame_rate=10.0)
     assert (labels[:30] == 1).all() and (labels[30:60] == 0).all() and (labels[60:] == 0).all()
     mid = tk(3, np.arange(1, 11), np.tile([300.0, 10, 20, 40], (10, 1)), det_start=0)  # 1 s: neither
     assert (self_labels(10, [mid], np.zeros(10, bool), 10.0) == -1).all()
+    # 3 s in one spot (the centre within 19 px, under half the 40 px height): a fixed object or someone waiting
+    still = tk(4, np.arange(1, 31), np.c_[300.0 + np.arange(30) % 20, np.tile([10.0, 20, 40], (30, 1))], det_start=0)
+    assert (self_labels(30, [still], np.zeros(30, bool), 10.0) == -1).all()
+    assert (self_labels(30, [tk(5, np.arange(1, 31), walking, det_start=0)], np.zeros(30, bool), 10.0) == 1).all()
     scores = np.r_[np.linspace(0.6, 1.0, 30), np.linspace(0.1, 0.5, 32)]
     xs, ys = self_knots(scores, labels)
     conf = detection_confidence(scores, (xs, ys))
