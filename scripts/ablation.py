@@ -30,7 +30,9 @@ every row); the SOT boxes in the output (Algorithm 1's that survived NMS and
 confirmation, end extensions, refined gap boxes) and their precision against
 the ground truth (IoU >= 0.5 with a considered pedestrian box in that frame),
 in all and split into "gap" boxes (between the first and last other box of
-their track) and "end" boxes.
+their track) and "end" boxes. The JSON also has, per sequence, the boxes
+Algorithm 1 added before association (``sot_boxes``, after its NMS) and its
+extension steps.
 
     python scripts/ablation.py --model ../shared/models/person-reidentification-retail-0288.onnx \
         --detector-model ../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml \
@@ -207,7 +209,9 @@ def main(argv: list[str] | None = None) -> int:
                                            "added": added["all"][0], "added_precision": added["all"][1],
                                            "gap": added["gap"][0], "gap_precision": added["gap"][1],
                                            "end": added["end"][0], "end_precision": added["end"][1],
-                                           "sot_steps": prepared.sot_steps, "stage_seconds": run.timings}
+                                           "sot_steps": prepared.sot_steps,
+                                           "sot_boxes": int(prepared.detections.from_sot.sum()),
+                                           "stage_seconds": run.timings}
                 print(f"{info.name} {row}: {info.length / seconds:.1f} fps, {added['all'][0]} added", file=sys.stderr)
         combined: dict[str, dict] = {}
         for row in rows:
