@@ -38,14 +38,13 @@ import argparse
 import dataclasses
 import itertools
 import json
-import re
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from common import add_fit_arguments, fit_setup
+from common import add_fit_arguments, fit_setup, video_of
 from sotmot.appearance import make_embedder
 from sotmot.benchmarks import cached_features, machine, private_config
 from sotmot.fitting.confidence import box_labels
@@ -56,12 +55,6 @@ from sotmot.pipeline import finish_sequence, prepare_sequence
 
 ROOT = Path(__file__).resolve().parents[1]
 SHOWN = ("HOTA", "MOTA", "IDF1", "FP", "FN", "IDSW")
-
-
-def video_of(name: str) -> str:
-    """The video a sequence shows: MOT16-09 and MOT17-09-FRCNN / -SDP are one video under three detectors."""
-    match = re.match(r"MOT1[67]-(\d+)", name)
-    return f"MOT-{match.group(1)}" if match else name
 
 
 def floats(text: str) -> list[float]:

@@ -272,3 +272,36 @@ def test_ablation_runs_table_3_under_the_private_protocol_and_refuses_checked_ro
     # checked by the detector, Algorithm 1 adds no more boxes than unchecked (each must be supported)
     found = report["rows"]["MOT16-02-clip30"]
     assert 0 < found["SOT(template)+MOT verified"]["sot_boxes"] <= found["SOT(template)+MOT"]["sot_boxes"]
+
+
+def test_loo_ablation_chooses_each_sequences_run_on_the_other_videos(tmp_path):
+    """scripts/loo_ablation.py: a held-out sequence gets the run that did best on the *other* videos (the MOT17-09
+    copies of MOT16-09 are the same video and never choose for it), whatever that run does on it."""
+    import json
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    def row(hota: float) -> dict:
+        return {"HOTA": hota, "MOTA": 50.0, "IDF1": 60.0, "FP": 10.0, "FN": 40.0, "IDSW": 0.0}
+
+    # "a" is better on PETS and TUD, "b" on the MOT-09 video (both copies): the MOT-09 video takes "a", chosen on
+    # PETS and TUD alone (its SDP copy must not vote), and PETS and TUD take "b" (MOT-09 outweighs the other one)
+    hota = {"a": {"MOT16-09": 40, "MOT17-09-SDP": 40, "PETS09-S2L1": 60, "TUD-Stadtmitte": 60},
+            "b": {"MOT16-09": 75, "MOT17-09-SDP": 75, "PETS09-S2L1": 50, "TUD-Stadtmitte": 50}}
+    for run, per_seq in hota.items():
+        rows = {name: {"MOT": row(42.0), "SOT": row(h)} for name, h in per_seq.items()}
+        (tmp_path / f"{run}.json").write_text(json.dumps({"rows": rows}))
+    out = tmp_path / "loo.json"
+    done = subprocess.run([sys.executable, str(ROOT / "scripts" / "loo_ablation.py"), "--rows", "SOT",
+                           str(tmp_path / "a.json"), str(tmp_path / "b.json"), "--json", str(out)],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    chosen = json.loads(out.read_text())["rows"]["SOT"]["sequences"]
+    assert {n: c["run"] for n, c in chosen.items()} == {"MOT16-09": "a", "MOT17-09-SDP": "a", "PETS09-S2L1": "b",
+                                                        "TUD-Stadtmitte": "b"}
+    assert [chosen[n]["HOTA"] for n in chosen] == [40, 40, 50, 50] and chosen["PETS09-S2L1"]["baseline"]["HOTA"] == 42
+    missing = subprocess.run([sys.executable, str(ROOT / "scripts" / "loo_ablation.py"), "--rows", "SOT,other",
+                              str(tmp_path / "a.json")], capture_output=True, text=True, timeout=60)
+    assert missing.returncode == 2 and "a.json lacks" in missing.stderr
