@@ -444,6 +444,10 @@ class AssociationConfig:
     l_max
         Every gap of the merged trajectory must be at most this many frames
         (frame difference between the boxes at the gap's ends; paper: 60).
+        Frames, not seconds: 60 is 2 s at 30 fps but 8.6 s at 7 fps. Set to
+        about 4 s of frames (120 at 30 fps), it re-identified people occluded
+        for 2-4 s and raised HOTA on every full-length sequence held out
+        (docs/benchmarks.md, "The gap limit"); not yet the default.
     velocity_adjacent, velocity_short, velocity_long
         Velocity bound in every gap, as a fraction of the mean width ``w`` of
         the two boxes at the gap's ends: ``w`` for a gap of 1 frame, ``2/3 w``
