@@ -119,8 +119,9 @@ def main(argv: list[str] | None = None) -> int:
             cells = ""
             for m in solvers_asked:
                 solver = get_solver(m)
-                seconds, groups = timed(solver, tracklets, config.association, args.repeat)
-                mb = peak_mb(solver, tracklets, config.association)
+                gaps = config.association.at(info.frame_rate)
+                seconds, groups = timed(solver, tracklets, gaps, args.repeat)
+                mb = peak_mb(solver, tracklets, gaps)
                 row[m] = {"seconds": seconds, "peak_mb": mb, "trajectories": groups}
                 cells += f"{seconds:10.3f}{mb:10.1f}{groups:11d}"
             rows.append(row)

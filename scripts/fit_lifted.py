@@ -74,7 +74,8 @@ def main(argv: list[str] | None = None) -> int:
             features = cached_features(seq_dir, config, args.cache, embedder_box)
             prepared = prepare_sequence(seq_dir, config, features=features)
             identities = tracklet_identities(prepared.tracklets, prepared.info, Path(tmp) / "identities")
-            samples[prepared.info.name] = lifted_pair_samples(prepared.tracklets, identities, config.association)
+            samples[prepared.info.name] = lifted_pair_samples(prepared.tracklets, identities,
+                                                              config.association.at(prepared.info.frame_rate))
             prepared_all.append(prepared)
         learned = {seq: fit_lifted_costs([v for s, v in samples.items() if s != seq]) for seq in samples}
         learned_all = fit_lifted_costs(list(samples.values()))
@@ -89,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
                 write_results(path, run.tracks)
                 files[name].append((path, prepared.info.gt_path, prepared.info.length, seq))
                 rows[seq][name] = {"lifted_obj": lifted_objective(prepared.tracklets, run.association.groups,
-                                                                  config.association),
+                                                                  config.association.at(prepared.info.frame_rate)),
                                    "solver_s": run.timings["association"], **run.association.stats}
             same = int(samples[seq][1].sum())
             print(f"{seq}: {len(prepared.tracklets)} tracklets, {len(samples[seq][1])} labelled pairs ({same} same "

@@ -444,10 +444,14 @@ class AssociationConfig:
     l_max
         Every gap of the merged trajectory must be at most this many frames
         (frame difference between the boxes at the gap's ends; paper: 60).
-        Frames, not seconds: 60 is 2 s at 30 fps but 8.6 s at 7 fps. Set to
-        about 4 s of frames (120 at 30 fps), it re-identified people occluded
-        for 2-4 s and raised HOTA on every full-length sequence held out
-        (docs/benchmarks.md, "The gap limit"); not yet the default.
+        Frames, not seconds: 60 is 2 s at 30 fps but 8.6 s at 7 fps (see
+        ``l_max_seconds``).
+    l_max_seconds
+        When given, the gap limit in seconds at each sequence's frame rate
+        (``round(l_max_seconds * frameRate)`` frames), and ``l_max`` is
+        ignored. 4 s re-identified people occluded for 2-4 s and raised HOTA
+        on every full-length sequence held out (docs/benchmarks.md, "The gap
+        limit"); not yet the default, which keeps the paper's frames.
     velocity_adjacent, velocity_short, velocity_long
         Velocity bound in every gap, as a fraction of the mean width ``w`` of
         the two boxes at the gap's ends: ``w`` for a gap of 1 frame, ``2/3 w``
@@ -513,6 +517,7 @@ class AssociationConfig:
 
     tau_iou: float = 0.5
     l_max: int = 60
+    l_max_seconds: float | None = None
     velocity_adjacent: float = 1.0
     velocity_short: float = 2.0 / 3.0
     velocity_long: float = 1.0 / 3.0
@@ -532,6 +537,8 @@ class AssociationConfig:
     def __post_init__(self) -> None:
         _check(0.0 <= self.tau_iou < 1.0, "association", "tau_iou must be in [0, 1)")
         _check(1 <= self.l_max <= 1_000_000, "association", "l_max must be between 1 and 1,000,000 frames")
+        _check(self.l_max_seconds is None or 0 < self.l_max_seconds <= 36_000, "association",
+               "l_max_seconds must be in (0, 36000] (or absent to count l_max in frames)")
         for name in ("velocity_adjacent", "velocity_short", "velocity_long"):
             _check(0 < getattr(self, name) <= 10, "association", f"{name} must be in (0, 10] widths per frame")
         _check(2 <= self.short_gap <= 1_000_000, "association", "short_gap must be between 2 and 1,000,000 frames")
@@ -552,6 +559,13 @@ class AssociationConfig:
         _check(1 <= self.lifted_workers <= 64, "association", "lifted_workers must be between 1 and 64")
         _check(self.solver in SOLVERS, "association",
                f"solver must be one of {', '.join(sorted(SOLVERS))}; got {self.solver!r}")
+
+    def at(self, frame_rate: float | None) -> AssociationConfig:
+        """This configuration for a sequence of ``frame_rate`` frames per second: ``l_max`` in frames from
+        ``l_max_seconds`` when that is given (at least 1), else unchanged (also without a frame rate)."""
+        if self.l_max_seconds is None or not frame_rate:
+            return self
+        return dataclasses.replace(self, l_max=max(1, int(round(self.l_max_seconds * frame_rate))))
 
 
 @dataclass(frozen=True)

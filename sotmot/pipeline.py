@@ -162,10 +162,12 @@ class TrackResult:
         return {i: t.feature for t, i in zip(self.trajectories, self.track_ids) if i is not None}
 
 
-def associate(tracklets: list[Tracklet], config: TrackerConfig) -> tuple[Association, list[Tracklet]]:
-    """Run the solver ``[association] solver`` names and merge each group into one trajectory."""
+def associate(tracklets: list[Tracklet], config: TrackerConfig,
+              frame_rate: float | None = None) -> tuple[Association, list[Tracklet]]:
+    """Run the solver ``[association] solver`` names and merge each group into one trajectory; ``frame_rate``
+    turns ``[association] l_max_seconds`` into frames (:meth:`~sotmot.config.AssociationConfig.at`)."""
     solver = get_solver(config.association.solver)
-    association = solver(tuple(tracklets), config.association)
+    association = solver(tuple(tracklets), config.association.at(frame_rate))
     by_id = {t.id: t for t in tracklets}
     trajectories = [merge_group([by_id[i] for i in group], new_id=k)
                     for k, group in enumerate(association.groups, 1)]
@@ -314,7 +316,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
     (built from ``config.appearance`` when needed and omitted)."""
     timings = dict(prepared.timings)
     clock = _Clock(timings)
-    association, trajectories = associate(prepared.tracklets, config)
+    association, trajectories = associate(prepared.tracklets, config, prepared.info.frame_rate)
     clock.lap("association")
     if prepared.confidence_method == "self":  # the map from what association made of this very sequence
         prepared = with_self_confidence(prepared, trajectories)

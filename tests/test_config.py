@@ -83,3 +83,11 @@ def test_sot_auto_checks_with_the_detector_only_when_its_boxes_are_tracked():
     assert asked.resolved(False) == asked
     with pytest.raises(ConfigError, match="needs verify"):
         SotConfig(verify="none", extend_by="detections")
+
+
+def test_the_gap_limit_in_seconds_is_checked_and_read_from_a_file(tmp_path):
+    path = tmp_path / "gap.toml"
+    path.write_text("[association]\nl_max_seconds = 4\n")
+    assert load_config(path).association.l_max_seconds == 4.0
+    with pytest.raises(ConfigError, match="l_max_seconds must be in"):
+        TrackerConfig().replace("association", l_max_seconds=0.0)

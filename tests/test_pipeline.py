@@ -84,3 +84,28 @@ def test_a_frame_missing_while_embedding_is_the_reader_s_error(tmp_path):
     good = embed_detections(info, dets.subset([0, 1, 3]), GeometryEmbedder(), timings=timings)
     assert good.shape == (3, GeometryEmbedder().dim)
     assert timings["decode"] > 0  # the reading time, measured in the decoding thread
+
+
+def test_the_gap_limit_in_seconds_follows_the_frame_rate(tmp_path):
+    """[association] l_max_seconds: the longest gap association bridges, in seconds at the sequence's frame rate
+    (l_max counts frames). One person, unseen for 3 s (30 frames at 10 fps): the paper's 60 frames bridge it, 2 s
+    does not, 4 s does; explain names the limit in frames that the run used."""
+    import numpy as np
+
+    from sotmot.inspect.explain import explain, inspection_graph
+
+    seen = [*range(1, 21), *range(51, 71)]
+    seq = write_sequence(tmp_path, [f"{f},-1,{10 + 3 * f},40,20,40,0.9" for f in seen], length=70, frame_rate=10,
+                         width=320, height=120)
+    base = TrackerConfig().replace("confirm", enabled=False).replace("sot", extend_seconds=0.0)
+    tracks = {}
+    for label, seconds in (("frames", None), ("2 s", 2.0), ("4 s", 4.0)):
+        config = base.replace("association", l_max_seconds=seconds)
+        result = track_sequence(seq, config, embedder=GeometryEmbedder())
+        tracks[label] = result.tracks.n_tracks
+        if label == "2 s":
+            ids = np.unique(result.tracks.ids).tolist()
+            assert "more than l_max = 20 frames apart" in explain(inspection_graph(result, config), *ids, config)
+    assert tracks == {"frames": 1, "2 s": 2, "4 s": 1}
+    assert base.association.at(10.0) is base.association  # without l_max_seconds: frames, as given
+    assert base.replace("association", l_max_seconds=4.0).association.at(7.0).l_max == 28

@@ -13,6 +13,7 @@ into one trajectory, as ``a->b:+w`` joined by ``;``.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Sequence
@@ -21,7 +22,7 @@ from pathlib import Path
 import networkx as nx
 import numpy as np
 
-from sotmot.config import TrackerConfig
+from sotmot.config import AssociationConfig, TrackerConfig
 from sotmot.association.objective import link_pairs
 from sotmot.association.merge import link_order_key
 from sotmot.association.rules import RULES
@@ -47,7 +48,9 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
     if frames is not None:
         a, b = frames
         tracklets = [t for t in tracklets if t.end >= a and t.start <= b]
-    graph = build_graph(tracklets, config.association, include_rejected=True)
+    gaps = config.association.at(result.info.frame_rate)  # the constraints as the solver saw them
+    graph = build_graph(tracklets, gaps, include_rejected=True)
+    graph.graph["l_max"] = gaps.l_max
     if result.motion is not None and result.motion.moving:  # a still camera's graph stays as it was
         graph.graph["compensated"] = True
     track_of = {}
@@ -66,7 +69,7 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
         for k in range(len(chain) - 1):
             u, v = chain[k].id, chain[k + 1].id
             if graph.has_edge(u, v):
-                pairs = link_pairs(chain, k, config.association)
+                pairs = link_pairs(chain, k, gaps)
                 graph.edges[u, v].update(taken=True, round=rounds.get((u, v), 0),
                                          lifted_gain=float(sum(w for _, _, w in pairs)),
                                          lifted_pairs=";".join(f"{a}->{b}:{w:+.1f}" for a, b, w in pairs))
@@ -137,10 +140,9 @@ def graph_files(graph: nx.DiGraph) -> dict[str, bytes]:
             "graph.json": (json.dumps(nx.node_link_data(clean, edges="edges"), indent=1) + "\n").encode("utf-8")}
 
 
-def _verdict(data: dict, config: TrackerConfig) -> list[str]:
+def _verdict(data: dict, gaps: AssociationConfig) -> list[str]:
     """One line per rule of :data:`~sotmot.association.rules.RULES`: its measurement in words, then ok or FAILS."""
-    return [f"{rule.describe(data, config.association)} -> {'ok' if data[f'ok_{rule.name}'] else 'FAILS'}"
-            for rule in RULES]
+    return [f"{rule.describe(data, gaps)} -> {'ok' if data[f'ok_{rule.name}'] else 'FAILS'}" for rule in RULES]
 
 
 def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig) -> str:
@@ -151,6 +153,8 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
         if not members[track]:
             raise SotmotError(f"track {track} has no tracklet in this graph (wrong id, or outside --frames)")
     out = []
+    # the gap limit the graph was built with (``l_max_seconds`` at the sequence's frame rate)
+    gaps = dataclasses.replace(config.association, l_max=graph.graph.get("l_max", config.association.l_max))
     same = track_a == track_b
     out.append(f"track {track_a}: tracklets {members[track_a]}; track {track_b}: tracklets {members[track_b]}")
     if graph.graph.get("compensated"):
@@ -174,7 +178,7 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
                 if data["taken"] else ("allowed, not taken" if data["allowed"] else
                                        f"REJECTED by {data['failed'].replace(',', ', ')}")
             out.append(f"candidate {x} -> {y}: {state}")
-            out.extend("    " + line for line in _verdict(data, config))
+            out.extend("    " + line for line in _verdict(data, gaps))
             if data.get("lifted_pairs"):
                 shown = data["lifted_pairs"].split(";")
                 out.append(f"    lifted objective: the link joins {len(shown)} scored pair(s) of tracklets, "
@@ -182,7 +186,7 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
                            + (", ..." if len(shown) > 6 else ""))
     if not found:
         out.append(f"no candidate pair between them: their tracklets are more than l_max = "
-                   f"{config.association.l_max} frames apart, so they were never compared")
+                   f"{gaps.l_max} frames apart, so they were never compared")
     verdict = "were merged" if same else "were not merged"
     out.append(f"-> tracks {track_a} and {track_b} {verdict} ({config.association.solver}).")
     return "\n".join(out)
