@@ -144,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
     print(format_rows(rows))
     if args.json:
         write_text_atomic(args.json, json.dumps({"machine": f"{platform.node()} {platform.processor()} "
-                                                    f"{platform.system()}", "rows": rows}, indent=2) + "\n")
+                                                            f"{platform.system()}", "rows": rows}, indent=2) + "\n")
     return 0
 
 

@@ -161,8 +161,9 @@ def main(argv: list[str] | None = None) -> int:
               f"{r['peak_rss_mb']:.0f} | {r['peak_tmp_mb']:.1f} |")
     print(f"machine: {machine()}")
     if args.json:
-        write_text_atomic(args.json, json.dumps({"script": "scripts/bench_long.py", "machine": machine(), "rows": rows,
-                                         "growth": growth, "targets": TARGETS}, indent=2) + "\n")
+        write_text_atomic(args.json, json.dumps({"script": "scripts/bench_long.py", "machine": machine(),
+                                                 "rows": rows, "growth": growth, "targets": TARGETS},
+                                                indent=2) + "\n")
     return 0
 
 

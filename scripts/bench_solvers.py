@@ -139,8 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     print("affinity: appearance-free box-size features (no pixels in MOT16-labels); a solver stress test")
     if args.json:
         write_text_atomic(args.json, json.dumps({"machine": machine(), "rows": rows, "growth_exponent": fits,
-                                         "note": "appearance-free box-size affinity; not a tracking result"},
-                                        indent=2) + "\n")
+                                                 "note": "appearance-free box-size affinity; not a tracking result"},
+                                                indent=2) + "\n")
     return 0
 
 

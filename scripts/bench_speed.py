@@ -139,9 +139,9 @@ def main(argv: list[str] | None = None) -> int:
           f"{config.appearance.backend} on {args.device}, flip {'off' if args.no_flip else 'on'}")
     if args.json:
         write_text_atomic(args.json, json.dumps({"machine": machine(), "sot": args.sot, "solver": args.solver,
-                                         "appearance": config.appearance.backend, "device": args.device,
-                                         "flip": not args.no_flip, "detections": detections,
-                                         "rows": rows}, indent=2) + "\n")
+                                                 "appearance": config.appearance.backend, "device": args.device,
+                                                 "flip": not args.no_flip, "detections": detections,
+                                                 "rows": rows}, indent=2) + "\n")
     return 0
 
 

@@ -51,23 +51,22 @@ def held_out(runs: dict[str, dict], row: str, baseline: str) -> dict:
     """For each sequence, the run chosen on the other videos and its scores; the combined held-out numbers."""
     first = next(iter(runs.values()))
     names = list(first)
-    chosen, totals, base_totals = {}, {"FP": 0.0, "FN": 0.0, "IDSW": 0.0}, {"FP": 0.0, "FN": 0.0, "IDSW": 0.0}
-    gt = 0.0
+    chosen = {}
     for name in names:
         train = [n for n in names if video_of(n) != video_of(name)]
         best = max(runs, key=lambda run: np.mean([runs[run][n][row]["HOTA"] for n in train]))
         scores, base = runs[best][name][row], first[name][baseline]
         chosen[name] = {"run": best, **{k: scores[k] for k in (*SHOWN, "IDSW")},
                         "baseline": {k: base[k] for k in (*SHOWN, "IDSW")}}
-        for key in totals:
-            totals[key] += scores[key]
-            base_totals[key] += base[key]
-        gt += ground_truth_boxes(base)
-    mota = lambda t: 100.0 * (1.0 - sum(t.values()) / gt)  # noqa: E731
+    gt = sum(ground_truth_boxes(c["baseline"]) for c in chosen.values())
+
+    def mota(picked: list[dict]) -> float:
+        return 100.0 * (1.0 - sum(p[k] for p in picked for k in ("FP", "FN", "IDSW")) / gt)
+
     return {"sequences": chosen,
             "mean_HOTA": float(np.mean([c["HOTA"] for c in chosen.values()])),
             "baseline_mean_HOTA": float(np.mean([c["baseline"]["HOTA"] for c in chosen.values()])),
-            "MOTA": mota(totals), "baseline_MOTA": mota(base_totals),
+            "MOTA": mota(list(chosen.values())), "baseline_MOTA": mota([c["baseline"] for c in chosen.values()]),
             "per_run_mean_HOTA": {run: float(np.mean([runs[run][n][row]["HOTA"] for n in names])) for run in runs}}
 
 
