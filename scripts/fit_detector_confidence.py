@@ -93,11 +93,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--det-cache", type=Path, default=ROOT / ".cache" / "detections")
     parser.add_argument("--json", type=Path, help="write every number here")
     parser.add_argument("--write", type=Path, help="add the family fitted on every video to this calibration file")
+    parser.add_argument("--final-entry", type=float,
+                        help="fit the written family at this entry score, one of --min-scores (default: the best "
+                             "mean HOTA on every video); for keeping [detection] min_score where the candidates "
+                             "tie")
     add_confirmation_fit_arguments(parser)
     args = parser.parse_args(argv)
 
     start = time.perf_counter()
     entry = [float(s) for s in args.min_scores.split(",")]
+    if args.final_entry is not None and args.final_entry not in entry:
+        parser.error(f"--final-entry {args.final_entry} is not one of --min-scores {args.min_scores}")
     thresholds = [float(t) for t in args.thresholds.split(",")]
     base_config = (TrackerConfig().replace("appearance", model=args.model)
                    .replace("detection", model=args.detector_model, min_score=entry[0])
@@ -170,13 +176,14 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(lines))
 
     trials = {s: fitted(s, names) for s in entry}
-    best = max(entry, key=lambda s: (trials[s][1], -s))
+    best = max(entry, key=lambda s: (trials[s][1], -s)) if args.final_entry is None else args.final_entry
     final = trials[best][0].calibration
-    print(f"\nfitted on every video: entry score {best:.2f} (mean HOTA "
+    print(f"\nfitted on every video: entry score {best:.2f}{' (--final-entry)' if args.final_entry else ''} (mean HOTA "
           + ", ".join(f"{s:.2f}: {trials[s][1]:.2f}" for s in entry) + f"), threshold {final.thresholds[FAMILY]:.2f}; "
           f"{time.perf_counter() - start:.0f} s; machine: {machine()}")
     report.update({"held_out": held_report.to_dict(), "unconfirmed": unconfirmed.to_dict(),
                    "entry_score_held_out": chosen_entry, "final_entry_score": best,
+                   "final_entry_forced": args.final_entry is not None,
                    "final": {"family": list(map(list, final.families[FAMILY])),
                              "box_model": final.box_models[FAMILY].to_dict(), "threshold": final.thresholds[FAMILY]}})
     if args.write:

@@ -136,7 +136,8 @@ def main(argv: list[str] | None = None) -> int:
         if not d["allowed"]:
             rejected[d["failed"].split(",")[0]] = rejected.get(d["failed"].split(",")[0], 0) + 1
     text += ["## 4. The association graph", "",
-             f"Every pair of tracklets within l_max = {base.association.l_max} frames is a candidate: "
+             f"Every pair of tracklets within l_max = {base.association.at(info.frame_rate).l_max} frames "
+             f"({base.association.l_max_seconds:g} s) is a candidate: "
              f"{graph.number_of_edges()} here. The shared constraint check allows "
              f"{sum(1 for *_, d in graph.edges(data=True) if d['allowed'])}; the rest fail (first failing "
              f"rule): " + ", ".join(f"{k} {v}" for k, v in sorted(rejected.items())) + ".", "",

@@ -86,9 +86,10 @@ class DetectionConfig:
         Boxes the detector scores below this never leave it. Low on purpose:
         confirmation (``[confirm]``) decides which boxes are kept. 0.4 for
         person-detection-0202, fitted leave-one-video-out with its confirmation
-        model (``scripts/fit_detector_confidence.py``: 0.4 in two folds of
-        three, and on all three videos: mean HOTA 65.5 / 65.9 / 64.2 at 0.3 /
-        0.4 / 0.5).
+        model (``scripts/fit_detector_confidence.py``): 0.4 in two folds of
+        three; on all three videos mean HOTA 68.20 / 68.19 / 67.60 at 0.3 /
+        0.4 / 0.5, a tie with 0.3, kept at 0.4 (fewer boxes to embed, and the
+        end extension's weak boxes, those below it, were fitted with 0.4).
     input_height, input_width
         The network's input size in pixels (multiples of 32); 0 keeps the
         frame's aspect ratio at the area of 512 x 672 (448 x 768 for 16:9,
@@ -444,14 +445,16 @@ class AssociationConfig:
     l_max
         Every gap of the merged trajectory must be at most this many frames
         (frame difference between the boxes at the gap's ends; paper: 60).
-        Frames, not seconds: 60 is 2 s at 30 fps but 8.6 s at 7 fps (see
-        ``l_max_seconds``).
+        Used only without ``l_max_seconds``: a configuration (file or
+        :meth:`TrackerConfig.replace`) that sets ``l_max`` and not
+        ``l_max_seconds`` counts the gap in frames, as the paper did.
     l_max_seconds
-        When given, the gap limit in seconds at each sequence's frame rate
-        (``round(l_max_seconds * frameRate)`` frames), and ``l_max`` is
-        ignored. 4 s re-identified people occluded for 2-4 s and raised HOTA
-        on every full-length sequence held out (docs/benchmarks.md, "The gap
-        limit"); not yet the default, which keeps the paper's frames.
+        The gap limit in seconds at each sequence's frame rate
+        (``round(l_max_seconds * frameRate)`` frames; :meth:`at`); ``None``
+        counts ``l_max`` frames. The paper's 60 frames are 2 s at 30 fps but
+        8.6 s at 7 fps. 4 s was chosen leave one video out from 2-6 s and
+        raised held-out HOTA on every full-length sequence (people occluded
+        for 2-4 s re-identified; docs/benchmarks.md, "The gap limit").
     velocity_adjacent, velocity_short, velocity_long
         Velocity bound in every gap, as a fraction of the mean width ``w`` of
         the two boxes at the gap's ends: ``w`` for a gap of 1 frame, ``2/3 w``
@@ -517,7 +520,7 @@ class AssociationConfig:
 
     tau_iou: float = 0.5
     l_max: int = 60
-    l_max_seconds: float | None = None
+    l_max_seconds: float | None = 4.0
     velocity_adjacent: float = 1.0
     velocity_short: float = 2.0 / 3.0
     velocity_long: float = 1.0 / 3.0
@@ -561,11 +564,16 @@ class AssociationConfig:
                f"solver must be one of {', '.join(sorted(SOLVERS))}; got {self.solver!r}")
 
     def at(self, frame_rate: float | None) -> AssociationConfig:
-        """This configuration for a sequence of ``frame_rate`` frames per second: ``l_max`` in frames from
-        ``l_max_seconds`` when that is given (at least 1), else unchanged (also without a frame rate)."""
-        if self.l_max_seconds is None or not frame_rate:
+        """This configuration for a sequence of ``frame_rate`` frames per second, its gap limit in frames:
+        ``l_max`` from ``l_max_seconds`` (at least 1 frame) and ``l_max_seconds`` None, so that a solver
+        may narrow ``l_max`` further. Unchanged without ``l_max_seconds``; without a frame rate, ``l_max``
+        frames."""
+        if self.l_max_seconds is None:
             return self
-        return dataclasses.replace(self, l_max=max(1, int(round(self.l_max_seconds * frame_rate))))
+        if not frame_rate:
+            return dataclasses.replace(self, l_max_seconds=None)
+        return dataclasses.replace(self, l_max=max(1, int(round(self.l_max_seconds * frame_rate))),
+                                   l_max_seconds=None)
 
 
 @dataclass(frozen=True)
@@ -584,16 +592,19 @@ class PostprocessConfig:
         1 keeps everything (the paper drops only tracklets, see ``l_min``).
     interpolate_max_seconds
         Gaps longer than this (in seconds, from the frame rate) are left
-        unfilled; ``None`` fills every gap. 2.0 is the paper's ``l_max`` of 60
-        frames at the 30 fps of most MOT16 sequences: at 7 fps (PETS09-S2L1)
-        ``l_max`` allows 8.6 s gaps, and boxes interpolated over more than 2 s
-        were 30 % correct there (docs/calibration.md).
+        unfilled; ``None`` fills every gap. 4.0 fills every gap the default
+        association bridges (``[association] l_max_seconds``) and no longer
+        one, should ``l_max`` be given in frames (60 frames are 8.6 s at
+        7 fps, where boxes interpolated over more than 2 s were 30 % correct
+        before confirmation: docs/calibration.md). Chosen leave one sequence
+        out from 2, 3 and 4 s with confirmation refitted each time: 4 s
+        was best on every full-length sequence (docs/benchmarks.md).
     """
 
     interpolate: bool = True
     smooth_window: int = 3
     min_length: int = 1
-    interpolate_max_seconds: float | None = 2.0
+    interpolate_max_seconds: float | None = 4.0
 
     def __post_init__(self) -> None:
         _check(0 <= self.smooth_window <= 1000, "postprocess", "smooth_window must be between 0 and 1000")
@@ -697,8 +708,10 @@ class TrackerConfig:
         """A copy with some fields of one section changed (validated)."""
         if section not in SECTIONS:
             raise ConfigError(f"unknown section {section!r}; valid: {', '.join(SECTIONS)}")
-        return dataclasses.replace(self, **{section: _build(section, {
-            **dataclasses.asdict(getattr(self, section)), **changes})})
+        current = dataclasses.asdict(getattr(self, section))
+        if section == "association" and "l_max" in changes and "l_max_seconds" not in changes:
+            current["l_max_seconds"] = None  # a gap given in frames is counted in frames
+        return dataclasses.replace(self, **{section: _build(section, {**current, **changes})})
 
 
 SECTIONS: dict[str, type] = {
@@ -758,6 +771,8 @@ def _build(section: str, values: dict[str, Any]) -> Any:
     unknown = sorted(set(values) - set(names))
     if unknown:
         raise ConfigError(f"[{section}] unknown key(s) {', '.join(unknown)}; valid keys: {', '.join(names)}")
+    if section == "association" and "l_max" in values and "l_max_seconds" not in values:
+        values = {**values, "l_max_seconds": None}  # a gap given in frames is counted in frames
     return cls(**{k: _coerce(section, k, hints[k], v) for k, v in values.items()})
 
 

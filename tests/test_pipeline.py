@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import GeometryEmbedder, write_sequence
-from sotmot.config import PreprocessConfig, TrackerConfig
+from sotmot.config import PreprocessConfig, TrackerConfig, config_from_dict
 from sotmot.io import format_results, read_detections
 from sotmot.pipeline import track_sequence
 from sotmot.preprocess import preprocess
@@ -107,5 +107,12 @@ def test_the_gap_limit_in_seconds_follows_the_frame_rate(tmp_path):
             ids = np.unique(result.tracks.ids).tolist()
             assert "more than l_max = 20 frames apart" in explain(inspection_graph(result, config), *ids, config)
     assert tracks == {"frames": 1, "2 s": 2, "4 s": 1}
-    assert base.association.at(10.0) is base.association  # without l_max_seconds: frames, as given
-    assert base.replace("association", l_max_seconds=4.0).association.at(7.0).l_max == 28
+    assert base.association.l_max_seconds == 4.0  # the default counts seconds
+    resolved = base.association.at(7.0)
+    assert (resolved.l_max, resolved.l_max_seconds) == (28, None)  # in frames, so a solver may narrow it
+    frames = base.replace("association", l_max=45).association  # a gap given in frames alone counts frames
+    assert frames.l_max_seconds is None and frames.at(10.0) is frames and frames.at(7.0).l_max == 45
+    both = base.replace("association", l_max=45, l_max_seconds=3.0).association  # both given: seconds win
+    assert both.at(10.0).l_max == 30
+    assert config_from_dict({"association": {"l_max": 45}}).association.at(30.0).l_max == 45
+    assert config_from_dict({"association": {"min_affinity": 0.5}}).association.at(30.0).l_max == 120
