@@ -167,8 +167,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--shuffle-check", action="store_true",
                         help="also run each boxmot tracker with its embeddings permuted across the sequence's "
                              "detections (rows '... shuffled'): if they are used, scores must drop")
+    parser.add_argument("--keep", type=Path, metavar="PEERS.json",
+                        help="an earlier peers.json of the same sequences and detections: its peer rows for the "
+                             "trackers not run now are kept (sotmot's are not: they depend on its defaults), so "
+                             "that sotmot alone can be rerun after a change of its own; the JSON says which rows "
+                             "came from where")
     args = parser.parse_args(argv)
     trackers = [t.strip() for t in args.trackers.split(",") if t.strip()]
+    kept = json.loads(args.keep.read_text(encoding="utf-8")) if args.keep else None
     unknown = [t for t in trackers if t not in SOTMOT and t not in PEERS]
     if unknown:
         parser.error(f"unknown trackers {unknown}; choose from {[*SOTMOT, *PEERS]}")
@@ -252,10 +258,30 @@ def main(argv: list[str] | None = None) -> int:
                 table[tracker][group]["e2e fps"] = sum(frames[n] for n in names) / sum(
                     med[n] + reid_part[n] for n in names)
 
+    kept_rows = []
+    if kept is not None:
+        def detections(text: str) -> str:  # "public", or the detector model's file name (paths may differ)
+            return Path(text.removeprefix("private: ")).name if text.startswith("private: ") else text
+
+        if detections(kept["detections"]) != detections("private: " + str(args.detector_model)
+                                                         if args.detector_model else "public"):
+            print(f"{args.keep}: made with {kept['detections']} detections, not these", file=sys.stderr)
+            return 1
+        kept_rows = [t for t in kept["table"] if not t.startswith("sotmot") and t not in table]
+        for tracker in kept_rows:
+            missing = set(table[trackers[0]]) - set(kept["table"][tracker])
+            if missing:
+                print(f"{args.keep}: {tracker} has no rows for {sorted(missing)}", file=sys.stderr)
+                return 1
+            table[tracker], seconds[tracker] = kept["table"][tracker], kept["seconds"][tracker]
+        trackers += kept_rows
     rows = [*dict.fromkeys(n for t in trackers for n in table[t])]
     kind = (f"private detections (MOTChallenge's term): {Path(args.detector_model).name}, every tracker the same boxes"
             if args.detector_model else "public detections (each sequence's det/det.txt)")
     lines = [f"Machine: {machine()}; median of {args.runs} runs; re-ID model {Path(args.model).name}; {kind}.", ""]
+    if kept_rows:
+        lines[-1:-1] = [f"Rows of {', '.join(kept_rows)} kept from {args.keep} (machine: {kept['machine']}; median of "
+                        f"{kept['runs']} runs); the others run now."]
     for row in rows:
         lines += [f"**{row}**", "", "| tracker | " + " | ".join(COLUMNS) + " | loop fps | e2e fps |",
                   "|---|" + "---|" * (len(COLUMNS) + 2)]
@@ -294,6 +320,8 @@ def main(argv: list[str] | None = None) -> int:
         "seconds": seconds, "reid_seconds": reid, "frames": frames,
         "preprocessing": "sotmot default: no score threshold, per-frame NMS 0.6 (IoM for DPM scores, IoU otherwise)",
         "peer_scores": "as given when all in [0, 1], else per-sequence rank / count",
+        **({"kept": {"from": str(args.keep), "machine": kept["machine"], "runs": kept["runs"], "rows": kept_rows}}
+           if kept is not None else {}),
     }, indent=2) + "\n")
     bar_chart(args.out / "peers.png", table, trackers)
     return 0
