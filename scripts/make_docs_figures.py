@@ -199,10 +199,11 @@ def main(argv: list[str] | None = None) -> int:
                  f"After association every output box gets a probability of being a true positive from what its "
                  f"trajectory is made of (`sotmot/confidence.py`, fitted as `docs/calibration.md` says). On "
                  f"PETS09-S2L1 the detector's scores became confidences by the `{p.confidence_method}` map; gaps "
-                 f"longer than {base.postprocess.interpolate_max_seconds:g} s ({gap} frames at 7 fps) are no longer "
-                 f"filled ({int(old.tracks.interpolated.sum())} -> {int(r.tracks.interpolated.sum())} interpolated "
-                 f"boxes) and {len(r.dropped)} boxes below the threshold were dropped (`--unconfirmed file` keeps "
-                 f"them in `<name>.low.txt`; each box's probability is in `<name>.flags.csv`):", "",
+                 f"longer than {base.postprocess.interpolate_max_seconds:g} s ({gap} frames at 7 fps) are never "
+                 f"filled, {int(r.tracks.interpolated.sum())} of {int(old.tracks.interpolated.sum())} interpolated "
+                 f"boxes were kept, and {len(r.dropped)} boxes below the threshold were dropped in all "
+                 f"(`--unconfirmed file` keeps them in `<name>.low.txt`; each box's probability is in "
+                 f"`<name>.flags.csv`):", "",
                  "| output | HOTA | MOTA | IDF1 | FP | FN |", "|---|---|---|---|---|---|",
                  *[f"| {k} | {v['HOTA']:.1f} | {v['MOTA']:.1f} | {v['IDF1']:.1f} | {v['FP']:.0f} | {v['FN']:.0f} |"
                    for k, v in scores.items()], "",
