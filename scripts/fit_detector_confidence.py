@@ -178,7 +178,8 @@ def main(argv: list[str] | None = None) -> int:
     trials = {s: fitted(s, names) for s in entry}
     best = max(entry, key=lambda s: (trials[s][1], -s)) if args.final_entry is None else args.final_entry
     final = trials[best][0].calibration
-    print(f"\nfitted on every video: entry score {best:.2f}{' (--final-entry)' if args.final_entry else ''} (mean HOTA "
+    forced = " (--final-entry)" if args.final_entry is not None else ""
+    print(f"\nfitted on every video: entry score {best:.2f}{forced} (mean HOTA "
           + ", ".join(f"{s:.2f}: {trials[s][1]:.2f}" for s in entry) + f"), threshold {final.thresholds[FAMILY]:.2f}; "
           f"{time.perf_counter() - start:.0f} s; machine: {machine()}")
     report.update({"held_out": held_report.to_dict(), "unconfirmed": unconfirmed.to_dict(),

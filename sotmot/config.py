@@ -598,7 +598,7 @@ class PostprocessConfig:
         7 fps, where boxes interpolated over more than 2 s were 30 % correct
         before confirmation: docs/calibration.md). Chosen leave one sequence
         out from 2, 3 and 4 s with confirmation refitted each time: 4 s
-        was best on every full-length sequence (docs/benchmarks.md).
+        had the best HOTA on every full-length sequence (docs/calibration.md).
     """
 
     interpolate: bool = True
