@@ -709,9 +709,8 @@ class TrackerConfig:
         if section not in SECTIONS:
             raise ConfigError(f"unknown section {section!r}; valid: {', '.join(SECTIONS)}")
         current = dataclasses.asdict(getattr(self, section))
-        if section == "association" and "l_max" in changes and "l_max_seconds" not in changes:
-            current["l_max_seconds"] = None  # a gap given in frames is counted in frames
-        return dataclasses.replace(self, **{section: _build(section, {**current, **changes})})
+        return dataclasses.replace(self, **{section: _build(section, {**current, **_in_frames(section, changes),
+                                                                      **changes})})
 
 
 SECTIONS: dict[str, type] = {
@@ -764,6 +763,14 @@ def _coerce(section: str, name: str, hint: Any, value: Any) -> Any:
     return value
 
 
+def _in_frames(section: str, given: dict[str, Any]) -> dict[str, Any]:
+    """What ``given`` (the fields a file or a caller sets) implies beyond itself: a gap limit given as ``l_max``
+    alone is counted in frames, so ``l_max_seconds`` (set by default) is cleared."""
+    if section == "association" and "l_max" in given and "l_max_seconds" not in given:
+        return {"l_max_seconds": None}
+    return {}
+
+
 def _build(section: str, values: dict[str, Any]) -> Any:
     cls = SECTIONS[section]
     hints = typing.get_type_hints(cls)
@@ -771,8 +778,7 @@ def _build(section: str, values: dict[str, Any]) -> Any:
     unknown = sorted(set(values) - set(names))
     if unknown:
         raise ConfigError(f"[{section}] unknown key(s) {', '.join(unknown)}; valid keys: {', '.join(names)}")
-    if section == "association" and "l_max" in values and "l_max_seconds" not in values:
-        values = {**values, "l_max_seconds": None}  # a gap given in frames is counted in frames
+    values = {**values, **_in_frames(section, values)}
     return cls(**{k: _coerce(section, k, hints[k], v) for k, v in values.items()})
 
 

@@ -163,7 +163,7 @@ class TrackResult:
 
 
 def associate(tracklets: list[Tracklet], config: TrackerConfig,
-              frame_rate: float | None = None) -> tuple[Association, list[Tracklet]]:
+              frame_rate: float | None) -> tuple[Association, list[Tracklet]]:
     """Run the solver ``[association] solver`` names and merge each group into one trajectory; ``frame_rate``
     turns ``[association] l_max_seconds`` into frames (:meth:`~sotmot.config.AssociationConfig.at`)."""
     solver = get_solver(config.association.solver)

@@ -154,7 +154,8 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
             raise SotmotError(f"track {track} has no tracklet in this graph (wrong id, or outside --frames)")
     out = []
     # the gap limit the graph was built with (``l_max_seconds`` at the sequence's frame rate)
-    gaps = dataclasses.replace(config.association, l_max=graph.graph.get("l_max", config.association.l_max))
+    gaps = dataclasses.replace(config.association, l_max=graph.graph.get("l_max", config.association.l_max),
+                               l_max_seconds=None)
     same = track_a == track_b
     out.append(f"track {track_a}: tracklets {members[track_a]}; track {track_b}: tracklets {members[track_b]}")
     if graph.graph.get("compensated"):
