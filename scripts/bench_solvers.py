@@ -106,6 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     print("-" * len(head))
     for seq in seqs:
         info = read_seqinfo(seq)
+        gaps = config.association.at(info.frame_rate)
         dets_all = preprocess(read_detections(info.det_path, info.length), config.preprocess)
         steps = [(1.0, t) for t in sorted({1, 2, 5, args.tile})] if args.tile > 1 else [(f, 1) for f in FRACTIONS]
         for fraction, times in steps:
@@ -119,7 +120,6 @@ def main(argv: list[str] | None = None) -> int:
             cells = ""
             for m in solvers_asked:
                 solver = get_solver(m)
-                gaps = config.association.at(info.frame_rate)
                 seconds, groups = timed(solver, tracklets, gaps, args.repeat)
                 mb = peak_mb(solver, tracklets, gaps)
                 row[m] = {"seconds": seconds, "peak_mb": mb, "trajectories": groups}

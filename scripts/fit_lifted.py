@@ -81,6 +81,7 @@ def main(argv: list[str] | None = None) -> int:
         learned_all = fit_lifted_costs(list(samples.values()))
         for prepared in prepared_all:
             seq = prepared.info.name
+            limits = config.association.at(prepared.info.frame_rate)
             rows[seq] = {}
             for name, (solver, cfg) in runs.items():
                 if name == "lifted learned":  # held out: the coefficients fitted without this sequence
@@ -89,8 +90,7 @@ def main(argv: list[str] | None = None) -> int:
                 path = results_path(Path(tmp) / name, seq)
                 write_results(path, run.tracks)
                 files[name].append((path, prepared.info.gt_path, prepared.info.length, seq))
-                rows[seq][name] = {"lifted_obj": lifted_objective(prepared.tracklets, run.association.groups,
-                                                                  config.association.at(prepared.info.frame_rate)),
+                rows[seq][name] = {"lifted_obj": lifted_objective(prepared.tracklets, run.association.groups, limits),
                                    "solver_s": run.timings["association"], **run.association.stats}
             same = int(samples[seq][1].sum())
             print(f"{seq}: {len(prepared.tracklets)} tracklets, {len(samples[seq][1])} labelled pairs ({same} same "

@@ -41,21 +41,6 @@ SHOWN = ("HOTA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 FULL_LENGTH = 100  # frames; shorter sequences are the 30-frame clips
 
 
-#: Results files not rerun since the defaults changed on 2026-12-02: their sections say so (remove a name when
-#: its benchmark is rerun).
-EARLIER: set[str] = set()
-EARLIER_NOTE = ("*Measured with the defaults before 2026-12-02 (association gap of 60 frames instead of 4 s, "
-                "interpolation up to 2 s instead of 4 s, confirmation fitted on those trajectories); not rerun "
-                "since.*")
-
-
-def earlier(section: list[str], *names: str) -> list[str]:
-    """``section`` with :data:`EARLIER_NOTE` under its heading when any of the files ``names`` it shows is stale."""
-    if not section or not EARLIER.intersection(names):
-        return section
-    return [*section[:2], EARLIER_NOTE, "", *section[2:]]
-
-
 def load(name: str) -> dict | None:
     path = RESULTS / name
     return json.loads(path.read_text()) if path.is_file() else None
@@ -356,16 +341,14 @@ def page() -> str:
                               "MOT16-09, MOT17-09-FRCNN and MOT17-09-SDP are one video: here one run, scored "
                               "against MOT16's and MOT17's ground truth, and counted three times in the combined "
                               "row.")
-    speed = ("speed_public.json", "speed_public_noflip.json", "speed_private.json")
-    lines += earlier(speed_section(("public", load(speed[0])), ("public", load(speed[1])), ("private", load(speed[2]))),
-                     *speed)
-    lines += earlier(ablation_section(load("ablation_public.json"), load("ablation_private.json")),
-                     "ablation_public.json", "ablation_private.json")
-    lines += earlier(loo_section(load("ablation_loo_public.json")), "ablation_loo_public.json")
-    lines += earlier(ends_section(), *(f"ends_{p}_{v}.json" for p in ("pub", "priv") for v, _ in ENDS))
-    lines += earlier(long_section(load("long.json")), "long.json")
+    lines += speed_section(("public", load("speed_public.json")), ("public", load("speed_public_noflip.json")),
+                           ("private", load("speed_private.json")))
+    lines += ablation_section(load("ablation_public.json"), load("ablation_private.json"))
+    lines += loo_section(load("ablation_loo_public.json"))
+    lines += ends_section()
+    lines += long_section(load("long.json"))
     lines += confidence_section(load("confidence_fit.json"), load("transfer.json"))
-    lines += earlier(motion_section(load("motion.json")), "motion.json")
+    lines += motion_section(load("motion.json"))
     return "\n".join(lines).rstrip() + "\n"
 
 
