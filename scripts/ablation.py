@@ -13,7 +13,8 @@ extend_seconds`` as configured; every other row extends nothing), verified or
 not, and "+weak ends", the baseline that uses the same weak boxes without SOT
 (ByteTrack's second association at trajectory ends, ``extend_by =
 "detections"``); "+gaps" (interpolated boxes replaced by boxes found in the
-frames, ``[sot] refine_gaps``); every row also "no-interp", without
+frames, ``[sot] refine_gaps``; verified or not) and "+weak gaps" (replaced by
+the detector's boxes alone); every row also "no-interp", without
 interpolation, to see whether SOT boxes only fill gaps that interpolation
 fills anyway.
 
@@ -83,6 +84,11 @@ ROWS = {
     "MOT+ends verified": {"variant": "none", "extend_seconds": ENDS, **CHECKED},
     "MOT+weak ends": {"variant": "none", "extend_seconds": ENDS, "verify": "detector", "extend_by": "detections"},
     "MOT+gaps": {"variant": "none", "refine_gaps": True, **OFF},
+    "MOT+gaps verified": {"variant": "none", "refine_gaps": True, **CHECKED},
+    # interpolated boxes replaced by the detector's boxes alone (the weak-box baseline inside gaps, no SOT)
+    "MOT+weak gaps": {"variant": "none", "refine_gaps": True, "verify": "detector", "extend_by": "detections"},
+    "MOT+weak ends+gaps": {"variant": "none", "extend_seconds": ENDS, "refine_gaps": True, "verify": "detector",
+                           "extend_by": "detections"},
     "MOT+ends+gaps": {"variant": "none", "extend_seconds": ENDS, "refine_gaps": True, **OFF},
     "SOT(deep)+MOT+ends": {"variant": "deep", "rules": "paper", "extend_seconds": ENDS, **OFF},
     "SOT(deep)+MOT confident+ends": {"variant": "deep", "rules": "confident", "extend_seconds": ENDS, **OFF},

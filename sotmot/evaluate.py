@@ -198,6 +198,9 @@ class FrameErrors:
         Frame -> list of ``(tracker_box, tracker_id)``.
     misses
         Frame -> list of ground-truth boxes nobody matched.
+    missed_ids
+        Frame -> the ground-truth identity of each box in ``misses`` (same
+        order; TrackEval's numbering, as in ``identities``).
     identities
         ``(frame, tracker_id)`` -> the ground-truth identity its box is matched
         to (TrackEval's numbering of the sequence's identities, from 0).
@@ -206,6 +209,7 @@ class FrameErrors:
     matched: dict[int, list] = field(default_factory=dict)
     false_positives: dict[int, list] = field(default_factory=dict)
     misses: dict[int, list] = field(default_factory=dict)
+    missed_ids: dict[int, list[int]] = field(default_factory=dict)
     identities: dict[tuple[int, int], int] = field(default_factory=dict)
 
     def totals(self) -> dict[str, int]:
@@ -214,6 +218,37 @@ class FrameErrors:
                 "FP": sum(map(len, self.false_positives.values())),
                 "FN": sum(map(len, self.misses.values())),
                 "IDSW": sum(m[3] for rows in self.matched.values() for m in rows)}
+
+    def miss_positions(self) -> dict[int, list[tuple[str, int]]]:
+        """Where each miss lies in the tracked life of its ground-truth identity (frame -> one entry per box of
+        ``misses``, same order), with ``d`` the distance in frames to the nearest frame where it is matched:
+
+        * ``("gap", d)``: between two frames where the identity is matched to one tracker id: inside a
+          trajectory (interpolation, or SOT inside the gap, could reach it);
+        * ``("link", d)``: between two matched frames of different tracker ids: between two trajectories
+          that association did not join;
+        * ``("end", d)``: before its first or after its last matched frame (only an extension reaches it);
+        * ``("never", -1)``: an identity never matched (it needs a trajectory of its own).
+        """
+        seen: dict[int, dict[int, int]] = {}
+        for (frame, tid), g in self.identities.items():
+            seen.setdefault(g, {})[frame] = tid
+        out: dict[int, list[tuple[str, int]]] = {}
+        for frame, ids in self.missed_ids.items():
+            rows = []
+            for g in ids:
+                if g not in seen:
+                    rows.append(("never", -1))
+                    continue
+                frames = np.array(sorted(seen[g]))
+                distance = int(np.abs(frames - frame).min())
+                if not frames[0] < frame < frames[-1]:
+                    rows.append(("end", distance))
+                    continue
+                before, after = frames[frames < frame][-1], frames[frames > frame][0]
+                rows.append(("gap" if seen[g][before] == seen[g][after] else "link", distance))
+            out[frame] = rows
+        return out
 
 
 def frame_errors(results: str | Path, gt: str | Path, length: int, name: str) -> FrameErrors:
@@ -273,10 +308,12 @@ def frame_errors(results: str | Path, gt: str | Path, length: int, name: str) ->
         previous = now
         taken_gt = {r for r, _ in matched_rows}
         taken_trk = {c for _, c in matched_rows}
-        misses = [gt_boxes[r] for r in range(len(gt_ids)) if r not in taken_gt]
+        missed = [r for r in range(len(gt_ids)) if r not in taken_gt]
+        misses = [gt_boxes[r] for r in missed]
         false = [(trk_boxes[c], trk_ids[c]) for c in range(len(trk_ids)) if c not in taken_trk]
         if misses:
             out.misses[frame] = misses
+            out.missed_ids[frame] = [int(gt_ids[r]) for r in missed]
         if false:
             out.false_positives[frame] = false
     return out

@@ -60,3 +60,24 @@ def test_frame_errors_count_what_trackeval_counts():
     path = tud_campus()
     totals = frame_errors(path / "test.txt", path / "gt.txt", 71, "TUD-Campus").totals()
     assert (totals["FP"], totals["FN"], totals["IDSW"]) == (13, 150, 7)
+
+
+def test_miss_positions_say_gap_end_or_never(tmp_path):
+    # person 1 is matched by track 7 at frames 1 and 4, missed at 2-3 (inside that trajectory), matched by track 8
+    # at frame 6 (missed at 5: between two trajectories) and missed at 7-8 (past its end); person 2 is never
+    # matched, so it needs a trajectory of its own
+    from sotmot.evaluate import frame_errors
+
+    gt = [f"{f},1,10,10,20,40,1,1,1" for f in range(1, 9)] + [f"{f},2,40,5,10,20,1,1,1" for f in (2, 3)]
+    seq = write_sequence(tmp_path, [], length=8, width=64, height=48, gt_lines=gt, images=False)
+    results = tmp_path / "res.txt"
+    results.write_text("".join(f"{f},{t},10,10,20,40,1,-1,-1,-1\n" for f, t in ((1, 7), (4, 7), (6, 8))))
+    errors = frame_errors(results, seq / "gt" / "gt.txt", 8, "SYN")
+    positions = errors.miss_positions()
+    person = {f: dict(zip(errors.missed_ids[f], positions[f])) for f in positions}
+    one = errors.identities[1, 7]
+    two = next(g for g in person[2] if g != one)
+    assert [person[f][one] for f in (2, 3, 5, 7, 8)] == [("gap", 1), ("gap", 1), ("link", 1), ("end", 1),
+                                                          ("end", 2)]
+    assert person[2][two] == person[3][two] == ("never", -1)
+    assert sum(map(len, positions.values())) == errors.totals()["FN"] == 7
