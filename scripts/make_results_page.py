@@ -211,7 +211,6 @@ def ablation_section(public: dict | None, private: dict | None) -> list[str]:
     """The paper's Table 3 under each protocol: combined, then HOTA / MOTA / FN per sequence."""
     if public is None and private is None:
         return []
-    shown = ("HOTA", "MOTA", "MOTP", "IDF1", "FP", "FN", "IDSW")
     lines = ["## The SOT step: the paper's Table 3", "",
              "`scripts/ablation.py`: MOT only; Algorithm 1 (SOT(template), SOT(deep)) as published (`paper`) and "
              "with the confident rules; the same checked by the person detector (`verified`: each SOT box "
@@ -224,12 +223,20 @@ def ablation_section(public: dict | None, private: dict | None) -> list[str]:
              "rows the detector checks are \"public, refined\": tracks still start only from the given "
              "detections. `fps`: the whole pipeline, the first pass over the frames (re-ID; detection too, "
              "private) counted in every row.", ""]
+    return lines + ablation_tables(public, private, "###")
+
+
+def ablation_tables(public: dict | None, private: dict | None, level: str) -> list[str]:
+    """The rows of ``scripts/ablation.py`` runs under each protocol: combined, then HOTA / MOTA / FN per
+    sequence; ``level`` is the heading level of each protocol's title."""
+    shown = ("HOTA", "MOTA", "MOTP", "IDF1", "FP", "FN", "IDSW")
+    lines: list[str] = []
     for label, data in (("Public detections", public), ("Private detections", private)):
         if data is None:
             continue
         combined, names = data["combined"], list(data["rows"])
         refined = " (public, refined)" if label.startswith("Public") else ""
-        lines += [f"### {label}: combined over {', '.join(names)}", "",
+        lines += [f"{level} {label}: combined over {', '.join(names)}", "",
                   "| row | " + " | ".join(shown) + " | added | right | gap | right | end | right | fps |",
                   "|" + "---|" * (len(shown) + 8)]
         for row, v in combined.items():
@@ -247,6 +254,63 @@ def ablation_section(public: dict | None, private: dict | None) -> list[str]:
                 f"{data['rows'][n][row]['FN']:.0f}" for n in names) + " |")
         lines += ["", f"Machine: {data['machine']}.", ""]
     return lines
+
+
+MISS_POSITIONS = (("gap", "inside a trajectory"), ("link", "between two trajectories"),
+                  ("end<=E", "past an end, within `extend_seconds`"), ("end<=L", "past an end, within the gap limit"),
+                  ("end>L", "past an end, further"), ("never", "a person never tracked"))
+MISS_COLUMNS = ("input", "weak", "faint", "none", "placed", "hidden")
+
+
+def misses_section(public: dict | None, private: dict | None) -> list[str]:
+    """Where the misses lie and what the detector saw there (``scripts/miss_analysis.py``)."""
+    if public is None and private is None:
+        return []
+    lines = ["## Where the misses lie", "",
+             "`scripts/miss_analysis.py`: every miss (FN) of the default tracker, placed in its person's tracked "
+             "life and sorted by the evidence in its frame (IoU >= 0.5 with the missed box): `input` a box the "
+             "tracker was given (public: `det/det.txt` at any score), `weak` a person-detection-0202 box scoring "
+             "at least `verify_min_score`, `faint` one scoring at least 0.05, `none` no detector box. `placed`: "
+             "an output box over the miss at IoU 0.3-0.5 (there, misplaced); `hidden`: ground truth under 25 % "
+             "visible (MOT16/17 only). `ceiling`: misses of tracked people (every place but `never`) under an "
+             "`input` or `weak` box, the most that extending or regressing trajectories onto detector boxes "
+             "could recover.", ""]
+    for label, data in (("Public detections", public), ("Private detections", private)):
+        if data is None:
+            continue
+        combined = data["combined"]
+        total = sum(combined[p][e] for p, _ in MISS_POSITIONS for e in ("input", "weak", "faint", "none"))
+        lines += [f"### {label}: combined over {', '.join(data['sequences'])}", "",
+                  "| where | FN | share | " + " | ".join(MISS_COLUMNS) + " |", "|" + "---|" * (len(MISS_COLUMNS) + 3)]
+        for key, name in MISS_POSITIONS:
+            row = combined[key]
+            n = sum(row[e] for e in ("input", "weak", "faint", "none"))
+            lines.append(f"| {name} | {n} | {100 * n / max(total, 1):.0f} % | "
+                         + " | ".join(str(row[c]) for c in MISS_COLUMNS) + " |")
+        lines.append(f"| all | {total} | 100 % | "
+                     + " | ".join(str(sum(combined[p][c] for p, _ in MISS_POSITIONS)) for c in MISS_COLUMNS) + " |")
+        ceilings = [f"{name} {data['ceiling'][name]} of {data['metrics'][name]['FN']:.0f} "
+                    f"({100 * data['ceiling'][name] / max(data['metrics'][name]['FN'], 1):.0f} %)"
+                    for name in data["sequences"]]
+        lines += ["", f"Ceiling: {data['ceiling']['combined']} of {total} misses "
+                  f"({100 * data['ceiling']['combined'] / max(total, 1):.0f} %); per sequence: "
+                  + ", ".join(ceilings) + f". `extend_seconds` {data['extend_seconds']:g} s, gap limit "
+                  f"{data['gap_seconds']:g} s. Machine: {data['machine']}.", ""]
+    return lines
+
+
+def gaps_section(public: dict | None, private: dict | None) -> list[str]:
+    """Interpolated boxes replaced by SOT or by the detector's boxes (``scripts/ablation.py`` gap rows)."""
+    if public is None and private is None:
+        return []
+    lines = ["## Inside gaps: SOT or the detector's boxes over interpolated ones", "",
+             "`scripts/ablation.py --rows \"MOT,MOT+gaps,MOT+gaps verified,MOT+weak gaps,MOT+weak ends,MOT+weak "
+             "ends+gaps\"`: each interpolated box searched for by SOT around itself (`+gaps`, `[sot] refine_gaps`), "
+             "the same checked by the detector (`verified`), or replaced by the detector's box overlapping it at "
+             "IoU >= `verify_iou` alone (`+weak gaps`, no SOT); beside the weak-box ends. Only trajectories' boxes "
+             "that exist are touched, so public rows the detector checks are \"public, refined\". Columns as in "
+             "the Table 3 above.", ""]
+    return lines + ablation_tables(public, private, "###")
 
 
 def motion_section(data: dict | None) -> list[str]:
@@ -345,7 +409,9 @@ def page() -> str:
                            ("private", load("speed_private.json")))
     lines += ablation_section(load("ablation_public.json"), load("ablation_private.json"))
     lines += loo_section(load("ablation_loo_public.json"))
+    lines += gaps_section(load("gaps_public.json"), load("gaps_private.json"))
     lines += ends_section()
+    lines += misses_section(load("misses_public.json"), load("misses_private.json"))
     lines += long_section(load("long.json"))
     lines += confidence_section(load("confidence_fit.json"), load("transfer.json"))
     lines += motion_section(load("motion.json"))

@@ -305,3 +305,23 @@ def test_the_run_record_says_whether_the_detector_checked_the_sot_boxes(tmp_path
     record = run_record(info, private)
     assert record["sot_checks"] == {"verify": "detector", "extend_by": "detections"}
     assert record["detector_model"]["path"] == str(model) and "sot_checks" in IGNORED
+
+
+def test_the_weak_box_baseline_inside_gaps_takes_the_detector_box_over_an_interpolated_one():
+    """[sot] refine_gaps with extend_by = "detections" (the ablation's "+weak gaps"): an interpolated box is
+    replaced by a detector box overlapping it at verify_iou or more, and stays where the detector saw nothing."""
+    from sotmot.sot.extend import DetectorSupport
+
+    images = frames_with_walker()
+    frames = list(range(1, 21))
+    boxes = np.array([[walker_x(f), 40, 20, 40] for f in frames])
+    interpolated = np.isin(frames, [9, 10, 11])
+    boxes[interpolated, 0] -= 3  # interpolation put the box 3 px behind the person (IoU 0.58 with the detector's)
+    tracks = Tracks(frames, [1] * 20, boxes, [0.9] * 20, interpolated=interpolated)
+    config = SotConfig(verify="detector", extend_by="detections", verify_iou=0.5, refine_gaps=True)
+    support = DetectorSupport(StubDetector(images, [9, 10]), config.verify_min_score)  # nothing seen in frame 11
+    out = refine_gaps(tracks, {1: LOOK}, images.__getitem__, GeometryEmbedder(), config, support=support)
+    assert out.from_sot.tolist() == np.isin(frames, [9, 10]).tolist()
+    np.testing.assert_allclose(out.boxes[[8, 9]], [[walker_x(f) + 2.0, 41.0, 20.0, 40.0] for f in (9, 10)])
+    assert out.interpolated.tolist() == np.isin(frames, [11]).tolist()
+    np.testing.assert_array_equal(out.boxes[10], tracks.boxes[10])
