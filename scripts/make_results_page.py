@@ -268,7 +268,8 @@ def misses_section(public: dict | None, private: dict | None) -> list[str]:
         return []
     lines = ["## Where the misses lie", "",
              "`scripts/miss_analysis.py`: every miss (FN) of the default tracker, placed in its person's tracked "
-             "life and sorted by the evidence in its frame (IoU >= 0.5 with the missed box): `input` a box the "
+             "life and sorted by the evidence in its frame (a box at IoU >= 0.5 with the missed one that no other "
+             "person's ground truth overlaps more): `input` a box the "
              "tracker was given (public: `det/det.txt` at any score), `weak` a person-detection-0202 box scoring "
              "at least `verify_min_score`, `faint` one scoring at least 0.05, `none` no detector box. `placed`: "
              "an output box over the miss at IoU 0.3-0.5 (there, misplaced); `hidden`: ground truth under 25 % "

@@ -21,8 +21,9 @@ Where it lies in its person's tracked life (:meth:`FrameErrors.miss_positions`):
 * ``never``: a person no trajectory ever matches; under the public protocol
   only a trajectory started from the given detections may reach them.
 
-What the frame holds there (a box at IoU >= 0.5 with the missed one, the
-first that applies):
+What the frame holds there (a box at IoU >= 0.5 with the missed one that no
+other person's ground truth overlaps more: in a crowd the box of the person in
+front covers the one behind too; the first that applies):
 
 * ``input``: a box the tracker was given (public: ``det/det.txt`` at any
   score; private: the detector's boxes at ``[detection] min_score``): the
@@ -69,7 +70,6 @@ from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_
 from sotmot.io import write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 
-FULL_LENGTH = 100  # frames; shorter sequences are the 30-frame clips
 EVIDENCE = ("input", "weak", "faint", "none")
 POSITIONS = ("gap", "link", "end<=E", "end<=L", "end>L", "never")
 
@@ -88,29 +88,41 @@ def best_overlap(box: np.ndarray, boxes: np.ndarray) -> np.ndarray:
     return iou_matrix(box, boxes)[0] if len(boxes) else np.zeros(0)
 
 
-def classify(errors, tracker_input: dict, detector: dict, visibility: dict, frame_rate: float,
+def covering(box: np.ndarray, boxes: np.ndarray, people: np.ndarray) -> np.ndarray:
+    """Which of ``boxes`` cover the ground-truth ``box``: IoU >= 0.5 with it, and no other person of the frame
+    (``people``, its ground-truth boxes, ``box`` among them) overlaps them more. In a crowd the box of the person
+    in front often overlaps the one behind at 0.5 too; it is evidence for the one in front only."""
+    if not len(boxes):
+        return np.zeros(0, bool)
+    own = iou_matrix(box, boxes)[0]
+    others = people[iou_matrix(box, people)[0] < 1.0 - 1e-9] if len(people) else people
+    rival = iou_matrix(boxes, others).max(axis=1) if len(others) else np.zeros(len(boxes))
+    return (own >= 0.5) & (own >= rival)
+
+
+def classify(errors, tracker_input: dict, detector: dict, people: dict, frame_rate: float,
              extend_seconds: float, gap_seconds: float, weak_score: float) -> dict:
     """Counts of misses per position and evidence, plus ``placed`` and ``hidden`` per position (see the module
-    docstring). ``tracker_input`` and ``detector`` map a frame to (boxes, scores); ``visibility`` maps a frame to
-    (ground-truth boxes, their visible fraction)."""
+    docstring). ``tracker_input`` and ``detector`` map a frame to (boxes, scores); ``people`` maps a frame to
+    (the considered pedestrians' ground-truth boxes, their visible fraction)."""
     counts = {p: {**{e: 0 for e in EVIDENCE}, "placed": 0, "hidden": 0} for p in POSITIONS}
     empty = (np.zeros((0, 4)), np.zeros(0))
     positions = errors.miss_positions()
     for frame, boxes in errors.misses.items():
         placed = np.array([b for b, _ in errors.false_positives.get(frame, [])]).reshape(-1, 4)
+        gt_boxes, visible = people.get(frame, empty)
         for box, (where, distance) in zip(boxes, positions[frame]):
             box = np.asarray(box, dtype=np.float64)
             if where == "end":
                 seconds = distance / frame_rate
                 where = "end<=E" if seconds <= extend_seconds else "end<=L" if seconds <= gap_seconds else "end>L"
-            given = best_overlap(box, tracker_input.get(frame, empty)[0])
             found, scores = detector.get(frame, empty)
-            found_iou = best_overlap(box, found)
-            if len(given) and given.max() >= 0.5:
+            found = covering(box, found, gt_boxes)
+            if covering(box, tracker_input.get(frame, empty)[0], gt_boxes).any():
                 evidence = "input"
-            elif len(found_iou) and (scores[found_iou >= 0.5] >= weak_score).any():
+            elif (scores[found] >= weak_score).any():
                 evidence = "weak"
-            elif len(found_iou) and found_iou.max() >= 0.5:
+            elif found.any():
                 evidence = "faint"
             else:
                 evidence = "none"
@@ -118,7 +130,6 @@ def classify(errors, tracker_input: dict, detector: dict, visibility: dict, fram
             row[evidence] += 1
             near = best_overlap(box, placed)
             row["placed"] += int(len(near) > 0 and near.max() >= 0.3)
-            gt_boxes, visible = visibility.get(frame, empty)
             same = best_overlap(box, gt_boxes)
             row["hidden"] += int(len(same) > 0 and visible[int(np.argmax(same))] < 0.25)
     return counts
@@ -171,17 +182,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--det-cache", type=Path, default=Path(".cache/detections"),
                         help="where the detector's boxes are kept between runs (default: %(default)s)")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
+    parser.add_argument("--min-length", type=int, default=100,
+                        help="only sequences of at least this many frames: the full-length ones (default: "
+                             "%(default)s; 0 takes the 30-frame clips too)")
     parser.add_argument("--json", type=Path, help="write the counts here")
     args = parser.parse_args(argv)
 
     config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
     detector_model = str(Path(args.detector_model).resolve())
     embedder = make_embedder(config.appearance)
-    seqs = [s for s in sequences(args.data, args.sequences) if read_seqinfo(s).length > FULL_LENGTH]
+    seqs = [s for s in sequences(args.data, args.sequences) if read_seqinfo(s).length >= args.min_length]
     if args.private:  # one run per video: the MOT17-09-* sequences repeat MOT16-09's frames
         seqs = [s for s in seqs if not s.name.startswith("MOT17-09-")]
     if not seqs:
-        print(f"no full-length sequences with frames under {args.data}", file=sys.stderr)
+        print(f"no sequences of at least {args.min_length} frames with frames under {args.data}", file=sys.stderr)
         return 1
     faint_config = config.replace("detection", model=detector_model, min_score=args.faint)
     per_sequence: dict[str, dict] = {}
@@ -197,7 +211,7 @@ def main(argv: list[str] | None = None) -> int:
             pairs.append((path, info.gt_path, info.length, info.name))
             given = read_detections(seq_config.detection.file if args.private else info.det_path, info.length)
             found = read_detections(model_detections(seq, faint_config, args.det_cache), info.length)
-            gt = read_ground_truth(info.gt_path, info.length)
+            gt = read_ground_truth(info.gt_path, info.length).pedestrians()
             frame_rate = info.frame_rate
             association = seq_config.association.at(frame_rate)
             per_sequence[info.name] = classify(
