@@ -325,3 +325,27 @@ def test_the_weak_box_baseline_inside_gaps_takes_the_detector_box_over_an_interp
     np.testing.assert_allclose(out.boxes[[8, 9]], [[walker_x(f) + 2.0, 41.0, 20.0, 40.0] for f in (9, 10)])
     assert out.interpolated.tolist() == np.isin(frames, [11]).tolist()
     np.testing.assert_array_equal(out.boxes[10], tracks.boxes[10])
+
+
+def test_a_detector_box_beside_another_trajectory_extends_an_end_where_a_template_box_would_stop():
+    """[sot] extend_supported_stop_iou: a weak detector box overlapping someone else's box at about 0.6 is a person
+    of its own and extends the end; with the template's stop_iou (0.3) the same end stops there."""
+    from sotmot.sot.extend import DetectorSupport
+
+    images = frames_with_walker()
+    walker = [(f, 1, [walker_x(f), 40, 20, 40]) for f in range(1, 21)]
+    beside = [(f, 2, [walker_x(f) + 7.0, 40, 20, 40]) for f in range(21, 25)]  # someone walking just ahead
+    frames, ids, boxes = zip(*(walker + beside))
+    tracks = Tracks(list(frames), list(ids), list(boxes), [0.9] * len(frames))
+    features = {1: LOOK, 2: -LOOK}
+
+    def run(stop: float) -> list[int]:
+        config = SotConfig(extend_seconds=0.4, verify="detector", extend_by="detections",
+                           extend_supported_stop_iou=stop)
+        support = DetectorSupport(StubDetector(images, range(21, 25)), config.verify_min_score)
+        out = extend_ends(tracks, features, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), config,
+                          support=support)
+        return out.frames[out.from_sot & (out.ids == 1)].tolist()
+
+    assert run(0.7) == [21, 22, 23, 24]
+    assert run(0.3) == []

@@ -14,7 +14,8 @@ feature, the paper's seed, the mean was right more often: on MOT17-09-FRCNN
 * no candidate has a template correlation above ``[sot] tau`` and an
   affinity with the trajectory of at least ``extend_min_affinity``;
 * the best candidate overlaps a box of another trajectory (or one already
-  added) at IoU above ``stop_iou``: someone else is there;
+  added) at IoU above ``stop_iou``: someone else is there (a box a detector
+  box supports, a detection of its own, above ``extend_supported_stop_iou``);
 * less than half the candidate lies inside the image (the person leaves);
 * it has grown ``extend_seconds``, or reached the sequence's first or last frame.
 
@@ -190,7 +191,8 @@ class _Finder:
         The box is None when the evidence is not there: no proposal
         correlates above ``tau``, or the best re-ranked one has affinity under
         the gate (:func:`passes_end_gates`), lies less than half inside the
-        image, or overlaps a box of another track at IoU above ``stop_iou``.
+        image, or overlaps a box of another track at IoU above ``stop_iou``
+        (``extend_supported_stop_iou`` for a supported box).
         """
         cfg = self.config
         image = self.read_frame(frame)
@@ -217,7 +219,8 @@ class _Finder:
                 or inside_share(found[None], image.shape[1], image.shape[0])[0] < 0.5:
             return None, affinity, supported
         others = [b for o, b in self.occupied.get(frame, []) if o != track_id]
-        if others and iou_matrix(found, np.stack(others))[0].max() > cfg.stop_iou:
+        stop = cfg.extend_supported_stop_iou if supported else cfg.stop_iou  # a detector box is someone of its own
+        if others and iou_matrix(found, np.stack(others))[0].max() > stop:
             return None, affinity, supported
         return found, affinity, supported
 
