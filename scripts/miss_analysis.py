@@ -72,6 +72,7 @@ from sotmot.pipeline import finish_sequence, prepare_sequence
 
 EVIDENCE = ("input", "weak", "faint", "none")
 POSITIONS = ("gap", "link", "end<=E", "end<=L", "end>L", "never")
+COLUMNS = (*EVIDENCE, "placed", "hidden")
 
 
 def by_frame(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray | None = None) -> dict[int, tuple]:
@@ -83,19 +84,12 @@ def by_frame(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray | None = 
     return out
 
 
-def best_overlap(box: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """IoU of ``box`` with each of ``boxes`` (empty when there are none)."""
-    return iou_matrix(box, boxes)[0] if len(boxes) else np.zeros(0)
-
-
 def covering(box: np.ndarray, boxes: np.ndarray, people: np.ndarray) -> np.ndarray:
     """Which of ``boxes`` cover the ground-truth ``box``: IoU >= 0.5 with it, and no other person of the frame
     (``people``, its ground-truth boxes, ``box`` among them) overlaps them more. In a crowd the box of the person
     in front often overlaps the one behind at 0.5 too; it is evidence for the one in front only."""
-    if not len(boxes):
-        return np.zeros(0, bool)
     own = iou_matrix(box, boxes)[0]
-    others = people[iou_matrix(box, people)[0] < 1.0 - 1e-9] if len(people) else people
+    others = people[iou_matrix(box, people)[0] < 1.0 - 1e-9]
     rival = iou_matrix(boxes, others).max(axis=1) if len(others) else np.zeros(len(boxes))
     return (own >= 0.5) & (own >= rival)
 
@@ -105,7 +99,7 @@ def classify(errors, tracker_input: dict, detector: dict, people: dict, frame_ra
     """Counts of misses per position and evidence, plus ``placed`` and ``hidden`` per position (see the module
     docstring). ``tracker_input`` and ``detector`` map a frame to (boxes, scores); ``people`` maps a frame to
     (the considered pedestrians' ground-truth boxes, their visible fraction)."""
-    counts = {p: {**{e: 0 for e in EVIDENCE}, "placed": 0, "hidden": 0} for p in POSITIONS}
+    counts = {p: dict.fromkeys(COLUMNS, 0) for p in POSITIONS}
     empty = (np.zeros((0, 4)), np.zeros(0))
     positions = errors.miss_positions()
     for frame, boxes in errors.misses.items():
@@ -117,22 +111,26 @@ def classify(errors, tracker_input: dict, detector: dict, people: dict, frame_ra
                 seconds = distance / frame_rate
                 where = "end<=E" if seconds <= extend_seconds else "end<=L" if seconds <= gap_seconds else "end>L"
             found, scores = detector.get(frame, empty)
-            found = covering(box, found, gt_boxes)
+            mine = covering(box, found, gt_boxes)
             if covering(box, tracker_input.get(frame, empty)[0], gt_boxes).any():
                 evidence = "input"
-            elif (scores[found] >= weak_score).any():
+            elif (scores[mine] >= weak_score).any():
                 evidence = "weak"
-            elif found.any():
+            elif mine.any():
                 evidence = "faint"
             else:
                 evidence = "none"
             row = counts[where]
             row[evidence] += 1
-            near = best_overlap(box, placed)
-            row["placed"] += int(len(near) > 0 and near.max() >= 0.3)
-            same = best_overlap(box, gt_boxes)
+            row["placed"] += int((iou_matrix(box, placed)[0] >= 0.3).any())
+            same = iou_matrix(box, gt_boxes)[0]
             row["hidden"] += int(len(same) > 0 and visible[int(np.argmax(same))] < 0.25)
     return counts
+
+
+def missed(row: dict) -> int:
+    """The misses one position holds (each has one evidence class)."""
+    return sum(row[e] for e in EVIDENCE)
 
 
 def reachable(counts: dict) -> int:
@@ -142,7 +140,7 @@ def reachable(counts: dict) -> int:
 
 def combine(per_sequence: dict[str, dict]) -> dict:
     """Cell-wise sum of :func:`classify` counts."""
-    out = {p: {k: 0 for k in (*EVIDENCE, "placed", "hidden")} for p in POSITIONS}
+    out = {p: dict.fromkeys(COLUMNS, 0) for p in POSITIONS}
     for counts in per_sequence.values():
         for p in POSITIONS:
             for k in out[p]:
@@ -152,16 +150,16 @@ def combine(per_sequence: dict[str, dict]) -> dict:
 
 def table(counts: dict, extend_seconds: float, gap_seconds: float) -> list[str]:
     """The position x evidence table of one set of counts."""
-    total = sum(counts[p][e] for p in POSITIONS for e in EVIDENCE)
-    head = f"{'position':<14}{'FN':>7}{'share':>8}" + "".join(f"{k:>8}" for k in (*EVIDENCE, "placed", "hidden"))
+    total = sum(missed(counts[p]) for p in POSITIONS)
+    head = f"{'position':<14}{'FN':>7}{'share':>8}" + "".join(f"{k:>8}" for k in COLUMNS)
     lines = [head, "-" * len(head)]
     names = {"end<=E": f"end<={extend_seconds:g}s", "end<=L": f"end<={gap_seconds:g}s", "end>L": f"end>{gap_seconds:g}s"}
     for p in POSITIONS:
-        n = sum(counts[p][e] for e in EVIDENCE)
+        n = missed(counts[p])
         lines.append(f"{names.get(p, p):<14}{n:>7}{100 * n / max(total, 1):>7.1f}%"
-                     + "".join(f"{counts[p][k]:>8}" for k in (*EVIDENCE, "placed", "hidden")))
+                     + "".join(f"{counts[p][k]:>8}" for k in COLUMNS))
     lines.append(f"{'all':<14}{total:>7}{100.0 if total else 0:>7.1f}%"
-                 + "".join(f"{sum(counts[p][k] for p in POSITIONS):>8}" for k in (*EVIDENCE, "placed", "hidden")))
+                 + "".join(f"{sum(counts[p][k] for p in POSITIONS):>8}" for k in COLUMNS))
     lines.append(f"ceiling for SOT checked by the detector (misses of tracked people under an input or weak box): "
                  f"{reachable(counts)} of {total} FN ({100 * reachable(counts) / max(total, 1):.1f} %)")
     return lines
@@ -219,8 +217,7 @@ def main(argv: list[str] | None = None) -> int:
                 by_frame(given.frames, given.boxes, given.scores), by_frame(found.frames, found.boxes, found.scores),
                 by_frame(gt.frames, gt.boxes, gt.visibility), frame_rate, seq_config.sot.extend_seconds,
                 association.l_max / frame_rate, seq_config.sot.verify_min_score)
-            print(f"{info.name}: {sum(per_sequence[info.name][p][e] for p in POSITIONS for e in EVIDENCE)} misses",
-                  file=sys.stderr)
+            print(f"{info.name}: {sum(missed(per_sequence[info.name][p]) for p in POSITIONS)} misses", file=sys.stderr)
         report = evaluate_files(pairs)
     extend_seconds = config.sot.extend_seconds
     gap_seconds = config.association.l_max_seconds or float("nan")

@@ -233,6 +233,7 @@ class FrameErrors:
         seen: dict[int, dict[int, int]] = {}
         for (frame, tid), g in self.identities.items():
             seen.setdefault(g, {})[frame] = tid
+        matched = {g: np.array(sorted(frames)) for g, frames in seen.items()}
         out: dict[int, list[tuple[str, int]]] = {}
         for frame, ids in self.missed_ids.items():
             rows = []
@@ -240,7 +241,7 @@ class FrameErrors:
                 if g not in seen:
                     rows.append(("never", -1))
                     continue
-                frames = np.array(sorted(seen[g]))
+                frames = matched[g]
                 distance = int(np.abs(frames - frame).min())
                 if not frames[0] < frame < frames[-1]:
                     rows.append(("end", distance))
