@@ -36,7 +36,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from sotmot.association.base import Association, Link
-from sotmot.appearance import pair_affinities, unit
+from sotmot.appearance import unit
+from sotmot.association.affinity import link_affinities
 from sotmot.config import AssociationConfig
 from sotmot.association.checks import candidate_pairs, check_pairs
 from sotmot.association.merge import merge
@@ -156,7 +157,7 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
         # the orientation makes ties in box score independent of the input order
         lead = first_member[pairs[:, 0]] > first_member[pairs[:, 1]]
         pairs = np.where(lead[:, None], pairs[:, ::-1], pairs)
-        aff = pair_affinities(features, pairs)
+        aff = link_affinities(nodes, pairs, features)
         keep = passes_affinity_gate(aff, config)
         return pairs[keep], aff[keep], first_member[pairs[keep]]
 

@@ -19,7 +19,7 @@ import numpy as np
 from sotmot.appearance import resolve_backend
 from sotmot.config import TrackerConfig
 from sotmot.errors import InputError
-from sotmot.io import atomic_path, read_detections, read_seqinfo
+from sotmot.io import atomic_path, read_detections, read_seqinfo, write_text_atomic
 
 def machine() -> str:
     """One line: CPU model, logical CPUs, OS and Python version (benchmarks report what they ran on)."""
@@ -148,3 +148,63 @@ def fit_sequences(data: Path, min_length: int, only: str = "") -> list[Path]:
         raise InputError(data, f"a leave-one-sequence-out fit needs at least two sequences of >= {min_length} "
                                f"frames here, found {len(found)}")
     return found
+
+
+def _every_nth_lines(text: str, step: int) -> str:
+    """The MOTChallenge rows (``frame, ...``) of frames ``1, 1 + step, 1 + 2 step, ...``, renumbered ``1, 2, 3, ...``."""
+    out = []
+    for line in text.splitlines():
+        head, sep, rest = line.partition(",")
+        if not sep:
+            continue
+        frame = int(float(head))
+        if (frame - 1) % step == 0:
+            out.append(f"{(frame - 1) // step + 1}{sep}{rest}")
+    return "\n".join(out) + ("\n" if out else "")
+
+
+def subsampled_name(name: str, step: int) -> str:
+    """The name of ``name`` at every ``step``-th frame: ``MOT16-09`` -> ``MOT16-09-every2``; a MOTChallenge
+    detector suffix stays last (``MOT17-09-SDP`` -> ``MOT17-09-every2-SDP``), so the family is still named."""
+    from sotmot.confidence import family_from_name
+
+    if family_from_name(name) is not None:
+        stem, suffix = name.rsplit("-", 1)
+        return f"{stem}-every{step}-{suffix}"
+    return f"{name}-every{step}"
+
+
+def subsampled_sequence(seq: Path, step: int, root: Path) -> Path:
+    """``seq`` at every ``step``-th frame (frames 1, 1 + step, ...), a lower frame rate of the same video.
+
+    Made once under ``root`` (a MOTChallenge folder named by
+    :func:`subsampled_name`): ``seqinfo.ini`` with ``frameRate / step`` and the
+    new length, ``det/det.txt`` and ``gt/gt.txt`` with the kept frames
+    renumbered from 1, and ``img1/`` holding links to the original JPEGs.
+    Folders under ``root`` are written by this function only; a complete one
+    (its ``seqinfo.ini`` is written last) is reused.
+    """
+    import configparser
+
+    info = read_seqinfo(seq)
+    out = root / subsampled_name(info.name, step)
+    if (out / "seqinfo.ini").is_file():
+        return out
+    length = (info.length - 1) // step + 1
+    (out / "img1").mkdir(parents=True, exist_ok=True)
+    for new in range(1, length + 1):
+        link = out / "img1" / f"{new:06d}{info.im_ext}"
+        if not link.is_symlink():
+            link.symlink_to(info.frame_path((new - 1) * step + 1).resolve())
+    for sub, path in (("det", info.det_path), ("gt", info.gt_path)):
+        (out / sub).mkdir(exist_ok=True)
+        write_text_atomic(out / sub / path.name, _every_nth_lines(path.read_text(encoding="utf-8-sig"), step))
+    parser = configparser.ConfigParser(interpolation=None)
+    parser.optionxform = str
+    parser["Sequence"] = {"name": out.name, "imDir": "img1", "frameRate": f"{info.frame_rate / step:g}",
+                          "seqLength": str(length), "imWidth": str(info.width), "imHeight": str(info.height),
+                          "imExt": info.im_ext}
+    with atomic_path(out / "seqinfo.ini") as tmp:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            parser.write(fh)
+    return out

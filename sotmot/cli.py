@@ -99,7 +99,9 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--appearance", choices=["auto", *sorted(BACKENDS)],
                    help="run the re-ID model with openvino (about twice as fast on CPUs, the same tracking scores; "
                         "the openvino extra), onnxruntime (onnx) or torch (the torch extra); auto = openvino where "
-                        "it is installed and the device is the CPU, else onnx (default: auto)")
+                        "it is installed and the device is the CPU, else onnx (default: auto); none = no re-ID, "
+                        "motion only: tracklets by IoU, links by motion agreement, no model, no frames read for "
+                        "appearance")
     p.add_argument("--no-flip", action="store_true",
                    help="embed each box's crop once instead of averaging it with its mirror image ([appearance] "
                         "flip = false): half the re-ID work, pair AUC within 0.001 on PETS09-S2L1 and MOT16-09")

@@ -36,6 +36,7 @@ Boxes are ``x, y, w, h`` pixels, frames 1-based.
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
@@ -188,8 +189,9 @@ class BoxModel:
     intercept: float
 
     def predict(self, x: np.ndarray) -> np.ndarray:
-        """Probabilities ``(N,)`` for a feature matrix ``(N, len(FEATURES))``."""
-        z = (np.asarray(x, dtype=np.float64) - np.asarray(self.mean)) / np.asarray(self.scale)
+        """Probabilities ``(N,)`` for a feature matrix ``(N, len(FEATURES))``; a feature that could not be
+        measured (NaN: ``track_appearance`` without re-ID) counts as its training mean."""
+        z = np.nan_to_num((np.asarray(x, dtype=np.float64) - np.asarray(self.mean)) / np.asarray(self.scale), nan=0.0)
         return 1.0 / (1.0 + np.exp(-(z @ np.asarray(self.coef) + self.intercept)))
 
     @classmethod
@@ -435,8 +437,10 @@ def box_features(trajectory: Tracklet, expanded: Expanded, confidence: np.ndarra
         det = idx
     conf = confidence[det]
     top = np.quantile(conf, TOP_QUANTILE)
-    mean_unit = unit(features[det].mean(axis=0))
-    consistency = float(unit_affinity_rows(unit(features[det]), np.repeat(mean_unit, len(det), axis=0)).mean())
+    consistency = math.nan  # no re-ID (motion only): not measured
+    if features.shape[1]:
+        mean_unit = unit(features[det].mean(axis=0))
+        consistency = float(unit_affinity_rows(unit(features[det]), np.repeat(mean_unit, len(det), axis=0)).mean())
     span = trajectory.end - trajectory.start + 1
     brevity = max(0.0, float(np.log(SHORT_SECONDS * frame_rate / span)))
     track = [float(logit(conf).mean()), float(logit(top).mean()), 1.0 - len(trajectory) / span, consistency, brevity]

@@ -184,7 +184,16 @@ class AppearanceConfig:
         ``"openvino"``: the same ONNX file (or an OpenVINO IR ``.xml``) run by
         the OpenVINO runtime on the CPU, about twice as fast as onnxruntime here
         with the same tracking scores (within 0.1 HOTA and IDF1 on each
-        full-length sequence; needs the ``openvino`` extra).
+        full-length sequence; needs the ``openvino`` extra); ``"none"``: no
+        re-ID at all, the **motion-only mode** (``sotmot.appearance.none``): no
+        model and no frame read for appearance (a folder of detections and
+        ground truth without ``img1/`` is tracked), tracklets matched by IoU,
+        long-term links ranked and gated by how well the two trajectories'
+        motion agrees (``sotmot.association.affinity``), confirmation without
+        its appearance feature; no SOT step, no end extension. Several times
+        faster, and what ``scripts/bench_validation.py`` tracks label-only
+        sequences with; on the full-length sequences with frames it trails
+        re-ID (docs/benchmarks.md).
     model
         Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
         person-reidentification-retail-0288). ``None`` reads the environment

@@ -23,8 +23,11 @@ PREFETCH_FRAMES = 8
 
 def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
                      progress: "bool | Progress" = False, timings: dict[str, float] | None = None) -> np.ndarray:
-    """Appearance features ``(N, D)`` of every detection (see :func:`frame_pass` for how frames are read)."""
+    """Appearance features ``(N, D)`` of every detection (see :func:`frame_pass` for how frames are read); an
+    embedder of no features (``dim == 0``, the motion-only mode) reads no frame."""
     features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
+    if embedder.dim == 0:
+        return features
     per_frame = detections.by_frame()
     passed = frame_pass(info, sorted(per_frame), lambda frame, image: detections.boxes[per_frame[frame]],
                         embedder, f"{info.name}: appearance", progress, timings)

@@ -34,6 +34,7 @@ from sotmot.confidence import (
     self_map,
 )
 from sotmot.config import TrackerConfig
+from sotmot.errors import ConfigError
 from sotmot.confirm import box_scorer, confirm
 from sotmot.detection import Detector, detection_source, detector_detections, known_family, make_detector
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
@@ -224,6 +225,9 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
     clock = _Clock(timings)
     info = read_seqinfo(seq_dir, config.input.fps)
     sot = config.sot.variant != "none"
+    if sot and config.appearance.backend == "none":
+        raise ConfigError(f"[sot] variant = {config.sot.variant!r} needs a re-ID model; [appearance] backend = "
+                          f"'none' (motion only) tracks without one: set variant = 'none' or choose a backend")
     source, det_file = detection_source(config.detection, info)
     sot_config = config.sot.resolved(detector_detections(config.detection, info))
     verify = sot_config.verify == "detector"
@@ -264,7 +268,11 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
     clock.lap("appearance")
     links, steps = np.zeros((0, 2), np.int64), 0
-    motion = estimate_motion(info, dets, config.motion, progress)
+    if config.motion.compensation == "auto" and info.video is None and not info.frames_dir.is_dir():
+        log.info("%s: no frames (%s missing): camera motion not estimated", info.name, info.frames_dir)
+        motion = CameraMotion.still(info.length)
+    else:
+        motion = estimate_motion(info, dets, config.motion, progress)
     if config.motion.compensation != "off":
         clock.lap("motion")
     method, knots = confidence_knots(config.preprocess.confidence, raw.scores,
@@ -336,7 +344,10 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
     tracks, dropped = (confirm(tracks, config, prepared.confidence_method) if config.confirm.enabled
                        else (tracks, Tracks.empty()))
     clock.lap("confirm")
-    if (config.sot.extend_seconds > 0 or config.sot.refine_gaps) and len(tracks):
+    motion_only = prepared.features.shape[1] == 0
+    if motion_only and (config.sot.extend_seconds > 0 or config.sot.refine_gaps):
+        log.info("%s: no re-ID (motion only): trajectory ends are not extended, gaps not refined", prepared.info.name)
+    elif (config.sot.extend_seconds > 0 or config.sot.refine_gaps) and len(tracks):
         identity = {i: t.feature for t, i in zip(trajectories, ids) if i is not None}
         tracks = extend_trajectories(prepared, identity, tracks, config, embedder, progress)
         clock.lap("extend")

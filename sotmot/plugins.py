@@ -22,6 +22,7 @@ BACKENDS: dict[str, str] = {
     "onnx": "sotmot.appearance.onnx:OnnxReidEmbedder",
     "torch": "sotmot.appearance.torch:TorchReidEmbedder",
     "openvino": "sotmot.appearance.openvino:OpenVinoReidEmbedder",
+    "none": "sotmot.appearance.none:NoAppearance",
 }
 
 #: Person detectors: config name -> "module:factory", the factory taking a DetectionConfig.

@@ -44,7 +44,9 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
     detections
         Boxes of the whole sequence (``x, y, w, h`` pixels, 1-based frames).
     features
-        ``(N, D)`` appearance features, row ``i`` for detection ``i``.
+        ``(N, D)`` appearance features, row ``i`` for detection ``i``; ``D = 0``
+        (the motion-only mode, ``[appearance] backend = "none"``): matches are
+        weighted by IoU with the tracklet's last box, ``min_affinity`` unused.
     frame_rate
         Frames per second of the sequence (``frameRate`` of seqinfo.ini).
     config
@@ -66,6 +68,7 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
     successor = {int(a): int(b) for a, b in (must_link if must_link is not None else np.zeros((0, 2), int))}
     if len(features) != len(detections):
         raise ValueError(f"{len(detections)} detections but {len(features)} features")
+    motion_only = features.ndim == 2 and features.shape[1] == 0
     per_frame = detections.by_frame()
     frames = sorted(per_frame)
     batch_frames = batch_length(frame_rate, config.batch_seconds)
@@ -89,10 +92,13 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
         matched_tracks: set[int] = set()
         matched_dets: set[int] = set()
         if active:
-            tails = np.stack([features[t[-config.tail:]].mean(axis=0) for t in active])
-            aff = affinity(tails, features[idx])
             ious = iou_matrix(detections.boxes[[t[-1] for t in active]], detections.boxes[idx])
-            allowed = (aff >= config.min_affinity) & (ious >= config.min_iou)
+            if motion_only:  # no re-ID: the IoU with the tracklet's last box is the affinity, its gate the only one
+                aff, allowed = ious, ious >= config.min_iou
+            else:
+                tails = np.stack([features[t[-config.tail:]].mean(axis=0) for t in active])
+                aff = affinity(tails, features[idx])
+                allowed = (aff >= config.min_affinity) & (ious >= config.min_iou)
             cost = np.where(allowed, -aff, _FORBIDDEN)
             if successor:
                 position = {int(d): c for c, d in enumerate(idx)}

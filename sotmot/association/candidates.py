@@ -18,7 +18,8 @@ import networkx as nx
 import numpy as np
 
 from sotmot.association.objective import link_cost
-from sotmot.appearance import pair_affinities, unit
+from sotmot.appearance import unit
+from sotmot.association.affinity import link_affinities
 from sotmot.config import AssociationConfig
 from sotmot.association.checks import PairChecks, candidate_pairs, check_pairs
 from sotmot.association.merge import link_order_key
@@ -63,7 +64,7 @@ def candidate_links(tracklets: Sequence[Tracklet], config: AssociationConfig,
         ends = np.array([t.end for t in tracklets])
         pairs = pairs[starts[pairs].max(axis=1) > ends[pairs].min(axis=1)]
     features = unit(np.stack([t.feature for t in tracklets])) if tracklets else np.zeros((0, 1))
-    aff = pair_affinities(features, pairs)
+    aff = link_affinities(tracklets, pairs, features)
     screen = check_pairs(tracklets, pairs, aff, config, complete=include_rejected)
     if not include_rejected:
         keep = np.flatnonzero(screen.allowed)

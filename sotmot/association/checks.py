@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sotmot.appearance import affinity as feature_affinity
+from sotmot.appearance import unit
+from sotmot.association.affinity import link_affinities
 from sotmot.association.rules import CONSTRAINTS, Constraint, gap_velocity, rule_failures
 from sotmot.boxes import iou_aligned
 from sotmot.config import AssociationConfig
@@ -330,7 +331,9 @@ def check_pair(a: Tracklet, b: Tracklet, config: AssociationConfig,
         Their appearance affinity, if the caller already computed it (it is
         computed from the mean features otherwise).
     """
-    aff = float(feature_affinity(a.feature, b.feature)[0, 0]) if pair_affinity is None else float(pair_affinity)
+    if pair_affinity is None:
+        pair_affinity = link_affinities((a, b), np.array([[0, 1]]), unit(np.stack([a.feature, b.feature])))[0]
+    aff = float(pair_affinity)
     return check_pairs((a, b), np.array([[0, 1]]), np.array([aff]), config, complete=True).check(0)
 
 

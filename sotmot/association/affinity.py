@@ -1,0 +1,99 @@
+"""The affinity of a candidate link: appearance when the tracklets carry features, motion when they do not.
+
+Every solver ranks and gates links by :func:`link_affinities`, so the greedy
+merge, the flow network, the lifted objective, ``explain`` and ``graph`` see
+the same number. Tracklets from a re-ID model carry a mean feature and the
+affinity is :func:`sotmot.appearance.affinity` of the two means (unchanged).
+Tracklets of the motion-only mode (``[appearance] backend = "none"``) carry
+zero-width features; their affinity is :func:`motion_affinities`, in the same
+[0, 1] range, gated by the same ``[association] min_affinity``.
+
+Boxes are ``x, y, w, h`` pixels, frames 1-based.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from sotmot.appearance import pair_affinities
+from sotmot.boxes import centers, iou_aligned
+from sotmot.types import Tracklet
+
+#: The velocity at a trajectory's end is measured over at most this many of its last (or first) boxes.
+VELOCITY_BOXES = 10
+
+
+def link_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray, units: np.ndarray) -> np.ndarray:
+    """Affinity in [0, 1] of each pair ``(i, j)`` of ``pairs`` (``(K, 2)`` indices into ``tracklets``).
+
+    ``units`` are the tracklets' mean features through :func:`sotmot.appearance.unit`, ``(N, D)``: with
+    ``D > 0`` the appearance affinity of rows ``i`` and ``j``; with ``D == 0`` (no re-ID) the motion
+    affinity of the two tracklets. Returns ``(K,)`` float64.
+    """
+    units = np.asarray(units)
+    if units.ndim == 2 and units.shape[1] == 0:
+        return motion_affinities(tracklets, pairs)
+    return pair_affinities(units, pairs)
+
+
+def _end_velocity(t: Tracklet, last: bool) -> np.ndarray:
+    """Centre velocity (pixels per frame) over the last (or first) :data:`VELOCITY_BOXES` boxes; 0 for one box."""
+    if len(t) < 2:
+        return np.zeros(2)
+    sl = slice(-VELOCITY_BOXES, None) if last else slice(0, VELOCITY_BOXES)
+    frames, c = t.frames[sl], centers(t.boxes[sl])
+    return (c[-1] - c[0]) / float(frames[-1] - frames[0])
+
+
+def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray) -> np.ndarray:
+    """How well two trajectories' motion agrees, in [0, 1], for each pair of ``pairs`` (the motion-only affinity).
+
+    For a pair one after the other (the earlier ends at ``f1``, the later
+    starts at ``f2 = f1 + g``): the earlier one's last centre is carried
+    forward ``g`` frames at its end velocity, the later one's first centre
+    backward at its start velocity (each over at most :data:`VELOCITY_BOXES`
+    boxes), and ``e`` is the mean distance between each prediction and the box
+    it should meet. Its scale ``s = w + v g`` is the boxes' mean width ``w``
+    plus the distance the two walk in the gap at their mean speed ``v``: a
+    prediction is as uncertain as the path it extrapolates. The affinity is
+    ``exp(-e / s) * min(h1, h2) / max(h1, h2)`` (heights: the same person keeps
+    their size across a gap); the gate ``min_affinity = 0.45`` passes errors
+    up to about 0.8 ``s``. For a pair whose spans meet, the affinity is the
+    IoU of the later one's first box with the earlier one's box in that frame
+    (0 where it has none): the IoU rule judges the rest.
+    """
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    out = np.zeros(len(pairs))
+    if not len(pairs):
+        return out
+    nodes, local = np.unique(pairs, return_inverse=True)
+    local = local.reshape(-1, 2)
+    chosen = [tracklets[n] for n in nodes.tolist()]
+    starts = np.array([t.start for t in chosen])
+    ends = np.array([t.end for t in chosen])
+    first = np.array([t.boxes[0] for t in chosen]).reshape(-1, 4)
+    last = np.array([t.boxes[-1] for t in chosen]).reshape(-1, 4)
+    v_first = np.array([_end_velocity(t, last=False) for t in chosen]).reshape(-1, 2)
+    v_last = np.array([_end_velocity(t, last=True) for t in chosen]).reshape(-1, 2)
+    a_leads = (starts[local[:, 0]] < starts[local[:, 1]]) | (
+        (starts[local[:, 0]] == starts[local[:, 1]]) & (ends[local[:, 0]] <= ends[local[:, 1]]))
+    early = np.where(a_leads, local[:, 0], local[:, 1])
+    late = np.where(a_leads, local[:, 1], local[:, 0])
+    apart = ends[early] < starts[late]
+    e_, l_ = early[apart], late[apart]
+    gap = (starts[l_] - ends[e_]).astype(np.float64)[:, None]
+    c_end, c_start = centers(last[e_]), centers(first[l_])
+    error = 0.5 * (np.linalg.norm(c_end + v_last[e_] * gap - c_start, axis=1)
+                   + np.linalg.norm(c_start - v_first[l_] * gap - c_end, axis=1))
+    speed = 0.5 * (np.linalg.norm(v_last[e_], axis=1) + np.linalg.norm(v_first[l_], axis=1))
+    scale = 0.5 * (last[e_, 2] + first[l_, 2]) + speed * gap[:, 0]
+    heights = np.stack([last[e_, 3], first[l_, 3]], axis=1)
+    out[apart] = np.exp(-error / scale) * heights.min(axis=1) / heights.max(axis=1)
+    for k in np.flatnonzero(~apart).tolist():
+        a, b = chosen[early[k]], chosen[late[k]]
+        row = int(np.searchsorted(a.frames, b.start))
+        if row < len(a) and a.frames[row] == b.start:
+            out[k] = float(iou_aligned(a.boxes[row:row + 1], b.boxes[:1])[0])
+    return out

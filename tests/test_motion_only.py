@@ -1,0 +1,116 @@
+"""The motion-only mode (``[appearance] backend = "none"``): tracking with geometry alone, frames or none."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import DATA, require, write_sequence
+from sotmot.appearance import make_embedder
+from sotmot.association.affinity import link_affinities, motion_affinities
+from sotmot.config import AppearanceConfig, TrackerConfig
+from sotmot.confidence import FEATURES, BoxModel
+from sotmot.errors import ConfigError
+from sotmot.pipeline import track_sequence
+from sotmot.tracklets import build_tracklets
+from sotmot.types import Detections, Tracklet
+
+MOTION_ONLY = TrackerConfig().replace("appearance", backend="none")
+
+
+def walker(tid: int, frames: range, x0: float, vx: float, y: float = 100.0, w: float = 40.0) -> Tracklet:
+    """A person walking right at ``vx`` px/frame: ``x = x0 + vx (f - first)``, 40 x 100 px boxes."""
+    f = np.asarray(frames)
+    boxes = np.stack([x0 + vx * (f - f[0]), np.full(len(f), y), np.full(len(f), w), np.full(len(f), 100.0)], 1)
+    return Tracklet(id=tid, frames=f, boxes=boxes, scores=np.ones(len(f)), det_index=f + 1000 * tid,
+                    feature=np.zeros(0, np.float32), n_features=len(f))
+
+
+def test_motion_affinity_prefers_the_trajectory_where_the_walk_leads():
+    before = walker(1, range(1, 11), 0.0, 5.0)  # at x = 45 in frame 10
+    same = walker(2, range(31, 41), 150.0, 5.0)  # where 20 more frames of walking lead: x = 45 + 5 * 21
+    stopped = walker(3, range(31, 41), 40.0, 0.0)  # someone standing where the first one was last seen
+    other = walker(4, range(31, 41), 300.0, 0.0)  # someone standing elsewhere
+    aff = motion_affinities([before, same, stopped, other], np.array([[0, 1], [0, 2], [0, 3]]))
+    assert aff[0] > 0.9  # the prediction lands on the box
+    assert aff[0] > aff[1] > aff[2]  # one prediction of two lands: in between
+    assert aff[2] < 0.45  # below the association gate: neither walk leads there
+
+
+def test_motion_affinity_of_meeting_spans_is_their_iou_in_the_later_start():
+    a = walker(1, range(1, 11), 0.0, 0.0)
+    b = walker(2, range(5, 15), 20.0, 0.0)  # shifted by half a width in every shared frame
+    assert motion_affinities([a, b], np.array([[1, 0]]))[0] == pytest.approx(20 * 100 / (60 * 100))
+
+
+def test_link_affinities_use_appearance_whenever_features_exist():
+    a, b = walker(1, range(1, 5), 0.0, 1.0), walker(2, range(8, 12), 300.0, 1.0)
+    units = np.array([[1.0, 0.0], [1.0, 0.0]])
+    assert link_affinities([a, b], np.array([[0, 1]]), units)[0] == pytest.approx(1.0)  # same look, far apart
+    assert link_affinities([a, b], np.array([[0, 1]]), np.zeros((2, 0)))[0] < 0.1  # no look: the walk decides
+
+
+def test_tracklets_without_features_follow_the_box_overlap():
+    # two people crossing nothing: one still, one walking 5 px a frame, three frames
+    frames = np.array([1, 1, 2, 2, 3, 3])
+    boxes = np.array([[0, 0, 40, 100], [200, 0, 40, 100], [0, 0, 40, 100], [205, 0, 40, 100],
+                      [0, 0, 40, 100], [210, 0, 40, 100]], float)
+    dets = Detections(frames=frames, boxes=boxes, scores=np.ones(6))
+    tracklets = build_tracklets(dets, np.zeros((6, 0), np.float32), frame_rate=10)
+    assert sorted(t.det_index.tolist() for t in tracklets) == [[0, 2, 4], [1, 3, 5]]
+
+
+def test_the_none_backend_embeds_nothing():
+    embedder = make_embedder(AppearanceConfig(backend="none"))
+    assert embedder.embed(np.zeros((10, 10, 3), np.uint8), np.ones((3, 4))).shape == (3, 0)
+
+
+def test_a_missing_box_feature_counts_as_its_training_mean():
+    model = BoxModel(mean=tuple(range(len(FEATURES))), scale=(1.0,) * len(FEATURES),
+                     coef=(0.5,) * len(FEATURES), intercept=0.1)
+    x = np.arange(len(FEATURES), dtype=float)[None, :] + 1.0
+    missing = x.copy()
+    missing[0, FEATURES.index("track_appearance")] = np.nan
+    at_mean = x.copy()
+    at_mean[0, FEATURES.index("track_appearance")] = model.mean[FEATURES.index("track_appearance")]
+    assert model.predict(missing)[0] == pytest.approx(model.predict(at_mean)[0])
+
+
+def test_a_sequence_without_frames_is_tracked_from_its_labels(tmp_path):
+    """A label-only copy of a clip (no img1/): tracked in the motion-only mode, no frame read, the same people."""
+    clip = require(DATA / "MOT16-02-clip30")
+    seq = tmp_path / "MOT16-02-clip30"
+    seq.mkdir()
+    for part in ("seqinfo.ini", "det", "gt"):
+        (shutil.copytree if (clip / part).is_dir() else shutil.copy)(clip / part, seq / part)
+    result = track_sequence(seq, MOTION_ONLY)
+    assert result.features.shape == (len(result.detections), 0)
+    assert not result.motion.moving
+    assert result.tracks.n_tracks >= 5  # MOT16-02's first second: about a dozen people, most detected
+    assert len(result.tracks) > 0.5 * len(result.detections)
+
+
+def test_the_motion_only_mode_needs_no_model_and_refuses_sot(tmp_path):
+    seq = write_sequence(tmp_path, [f"{f},-1,{5 + f},10,10,20,1" for f in range(1, 6)], images=False)
+    result = track_sequence(seq, MOTION_ONLY)
+    assert result.tracks.n_tracks == 1
+    with pytest.raises(ConfigError, match="needs a re-ID model"):
+        track_sequence(seq, MOTION_ONLY.replace("sot", variant="template"))
+
+
+def test_subsampled_sequences_keep_every_nth_frame_and_say_their_rate(tmp_path):
+    from sotmot.benchmarks import subsampled_sequence
+    from sotmot.io import read_detections, read_seqinfo
+
+    seq = write_sequence(tmp_path, [f"{f},-1,{f},10,10,20,1" for f in range(1, 8)], length=7, frame_rate=30,
+                         name="SYN-SDP", gt_lines=[f"{f},1,{f},10,10,20,1,1,1" for f in range(1, 8)])
+    out = subsampled_sequence(seq, 3, tmp_path / "rates")
+    info = read_seqinfo(out)
+    assert (out.name, info.frame_rate, info.length) == ("SYN-every3-SDP", 10.0, 3)
+    dets = read_detections(info.det_path, info.length)
+    assert dets.frames.tolist() == [1, 2, 3] and dets.boxes[:, 0].tolist() == [1, 4, 7]
+    assert info.frame_path(3).resolve() == (seq / "img1" / "000007.jpg").resolve()
+    assert subsampled_sequence(seq, 3, tmp_path / "rates") == out  # made once
