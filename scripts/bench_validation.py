@@ -1,0 +1,180 @@
+#!/usr/bin/env python3
+"""The validation set: every candidate default judged by its worst sequence, not its mean (issue #39).
+
+The set, built from what ``../shared/data`` holds:
+
+* **frames**: the full-length sequences with frames (public detections, re-ID),
+  and each 25-30 fps one at every 2nd and 3rd frame (``seqinfo.ini`` adjusted:
+  the same people at 8-15 fps; made once under ``--cache``);
+* **labels**: the label-only sequences (``MOT16-labels``: DPM; ``MOT17-labels``:
+  DPM, Faster R-CNN, SDP), 14 sequences with detections and ground truth but no
+  frames, crowded and sparse, still and moving cameras, tracked in the
+  motion-only mode (``[appearance] backend = "none"``, camera motion not
+  estimated): what a default does to FP and FN where no frames exist.
+
+Each configuration (``--config NAME=FILE``, TOML or JSON; the first is the
+reference, by default today's defaults) tracks every sequence from the same
+preparation (detections, features, tracklets); only long-term association,
+post-processing and confirmation may differ between them. Printed: HOTA / MOTA
+/ IDF1 / FP / FN per sequence and configuration, the change against the
+reference, the **worst sequence** of each change (the selection rule: a new
+default loses at most 0.5 HOTA and 0.5 MOTA on any sequence), and combined rows
+per group.
+
+    python scripts/bench_validation.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
+        --config defaults= --config paper-gap=gap60.toml --json docs/results/validation.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from common import DEFAULT_DATA
+from sotmot.appearance import make_embedder
+from sotmot.benchmarks import cached_features, machine, sequences, subsampled_sequence
+from sotmot.config import TrackerConfig, load_config
+from sotmot.evaluate import evaluate_files
+from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
+from sotmot.pipeline import finish_sequence, prepare_sequence
+
+COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "FP", "FN")
+#: The sections a preparation reads: configurations compared on one preparation must agree on them.
+PREPARATION = ("input", "detection", "preprocess", "appearance", "sot", "tracklets", "motion")
+#: Full-length sequences (frames) are at least this long; shorter ones are the 30-frame clips, left out.
+FULL_LENGTH = 100
+#: Frame-rate variants are made of sequences at this frame rate or above.
+VARIANT_MIN_FPS = 20.0
+LABELS = ("MOT16-labels/*", "MOT17-labels/*")
+
+
+def validation_set(data: Path, cache: Path, groups: set[str]) -> list[tuple[str, Path]]:
+    """``(group, folder)`` of every validation sequence under ``data``: groups ``frames``, ``rates``, ``labels``."""
+    members: list[tuple[str, Path]] = []
+    full = [p for p in sequences(data) if read_seqinfo(p).length >= FULL_LENGTH]
+    if "frames" in groups:
+        members += [("frames", p) for p in full]
+    if "rates" in groups:
+        members += [("rates", subsampled_sequence(p, step, cache / "rates")) for p in full
+                    if read_seqinfo(p).frame_rate >= VARIANT_MIN_FPS for step in (2, 3)]
+    if "labels" in groups:
+        members += [("labels", p) for pattern in LABELS for p in sorted(data.glob(pattern))
+                    if (p / "seqinfo.ini").is_file()]
+    return members
+
+
+def motion_only(config: TrackerConfig) -> TrackerConfig:
+    """``config`` for a sequence without frames: no re-ID, no camera motion, nothing that reads pixels."""
+    return (config.replace("appearance", backend="none", model=None)
+            .replace("motion", compensation="off").replace("sot", variant="none", extend_seconds=0.0))
+
+
+def named_config(spec: str) -> tuple[str, TrackerConfig]:
+    name, _, path = spec.partition("=")
+    if not name:
+        raise argparse.ArgumentTypeError(f"--config takes NAME=FILE (FILE empty: the defaults), got {spec!r}")
+    return name, load_config(path) if path else TrackerConfig()
+
+
+def cells(values: dict[str, float]) -> str:
+    return "".join(f"{values[c]:8.1f}" if c in ("HOTA", "MOTA", "IDF1") else f"{values[c]:8.0f}" for c in COLUMNS)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
+    parser.add_argument("--model", required=True, help="ONNX re-ID model (for the sequences with frames)")
+    parser.add_argument("--config", action="append", type=named_config, metavar="NAME=FILE",
+                        help="a configuration to judge (repeat; the first is the reference; FILE empty: the "
+                             "defaults; default: defaults=)")
+    parser.add_argument("--groups", default="frames,rates,labels",
+                        help="which parts of the set: frames, rates, labels (default: %(default)s)")
+    parser.add_argument("--cache", type=Path, default=Path(".cache/validation"),
+                        help="frame-rate variants and re-ID features kept between runs (default: %(default)s)")
+    parser.add_argument("--json", type=Path, help="write the report here")
+    args = parser.parse_args(argv)
+
+    configs = dict(args.config or [named_config("defaults=")])
+    reference = next(iter(configs))
+    first = configs[reference].to_dict()
+    for name, cfg in configs.items():
+        differ = [s for s in PREPARATION if cfg.to_dict()[s] != first[s]]
+        if differ:
+            parser.error(f"--config {name} changes [{'], ['.join(differ)}]: the configurations share one "
+                         f"preparation and may differ only in association, postprocess and confirm")
+    members = validation_set(args.data, args.cache, set(args.groups.split(",")))
+    if not members:
+        print(f"no validation sequences under {args.data}", file=sys.stderr)
+        return 1
+    embedder: list = []
+    pairs: dict[str, list[tuple[Path, Path, int, str]]] = {name: [] for name in configs}
+    group_of: dict[str, str] = {}
+    seconds: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for group, seq in members:
+            start = time.perf_counter()
+            base = configs[reference].replace("appearance", model=args.model)
+            if group == "labels":
+                base = motion_only(base)
+                prepared = prepare_sequence(seq, base)
+            else:
+                features = cached_features(seq, base, args.cache / "features", embedder)
+                prepared = prepare_sequence(seq, base, features=features)
+            for name, cfg in configs.items():
+                cfg = cfg.replace("appearance", model=args.model)
+                result = finish_sequence(prepared, motion_only(cfg) if group == "labels" else cfg)
+                path = results_path(Path(tmp) / name, result.info.name)
+                write_results(path, result.tracks)
+                pairs[name].append((path, result.info.gt_path, result.info.length, result.info.name))
+            group_of[prepared.info.name] = group
+            seconds[prepared.info.name] = time.perf_counter() - start
+            print(f"{prepared.info.name}: {seconds[prepared.info.name]:.1f} s", file=sys.stderr)
+        reports = {name: evaluate_files(p) for name, p in pairs.items()}
+        by_group = {name: {g: evaluate_files([p for p in pairs[name] if group_of[p[3]] == g])
+                           for g in sorted(set(group_of.values()))} for name in configs}
+
+    names = list(group_of)
+    head = f"{'sequence':<28}{'config':<16}" + "".join(f"{c:>8}" for c in COLUMNS)
+    lines = [head, "-" * len(head)]
+    for seq in names:
+        for name in configs:
+            lines.append(f"{seq:<28}{name:<16}" + cells(reports[name].sequences[seq]))
+    lines.append("")
+    for g in sorted(set(group_of.values())):
+        for name in configs:
+            lines.append(f"{'combined ' + g:<28}{name:<16}" + cells(by_group[name][g].combined))
+    worst: dict[str, dict] = {}
+    lines += ["", f"change against {reference!r}, per sequence: mean and worst (the selection rule: a new default "
+                  f"loses at most 0.5 HOTA and 0.5 MOTA on any sequence)"]
+    for name in list(configs)[1:]:
+        worst[name] = {}
+        for metric in ("HOTA", "MOTA", "IDF1"):
+            delta = {s: reports[name].sequences[s][metric] - reports[reference].sequences[s][metric] for s in names}
+            low = min(delta, key=delta.get)
+            worst[name][metric] = {"worst_sequence": low, "worst": delta[low],
+                                   "mean": sum(delta.values()) / len(delta),
+                                   "sequences_below_-0.5": sorted(s for s, d in delta.items() if d < -0.5)}
+            lines.append(f"  {name:<16}{metric}: mean {worst[name][metric]['mean']:+6.2f}, worst "
+                         f"{delta[low]:+6.2f} ({low}), {len(worst[name][metric]['sequences_below_-0.5'])} of "
+                         f"{len(delta)} sequences below -0.5")
+    print("\n".join(lines))
+    print(f"frames: public detections, re-ID {Path(args.model).name}; labels: motion only (no frames)")
+    print(f"machine: {machine()}")
+    if args.json:
+        write_text_atomic(args.json, json.dumps({
+            "machine": machine(), "model": args.model, "reference": reference,
+            "configs": {name: cfg.to_dict() for name, cfg in configs.items()},
+            "groups": group_of, "seconds": seconds,
+            "sequences": {name: rep.sequences for name, rep in reports.items()},
+            "combined": {name: {g: rep.combined for g, rep in by_group[name].items()} for name in configs},
+            "worst": worst,
+        }, indent=2, default=float) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
