@@ -496,6 +496,11 @@ class AssociationConfig:
         of same-person pairs on PETS09-S2L1 pass it); 0.45 lies between the
         balanced thresholds of model 0288 on PETS09-S2L1 (0.44) and
         MOT16-04-clip30 (0.50) (docs/calibration.md).
+    long_gap_affinity
+        A bridge must be more certain the longer it is: the affinity a link
+        needs rises linearly from ``min_affinity`` at a gap of half ``l_max``
+        to this at ``l_max`` (the gap the merge creates or changes, the
+        velocity rule's); ``None`` (default): ``min_affinity`` at every gap.
     flow_stage_gap
         ``flow-staged``: the longest gap, in frames, that its first stage links
         across (8 was chosen leave-one-sequence-out from 8, 15 and 30; docs/benchmarks.md).
@@ -545,6 +550,7 @@ class AssociationConfig:
     velocity_long: float = 1.0 / 3.0
     short_gap: int = 5
     min_affinity: float = 0.45
+    long_gap_affinity: float | None = None
     solver: str = "greedy"
     flow_stage_gap: int = 8
     lifted_window: int = 30
@@ -565,6 +571,8 @@ class AssociationConfig:
             _check(0 < getattr(self, name) <= 10, "association", f"{name} must be in (0, 10] widths per frame")
         _check(2 <= self.short_gap <= 1_000_000, "association", "short_gap must be between 2 and 1,000,000 frames")
         _check(0.0 <= self.min_affinity <= 1.0, "association", "min_affinity must be in [0, 1]")
+        _check(self.long_gap_affinity is None or self.min_affinity <= self.long_gap_affinity <= 1.0, "association",
+               "long_gap_affinity must be in [min_affinity, 1] (or absent for one gate at every gap)")
         _check(1 <= self.flow_stage_gap <= 1_000_000, "association", "flow_stage_gap must be between 1 and "
                "1,000,000 frames")
         _check(1 <= self.lifted_step <= self.lifted_window <= 1_000_000, "association",
@@ -618,18 +626,31 @@ class PostprocessConfig:
         before confirmation: docs/calibration.md). Chosen leave one sequence
         out from 2, 3 and 4 s with confirmation refitted each time: 4 s
         had the best HOTA on every full-length sequence (docs/calibration.md).
+    check_seconds, min_agreement
+        Interpolation that checks its line: a gap longer than
+        ``check_seconds`` (and at most ``interpolate_max_seconds``) is filled
+        only where the straight line agrees with how the person moved on both
+        sides of it, a motion agreement
+        (:func:`sotmot.association.affinity.motion_agreement`, up to 10 boxes
+        each side) of at least ``min_agreement``; shorter gaps are filled on
+        trust. ``None`` (default): every gap up to the bound is filled.
     """
 
     interpolate: bool = True
     smooth_window: int = 3
     min_length: int = 1
     interpolate_max_seconds: float | None = 4.0
+    check_seconds: float | None = None
+    min_agreement: float = 0.5
 
     def __post_init__(self) -> None:
         _check(0 <= self.smooth_window <= 1000, "postprocess", "smooth_window must be between 0 and 1000")
         _check(1 <= self.min_length <= 1_000_000, "postprocess", "min_length must be between 1 and 1,000,000")
         _check(self.interpolate_max_seconds is None or 0 < self.interpolate_max_seconds <= 3600, "postprocess",
                "interpolate_max_seconds must be in (0, 3600] (or absent to fill every gap)")
+        _check(self.check_seconds is None or 0 <= self.check_seconds <= 3600, "postprocess",
+               "check_seconds must be in [0, 3600] (or absent to fill every gap on trust)")
+        _check(0.0 <= self.min_agreement <= 1.0, "postprocess", "min_agreement must be in [0, 1]")
 
 
 @dataclass(frozen=True)

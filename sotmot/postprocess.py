@@ -10,12 +10,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sotmot.association.affinity import VELOCITY_BOXES, end_velocity, motion_agreement
 from sotmot.config import PostprocessConfig
 from sotmot.types import Detections, Tracklet, Tracks
 
 
-def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_gap: int | None = None
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_gap: int | None = None,
+                skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Fill every gap of at most ``max_gap`` frames (None: every gap) by linear interpolation of the boxes.
 
     Parameters
@@ -29,6 +30,8 @@ def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_g
         around its gap.
     max_gap
         Longest gap filled, as the frame difference of the boxes around it.
+    skip
+        ``(L - 1,)`` bool: True leaves the gap after box ``k`` unfilled, whatever its length.
 
     Returns
     -------
@@ -37,11 +40,13 @@ def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_g
         gaps; ``filled`` marks the new boxes.
     """
     full = np.arange(frames[0], frames[-1] + 1, dtype=np.int64)
-    if max_gap is not None:
+    if max_gap is not None or skip is not None:
         gaps = np.diff(frames)
+        fill = (gaps <= (max_gap if max_gap is not None else gaps.max(initial=0))) & (
+            ~np.asarray(skip, dtype=bool) if skip is not None else True)
         after = np.searchsorted(frames, full, side="right")  # index of the box after each frame
         inside = np.clip(after, 1, len(gaps)) - 1
-        full = full[np.isin(full, frames) | (gaps[inside] <= max_gap)]
+        full = full[np.isin(full, frames) | fill[inside]]
     out = np.stack([np.interp(full, frames, boxes[:, k]) for k in range(4)], axis=1)
     right = np.clip(np.searchsorted(frames, full, side="left"), 0, len(frames) - 1)
     left = np.clip(np.searchsorted(frames, full, side="right") - 1, 0, len(frames) - 1)
@@ -113,6 +118,27 @@ def max_interpolated_gap(config: PostprocessConfig, frame_rate: float | None) ->
     return max(1, int(round(config.interpolate_max_seconds * frame_rate)))
 
 
+def unchecked_gaps(frames: np.ndarray, boxes: np.ndarray, config: PostprocessConfig,
+                   frame_rate: float | None) -> np.ndarray | None:
+    """``(L - 1,)`` True after each box whose gap fails ``[postprocess] check_seconds``: longer than it, and a
+    motion agreement (:func:`~sotmot.association.affinity.motion_agreement`) of the boxes around it below
+    ``min_agreement``. None when there is no check (or no frame rate)."""
+    if config.check_seconds is None or frame_rate is None:
+        return None
+    gaps = np.diff(frames)
+    skip = np.zeros(len(gaps), dtype=bool)
+    long = np.flatnonzero(gaps > max(1, int(round(config.check_seconds * frame_rate))))
+    if not len(long):
+        return skip
+    before = [slice(max(0, k + 1 - VELOCITY_BOXES), k + 1) for k in long.tolist()]
+    after = [slice(k + 1, k + 1 + VELOCITY_BOXES) for k in long.tolist()]
+    agreement = motion_agreement(boxes[long], np.array([end_velocity(frames[s], boxes[s]) for s in before]),
+                                 boxes[long + 1], np.array([end_velocity(frames[s], boxes[s]) for s in after]),
+                                 gaps[long])
+    skip[long] = agreement < config.min_agreement
+    return skip
+
+
 def expand(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(),
            frame_rate: float | None = None) -> Expanded:
     """The boxes of ``trajectory`` as post-processing writes them, interpolated if enabled (not smoothed).
@@ -122,7 +148,8 @@ def expand(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig()
     t = trajectory
     if not (config.interpolate and len(t) > 1):
         return Expanded(t.frames, t.boxes, t.scores, np.zeros(len(t), dtype=bool), t.det_index)
-    frames, boxes, scores, filled = interpolate(t.frames, t.boxes, t.scores, max_interpolated_gap(config, frame_rate))
+    frames, boxes, scores, filled = interpolate(t.frames, t.boxes, t.scores, max_interpolated_gap(config, frame_rate),
+                                                unchecked_gaps(t.frames, t.boxes, config, frame_rate))
     det_index = np.full(len(frames), -1, dtype=np.int64)
     det_index[~filled] = t.det_index
     return Expanded(frames, boxes, scores, filled, det_index)

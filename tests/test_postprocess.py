@@ -42,3 +42,26 @@ def test_to_tracks_numbers_by_first_frame_marks_filled_and_drops_short():
     assert tracks.frames.tolist() == [1, 2, 3, 4, 5]
     assert tracks.interpolated.tolist() == [False, False, False, True, False]
     np.testing.assert_allclose(tracks.boxes[3], [1, 0, 10, 10])
+
+
+def test_interpolation_that_checks_its_line_fills_only_gaps_the_motion_around_them_agrees_with():
+    from sotmot.postprocess import expand
+    from sotmot.types import Tracklet
+
+    def trajectory(x_after: float) -> Tracklet:
+        # walking right 2 px a frame for frames 1-10, a 30-frame gap, then 10 more frames from x_after
+        frames = np.r_[np.arange(1, 11), np.arange(41, 51)]
+        x = np.r_[2.0 * np.arange(10), x_after + 2.0 * np.arange(10)]
+        boxes = np.stack([x, np.zeros(20), np.full(20, 20.0), np.full(20, 50.0)], axis=1)
+        return Tracklet(id=1, frames=frames, boxes=boxes, scores=np.ones(20), det_index=np.arange(20),
+                        feature=np.zeros(0), n_features=20)
+
+    checked = PostprocessConfig(interpolate_max_seconds=None, check_seconds=1.0, min_agreement=0.5)
+    on_the_line = trajectory(x_after=80.0)  # where 2 px a frame leads: x = 18 + 2 * 31
+    off_the_line = trajectory(x_after=-150.0)  # someone else, far behind where the walk leads
+    assert expand(on_the_line, checked, frame_rate=10).filled.sum() == 30
+    assert expand(off_the_line, checked, frame_rate=10).filled.sum() == 0
+    trusting = PostprocessConfig(interpolate_max_seconds=None)
+    assert expand(off_the_line, trusting, frame_rate=10).filled.sum() == 30  # the check is what refuses it
+    short = PostprocessConfig(interpolate_max_seconds=None, check_seconds=5.0, min_agreement=0.5)
+    assert expand(off_the_line, short, frame_rate=10).filled.sum() == 30  # a 3-s gap is under a 5-s check

@@ -84,6 +84,18 @@ def test_affinity_gate():
     assert check_pair(a, b, CFG, pair_affinity=0.9).allowed
 
 
+def test_a_bridge_must_be_more_certain_the_longer_it_is():
+    rising = AssociationConfig(min_affinity=0.5, l_max=60, long_gap_affinity=0.7)
+    a = tk(1, [1, 2], BOX)
+    # gate 0.5 up to a 30-frame gap, then linear: 0.6 at 45 frames, 0.7 at 60
+    assert check_pair(a, tk(2, [32, 33], BOX), rising, pair_affinity=0.55).allowed  # gap 30
+    c = check_pair(a, tk(2, [47, 48], BOX), rising, pair_affinity=0.55)  # gap 45
+    assert c.failed == ("bridge",) and c.velocity_gap == 45
+    assert check_pair(a, tk(2, [47, 48], BOX), rising, pair_affinity=0.61).allowed
+    assert check_pair(a, tk(2, [47, 48], BOX), CFG, pair_affinity=0.55).allowed  # off by default
+    assert check_pair(a, tk(2, [47, 48], BOX), rising, pair_affinity=0.4).failed == ("affinity",)  # not twice
+
+
 def test_several_failures_are_all_reported_in_order():
     c = check_pair(tk(1, [1, 2], BOX, feature=(1, 0)), tk(2, [80, 81], moved(1500), feature=(0, 1)), CFG)
     assert c.failed == ("gap", "velocity", "affinity")

@@ -40,11 +40,38 @@ def link_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray, units: np.
 
 def _end_velocity(t: Tracklet, last: bool) -> np.ndarray:
     """Centre velocity (pixels per frame) over the last (or first) :data:`VELOCITY_BOXES` boxes; 0 for one box."""
-    if len(t) < 2:
-        return np.zeros(2)
     sl = slice(-VELOCITY_BOXES, None) if last else slice(0, VELOCITY_BOXES)
-    frames, c = t.frames[sl], centers(t.boxes[sl])
+    return end_velocity(t.frames[sl], t.boxes[sl])
+
+
+def end_velocity(frames: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """Centre velocity (pixels per frame) from the first to the last of ``boxes`` at ``frames``; 0 for one box."""
+    if len(frames) < 2:
+        return np.zeros(2)
+    c = centers(np.asarray(boxes).reshape(-1, 4))
     return (c[-1] - c[0]) / float(frames[-1] - frames[0])
+
+
+def motion_agreement(end_box: np.ndarray, end_velocity: np.ndarray, start_box: np.ndarray,
+                     start_velocity: np.ndarray, gap: np.ndarray) -> np.ndarray:
+    """How well a gap of ``gap`` frames fits the motion around it, in [0, 1], vectorised over ``(K,)`` gaps.
+
+    ``end_box`` ``(K, 4)`` is the last box before the gap, moving at ``end_velocity`` ``(K, 2)`` pixels per
+    frame; ``start_box`` the first box after it, moving at ``start_velocity``. The first is carried forward
+    ``gap`` frames, the second backward, and ``e`` is the mean distance of each prediction from the other box;
+    its scale ``s = w + v gap`` is the boxes' mean width plus the path walked at their mean speed ``v``.
+    Returns ``exp(-e / s)`` times the ratio of the two heights (smaller over larger).
+    """
+    gap = np.asarray(gap, dtype=np.float64).reshape(-1, 1)
+    end_box, start_box = np.asarray(end_box).reshape(-1, 4), np.asarray(start_box).reshape(-1, 4)
+    end_velocity, start_velocity = np.asarray(end_velocity).reshape(-1, 2), np.asarray(start_velocity).reshape(-1, 2)
+    c_end, c_start = centers(end_box), centers(start_box)
+    error = 0.5 * (np.linalg.norm(c_end + end_velocity * gap - c_start, axis=1)
+                   + np.linalg.norm(c_start - start_velocity * gap - c_end, axis=1))
+    speed = 0.5 * (np.linalg.norm(end_velocity, axis=1) + np.linalg.norm(start_velocity, axis=1))
+    scale = 0.5 * (end_box[:, 2] + start_box[:, 2]) + speed * gap[:, 0]
+    heights = np.stack([end_box[:, 3], start_box[:, 3]], axis=1)
+    return np.exp(-error / scale) * heights.min(axis=1) / heights.max(axis=1)
 
 
 def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray) -> np.ndarray:
@@ -83,14 +110,7 @@ def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray) -> np.nd
     late = np.where(a_leads, local[:, 1], local[:, 0])
     apart = ends[early] < starts[late]
     e_, l_ = early[apart], late[apart]
-    gap = (starts[l_] - ends[e_]).astype(np.float64)[:, None]
-    c_end, c_start = centers(last[e_]), centers(first[l_])
-    error = 0.5 * (np.linalg.norm(c_end + v_last[e_] * gap - c_start, axis=1)
-                   + np.linalg.norm(c_start - v_first[l_] * gap - c_end, axis=1))
-    speed = 0.5 * (np.linalg.norm(v_last[e_], axis=1) + np.linalg.norm(v_first[l_], axis=1))
-    scale = 0.5 * (last[e_, 2] + first[l_, 2]) + speed * gap[:, 0]
-    heights = np.stack([last[e_, 3], first[l_, 3]], axis=1)
-    out[apart] = np.exp(-error / scale) * heights.min(axis=1) / heights.max(axis=1)
+    out[apart] = motion_agreement(last[e_], v_last[e_], first[l_], v_first[l_], starts[l_] - ends[e_])
     for k in np.flatnonzero(~apart).tolist():
         a, b = chosen[early[k]], chosen[late[k]]
         row = int(np.searchsorted(a.frames, b.start))

@@ -291,7 +291,7 @@ def check_pairs(tracklets: Sequence[Tracklet], pairs: np.ndarray, affinities: np
     sel = np.flatnonzero(measure[met])
     max_gap[met[sel]], velocity_gap[met[sel]], speed[met[sel]], bound[met[sel]] = _overlap_gaps(
         index, met_local[sel], config)
-    failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config)
+    failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config, velocity_gap)
     allowed = ~np.any(np.stack([failures[c] for c in CONSTRAINTS]), axis=0) if k else np.zeros(0, bool)
     return PairChecks(allowed=allowed, failures=failures, affinity=affinities, overlap=overlap, min_iou=min_iou,
                   max_gap=max_gap, velocity_gap=velocity_gap, speed=speed, bound=bound)
@@ -309,7 +309,7 @@ def _scatter(part: PairChecks, rows: np.ndarray, affinities: np.ndarray, config:
     overlap, min_iou = fill(part.overlap, 0), fill(part.min_iou, np.nan)
     max_gap, velocity_gap = fill(part.max_gap, 0), fill(part.velocity_gap, 0)
     speed, bound = fill(part.speed, 0.0), fill(part.bound, np.inf)
-    failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config)
+    failures = rule_failures(overlap, min_iou, max_gap, speed, bound, affinities, config, velocity_gap)
     return PairChecks(allowed=fill(part.allowed, False), failures=failures, affinity=affinities, overlap=overlap,
                   min_iou=min_iou, max_gap=max_gap, velocity_gap=velocity_gap, speed=speed, bound=bound)
 

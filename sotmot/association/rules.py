@@ -19,6 +19,10 @@ over :data:`RULES`, so all of them obey, and explain, the very same rules:
    merged trajectory is ``<= l_max`` (60).
 4. **Affinity**: the appearance affinity of the two mean features is
    ``>= min_affinity`` (a gate below which a pair is never merged).
+5. **Bridge** (off unless ``long_gap_affinity`` is set): the affinity must
+   also reach a gate that rises with the gap the merge creates or changes,
+   from ``min_affinity`` at half of ``l_max`` to ``long_gap_affinity`` at
+   ``l_max`` (:func:`bridge_gate`).
 
 Boxes are ``x, y, w, h`` pixels, frames 1-based.
 """
@@ -35,7 +39,7 @@ import numpy as np
 from sotmot.boxes import centers
 from sotmot.config import AssociationConfig
 
-Constraint = Literal["iou", "velocity", "gap", "affinity"]
+Constraint = Literal["iou", "velocity", "gap", "affinity", "bridge"]
 
 #: A pair's measurements by name (the names of the association graph's edge attributes): scalars or arrays.
 Measurements = Mapping[str, Any]
@@ -65,11 +69,21 @@ def gap_velocity(f1: np.ndarray, b1: np.ndarray, f2: np.ndarray, b2: np.ndarray,
 
 
 def rule_failures(overlap, min_iou, max_gap, speed, bound, affinity,
-                  config: AssociationConfig) -> dict[Constraint, np.ndarray]:
+                  config: AssociationConfig, velocity_gap=0) -> dict[Constraint, np.ndarray]:
     """Each rule of :data:`RULES` applied elementwise: per constraint, True where it fails."""
     measured = {"overlap_frames": overlap, "min_segment_iou": min_iou, "max_gap": max_gap, "velocity": speed,
-                "velocity_bound": bound, "affinity": affinity}
+                "velocity_bound": bound, "affinity": affinity, "velocity_gap": velocity_gap}
     return {rule.name: np.asarray(rule.fails(measured, config)) for rule in RULES}
+
+
+def bridge_gate(gap, config: AssociationConfig) -> np.ndarray:
+    """The affinity a link whose created (or changed) gap is ``gap`` frames needs: ``min_affinity`` up to half of
+    ``l_max``, rising linearly to ``long_gap_affinity`` at ``l_max`` (``min_affinity`` throughout without it)."""
+    gap = np.asarray(gap, dtype=np.float64)
+    if config.long_gap_affinity is None:
+        return np.full(gap.shape, config.min_affinity)
+    rise = np.clip((gap - 0.5 * config.l_max) / (0.5 * config.l_max), 0.0, 1.0)
+    return config.min_affinity + rise * (config.long_gap_affinity - config.min_affinity)
 
 
 def passes_affinity_gate(affinity, config: AssociationConfig) -> np.ndarray:
@@ -137,6 +151,11 @@ RULES: tuple[Rule, ...] = (
          _describe_velocity, (40, 40, 220)),
     Rule("affinity", ("affinity",), lambda m, a: ~passes_affinity_gate(m["affinity"], a),
          lambda d, a: f"affinity: {d['affinity']:.3f} (min {a.min_affinity})", (200, 120, 30)),
+    Rule("bridge", ("affinity", "velocity_gap"),
+         lambda m, a: passes_affinity_gate(m["affinity"], a)  # below min_affinity: the affinity rule's failure
+         & ~(np.asarray(m["affinity"], dtype=np.float64) >= bridge_gate(m["velocity_gap"], a)),
+         lambda d, a: (f"bridge: affinity {d['affinity']:.3f} over a gap of {d['velocity_gap']} frames "
+                       f"(needs {float(bridge_gate(d['velocity_gap'], a)):.3f})"), (120, 200, 30)),
 )
 
 #: The constraints' names, in :data:`RULES` order.
