@@ -151,7 +151,7 @@ def fit_sequences(data: Path, min_length: int, only: str = "") -> list[Path]:
 
 
 def _every_nth_lines(text: str, step: int) -> str:
-    """The MOTChallenge rows (``frame, ...``) of frames ``1, 1 + step, 1 + 2 step, ...``, renumbered ``1, 2, 3, ...``."""
+    """The MOTChallenge rows (``frame, ...``) of frames ``1, 1 + step, 1 + 2 step, ...``, renumbered from 1."""
     out = []
     for line in text.splitlines():
         head, sep, rest = line.partition(",")

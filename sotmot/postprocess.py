@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sotmot.association.affinity import VELOCITY_BOXES, end_velocity, motion_agreement
+from sotmot.boxes import VELOCITY_BOXES, end_velocity, motion_agreement
 from sotmot.config import PostprocessConfig
 from sotmot.types import Detections, Tracklet, Tracks
 
@@ -121,7 +121,7 @@ def max_interpolated_gap(config: PostprocessConfig, frame_rate: float | None) ->
 def unchecked_gaps(frames: np.ndarray, boxes: np.ndarray, config: PostprocessConfig,
                    frame_rate: float | None) -> np.ndarray | None:
     """``(L - 1,)`` True after each box whose gap fails ``[postprocess] check_seconds``: longer than it, and a
-    motion agreement (:func:`~sotmot.association.affinity.motion_agreement`) of the boxes around it below
+    motion agreement (:func:`~sotmot.boxes.motion_agreement`) of the boxes around it below
     ``min_agreement``. None when there is no check (or no frame rate)."""
     if config.check_seconds is None or frame_rate is None:
         return None

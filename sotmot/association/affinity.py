@@ -18,11 +18,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from sotmot.appearance import pair_affinities
-from sotmot.boxes import centers, iou_aligned
+from sotmot.boxes import VELOCITY_BOXES, end_velocity, iou_aligned, motion_agreement
 from sotmot.types import Tracklet
-
-#: The velocity at a trajectory's end is measured over at most this many of its last (or first) boxes.
-VELOCITY_BOXES = 10
 
 
 def link_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray, units: np.ndarray) -> np.ndarray:
@@ -42,36 +39,6 @@ def _end_velocity(t: Tracklet, last: bool) -> np.ndarray:
     """Centre velocity (pixels per frame) over the last (or first) :data:`VELOCITY_BOXES` boxes; 0 for one box."""
     sl = slice(-VELOCITY_BOXES, None) if last else slice(0, VELOCITY_BOXES)
     return end_velocity(t.frames[sl], t.boxes[sl])
-
-
-def end_velocity(frames: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """Centre velocity (pixels per frame) from the first to the last of ``boxes`` at ``frames``; 0 for one box."""
-    if len(frames) < 2:
-        return np.zeros(2)
-    c = centers(np.asarray(boxes).reshape(-1, 4))
-    return (c[-1] - c[0]) / float(frames[-1] - frames[0])
-
-
-def motion_agreement(end_box: np.ndarray, end_velocity: np.ndarray, start_box: np.ndarray,
-                     start_velocity: np.ndarray, gap: np.ndarray) -> np.ndarray:
-    """How well a gap of ``gap`` frames fits the motion around it, in [0, 1], vectorised over ``(K,)`` gaps.
-
-    ``end_box`` ``(K, 4)`` is the last box before the gap, moving at ``end_velocity`` ``(K, 2)`` pixels per
-    frame; ``start_box`` the first box after it, moving at ``start_velocity``. The first is carried forward
-    ``gap`` frames, the second backward, and ``e`` is the mean distance of each prediction from the other box;
-    its scale ``s = w + v gap`` is the boxes' mean width plus the path walked at their mean speed ``v``.
-    Returns ``exp(-e / s)`` times the ratio of the two heights (smaller over larger).
-    """
-    gap = np.asarray(gap, dtype=np.float64).reshape(-1, 1)
-    end_box, start_box = np.asarray(end_box).reshape(-1, 4), np.asarray(start_box).reshape(-1, 4)
-    end_velocity, start_velocity = np.asarray(end_velocity).reshape(-1, 2), np.asarray(start_velocity).reshape(-1, 2)
-    c_end, c_start = centers(end_box), centers(start_box)
-    error = 0.5 * (np.linalg.norm(c_end + end_velocity * gap - c_start, axis=1)
-                   + np.linalg.norm(c_start - start_velocity * gap - c_end, axis=1))
-    speed = 0.5 * (np.linalg.norm(end_velocity, axis=1) + np.linalg.norm(start_velocity, axis=1))
-    scale = 0.5 * (end_box[:, 2] + start_box[:, 2]) + speed * gap[:, 0]
-    heights = np.stack([end_box[:, 3], start_box[:, 3]], axis=1)
-    return np.exp(-error / scale) * heights.min(axis=1) / heights.max(axis=1)
 
 
 def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray) -> np.ndarray:
