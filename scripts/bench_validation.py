@@ -73,11 +73,15 @@ def motion_only(config: TrackerConfig) -> TrackerConfig:
             .replace("motion", compensation="off").replace("sot", variant="none", extend_seconds=0.0))
 
 
-def named_config(spec: str) -> tuple[str, TrackerConfig]:
+def named_config(spec: str) -> tuple[str, tuple[TrackerConfig, str]]:
+    """``NAME=FILE`` -> ``(NAME, (configuration, what it is))``: the file's first line if it is a comment."""
     name, _, path = spec.partition("=")
     if not name:
         raise argparse.ArgumentTypeError(f"--config takes NAME=FILE (FILE empty: the defaults), got {spec!r}")
-    return name, load_config(path) if path else TrackerConfig()
+    if not path:
+        return name, (TrackerConfig(), "today's defaults")
+    first = Path(path).read_text(encoding="utf-8").partition("\n")[0]
+    return name, (load_config(path), first.lstrip("# ").strip() if first.startswith("#") else path)
 
 
 def cells(values: dict[str, float]) -> str:
@@ -98,7 +102,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path, help="write the report here")
     args = parser.parse_args(argv)
 
-    configs = dict(args.config or [named_config("defaults=")])
+    described = dict(args.config or [named_config("defaults=")])
+    configs = {name: cfg for name, (cfg, _) in described.items()}
     reference = next(iter(configs))
     first = configs[reference].to_dict()
     for name, cfg in configs.items():
@@ -168,6 +173,7 @@ def main(argv: list[str] | None = None) -> int:
         write_text_atomic(args.json, json.dumps({
             "machine": machine(), "model": args.model, "reference": reference,
             "configs": {name: cfg.to_dict() for name, cfg in configs.items()},
+            "configs_described": {name: about for name, (_, about) in described.items()},
             "groups": group_of, "seconds": seconds,
             "sequences": {name: rep.sequences for name, rep in reports.items()},
             "combined": {name: {g: rep.combined for g, rep in by_group[name].items()} for name in configs},

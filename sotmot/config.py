@@ -192,8 +192,11 @@ class AppearanceConfig:
         motion agrees (``sotmot.association.affinity``), confirmation without
         its appearance feature; no SOT step, no end extension. Several times
         faster, and what ``scripts/bench_validation.py`` tracks label-only
-        sequences with; on the full-length sequences with frames it trails
-        re-ID (docs/benchmarks.md).
+        sequences with. On the five full-length sequences with frames it
+        trails re-ID by 18 HOTA combined (45.1 against 63.4; docs/benchmarks.md).
+        Its gaps: the label sets prefer ``l_max_seconds = 2`` with
+        ``interpolate_max_seconds = 2`` (``docs/validation/gap2s.toml``: HOTA
+        +1.0, MOTA +3.3 combined), a recommendation, not a default.
     model
         Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
         person-reidentification-retail-0288). ``None`` reads the environment
@@ -631,7 +634,7 @@ class PostprocessConfig:
         ``check_seconds`` (and at most ``interpolate_max_seconds``) is filled
         only where the straight line agrees with how the person moved on both
         sides of it, a motion agreement
-        (:func:`sotmot.association.affinity.motion_agreement`, up to 10 boxes
+        (:func:`sotmot.boxes.motion_agreement`, up to 10 boxes
         each side) of at least ``min_agreement``; shorter gaps are filled on
         trust. ``None`` (default): every gap up to the bound is filled.
     """
