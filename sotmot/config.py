@@ -439,6 +439,11 @@ class TrackletConfig:
         Tracklets with <= l_min boxes are dropped (paper: 1). Only detector
         boxes count: without this, one false detection that the SOT step
         extended over 15 frames would survive as a tracklet.
+    predict
+        Compare a detection with the tracklet's last box moved on by its
+        constant velocity (over its last ``tail`` boxes), not with the last box
+        itself, in the IoU gate (and, motion only, the IoU that weights the
+        match). False (default): the last box, as before.
     """
 
     batch_seconds: float = 1.0
@@ -446,6 +451,7 @@ class TrackletConfig:
     min_affinity: float = 0.45
     min_iou: float = 0.2
     l_min: int = 1
+    predict: bool = False
 
     def __post_init__(self) -> None:
         _check(0 < self.batch_seconds <= 60, "tracklets", "batch_seconds must be in (0, 60]")

@@ -92,7 +92,10 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
         matched_tracks: set[int] = set()
         matched_dets: set[int] = set()
         if active:
-            ious = iou_matrix(detections.boxes[[t[-1] for t in active]], detections.boxes[idx])
+            last = detections.boxes[[t[-1] for t in active]]
+            if config.predict:  # each tracklet's last box moved on one frame at its velocity over its tail
+                last = last + np.array([_step(detections, t[-config.tail:]) for t in active])
+            ious = iou_matrix(last, detections.boxes[idx])
             if motion_only:  # no re-ID: the IoU with the tracklet's last box is the affinity, its gate the only one
                 aff, allowed = ious, ious >= config.min_iou
             else:
@@ -122,6 +125,14 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
     kept = [t for t in finished if int(real[t].sum()) > config.l_min]
     kept.sort(key=lambda t: (detections.frames[t[0]], t[0]))
     return [make_tracklet(k, np.asarray(t), detections, features) for k, t in enumerate(kept, 1)]
+
+
+def _step(detections: Detections, rows: list[int]) -> np.ndarray:
+    """The per-frame change ``(dx, dy, 0, 0)`` of boxes ``rows`` (consecutive frames), first to last; 0 for one."""
+    if len(rows) < 2:
+        return np.zeros(4)
+    first, last = detections.boxes[rows[0]], detections.boxes[rows[-1]]
+    return np.r_[(last[:2] - first[:2]) / (len(rows) - 1), 0.0, 0.0]
 
 
 def make_tracklet(tracklet_id: int, det_index: np.ndarray, detections: Detections,

@@ -76,3 +76,20 @@ def test_tracklet_feature_is_the_mean_of_its_detection_features():
     d, f = dets([(1, 0, 0, RED), (2, 0, 0, (0.8, 0.6, 0))])
     (t,) = build_tracklets(d, f, frame_rate=10, config=TrackletConfig(min_affinity=0.0))
     np.testing.assert_allclose(t.feature, [0.9, 0.3, 0.0], atol=1e-6)
+
+
+def test_a_speeding_walker_stays_one_tracklet_only_when_the_box_is_predicted():
+    """20-px-wide boxes: a first step of 8 px (IoU 0.43), then 16 px a frame, whose boxes overlap the last one
+    at IoU 4/36 < min_iou 0.2: without the prediction the tracklet breaks every frame from the third on, with it
+    the walk is one tracklet."""
+    from sotmot.config import TrackletConfig
+    from sotmot.tracklets import build_tracklets
+    from sotmot.types import Detections
+
+    x = np.array([0.0, 8, 24, 40, 56, 72])
+    n = len(x)
+    dets = Detections(frames=np.arange(1, n + 1), boxes=np.column_stack(
+        [x, np.zeros(n), np.full(n, 20.0), np.full(n, 50.0)]), scores=np.ones(n))
+    features = np.ones((n, 2), np.float32)
+    assert len(build_tracklets(dets, features, 30, TrackletConfig(l_min=0))) == 5
+    assert len(build_tracklets(dets, features, 30, TrackletConfig(l_min=0, predict=True))) == 1
