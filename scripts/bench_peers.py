@@ -18,7 +18,10 @@ Trackers:
   camera-motion compensation); each again with boxmot's offline GSI
   post-processing (``+GSI``), and without camera-motion compensation where
   it can be turned off (``no-CMC``; every sequence here has a static
-  camera). ``--shuffle-check`` adds rows with the embeddings permuted across
+  camera), and given sotmot's memory (``+GSI 4s``: a lost track kept
+  ``[association] l_max_seconds`` at the sequence's frame rate, boxmot's
+  ``max_age`` or ``track_buffer``, and GSI filling gaps as long; issue #38's
+  fair peers). ``--shuffle-check`` adds rows with the embeddings permuted across
   the detections: if a tracker uses them, its scores drop.
 
 With ``--detector-model`` every tracker gets the built-in person detector's

@@ -35,11 +35,18 @@ BOXMOT = {
     "HybridSORT": ("hybridsort", None),
     "OccluBoost": ("occluboost", {"use_cmc": False}),
 }
+#: The option of each boxmot tracker that says how many frames a lost track is kept (its memory).
+BOXMOT_MEMORY = {"BoT-SORT": "track_buffer", "StrongSORT": "max_age", "DeepOCSORT": "max_age",
+                 "BoostTrack++": "max_age", "HybridSORT": "max_age", "OccluBoost": "max_age"}
+#: ``+GSI 4s`` rows: a peer given sotmot's memory, its lost-track buffer and its GSI interval both
+#: ``[association] l_max_seconds`` (4 s) at the sequence's frame rate (issue #38: a fair comparison).
+MEMORY_SECONDS = TrackerConfig().association.l_max_seconds
 BOXMOT_CMC = {"BoT-SORT": "SOF", "DeepOCSORT": "SOF", "BoostTrack++": "ECC", "HybridSORT": "ECC", "OccluBoost": "SOF"}
 #: Every boxmot tracker with its defaults, with boxmot's GSI post-processing, and without CMC where it can be off.
 BOXMOT_ROWS = {**{name: (name, "default") for name in BOXMOT},
                **{f"{name} +GSI": (name, "gsi") for name in BOXMOT},
-               **{f"{name} no-CMC": (name, "no-cmc") for name, (_, off) in BOXMOT.items() if off is not None}}
+               **{f"{name} no-CMC": (name, "no-cmc") for name, (_, off) in BOXMOT.items() if off is not None},
+               **{f"{name} +GSI 4s": (name, "memory") for name in BOXMOT}}
 @dataclass
 class SeqInput:
     """What every tracker gets for one sequence."""
@@ -132,6 +139,9 @@ def run_boxmot(row: str, seq: SeqInput, shuffle: bool = False) -> tuple[Tracks, 
     name, mode = BOXMOT_ROWS[row]
     boxmot_name, cmc_off = BOXMOT[name]
     options = tuple(sorted((cmc_off or {}).items())) if mode == "no-cmc" else ()
+    memory = max(1, int(round(MEMORY_SECONDS * float(seq.info.frame_rate))))
+    if mode == "memory":
+        options = ((BOXMOT_MEMORY[name], memory),)
     tracker = create_tracker(TrackerSpec(name=boxmot_name, options=options))
     features = seq.features.astype(np.float32)
     if shuffle:
@@ -151,6 +161,8 @@ def run_boxmot(row: str, seq: SeqInput, shuffle: bool = False) -> tuple[Tracks, 
         out.append((frame, result.track_ids.numpy().astype(np.int64), result.geometry.values.numpy().astype(float),
                     result.scores.numpy().astype(float)))
     tracks = as_tracks(out, boxes_are_xyxy=True)
+    if mode == "memory":
+        return gsi(tracks, interval=memory), seconds
     return (gsi(tracks) if mode == "gsi" else tracks), seconds
 
 
@@ -162,6 +174,11 @@ def gsi(tracks: Tracks, interval: int = 20, tau: float = 10.0) -> Tracks:
         return tracks
     data = np.column_stack([tracks.frames, tracks.ids, tracks.boxes, tracks.scores, -np.ones(len(tracks))])
     smoothed = gaussian_smooth(linear_interpolation(data, interval), tau)
+    # with intervals of seconds, boxmot's interpolation can write a frame of a track twice (its frames are floats,
+    # one a hair below the integer): keep the first box of each (track, frame)
+    smoothed[:, 0] = np.round(smoothed[:, 0])
+    _, first = np.unique(smoothed[:, [1, 0]], axis=0, return_index=True)
+    smoothed = smoothed[np.sort(first)]
     return Tracks(frames=smoothed[:, 0].astype(np.int64), ids=smoothed[:, 1].astype(np.int64),
                   boxes=smoothed[:, 2:6], scores=smoothed[:, 6])
 

@@ -43,3 +43,16 @@ def test_deepsort_runs_on_sotmot_features():
     pytest.importorskip("deep_sort_realtime")
     tracks, seconds = run_peer("DeepSORT", scene(), min_affinity=0.5)
     assert seconds >= 0 and set(tracks.frames.tolist()) <= {1, 2, 3, 4}
+
+
+def test_gsi_over_seconds_writes_one_box_per_track_and_frame():
+    """boxmot's interpolation computes frames as floats: between frames 2 and 25 one lands a hair below an
+    integer and a frame of the track came out twice (issue #38's 4-s rows); the peers' rows keep one box."""
+    pytest.importorskip("boxmot")
+    from sotmot.peers import gsi
+    from sotmot.types import Tracks
+
+    boxes = np.array([[0, 0, 20, 40], [10, 0, 20, 40.0]])
+    tracks = Tracks(frames=np.array([2, 25]), ids=np.array([1, 1]), boxes=boxes, scores=np.ones(2))
+    out = gsi(tracks, interval=120)
+    assert sorted(out.frames.tolist()) == list(range(2, 26))  # every frame once
