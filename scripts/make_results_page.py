@@ -105,9 +105,10 @@ def accuracy_section(title: str, accuracy: dict | None, peers: dict | None, how:
                          "(boxmot's `max_age` or `track_buffer`, in frames at the sequence's rate) and boxmot's "
                          "GSI fills gaps up to 4 s, as sotmot's association gap and interpolation bound do.")
         if "kept" in peers:
-            lines.append(f"The peers' rows were measured in an earlier run (`--keep`, machine: "
-                         f"{peers['kept']['machine']}), sotmot's anew with today's defaults: the peers do not "
-                         f"depend on sotmot's configuration.")
+            fresh = sorted(t for t in peers["table"] if t not in peers["kept"]["rows"])
+            lines.append(f"The other peers' rows were measured in an earlier run (`--keep`, machine: "
+                         f"{peers['kept']['machine']}); measured anew on the machine above: {', '.join(fresh)} "
+                         f"(the peers do not depend on sotmot's configuration).")
     return [*lines, ""]
 
 
