@@ -32,3 +32,20 @@ def one_person_in_three_pieces() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     bisector = (first + last) / np.linalg.norm(first + last)
     middle = np.cos(np.radians(46.1)) * bisector + np.sin(np.radians(46.1)) * np.array([0.0, 0.0, 1.0])
     return first, middle, last
+
+
+def load_script(name: str):
+    """The module ``scripts/<name>.py`` (its ``from common import ...`` finds scripts/common.py)."""
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    scripts = Path(__file__).resolve().parents[1] / "scripts"
+    sys.path.insert(0, str(scripts))
+    try:
+        spec = importlib.util.spec_from_file_location(name, scripts / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(scripts))
+    return module

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -11,23 +10,13 @@ import numpy as np
 import pytest
 
 from conftest import DATA, MODELS, ROOT, require
-
-
-def load_script():
-    sys.path.insert(0, str(ROOT / "scripts"))
-    try:
-        spec = importlib.util.spec_from_file_location("miss_analysis", ROOT / "scripts" / "miss_analysis.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(ROOT / "scripts"))
-    return module
+from helpers import load_script
 
 
 def test_a_box_is_evidence_only_for_the_person_it_overlaps_most():
     # two people side by side, the one behind (missed) 4 px right of the one in front: the front person's box
     # overlaps the missed box at IoU 0.67 but overlaps its own person exactly, so it is no evidence for the miss
-    covering = load_script().covering
+    covering = load_script("miss_analysis").covering
     front, behind = np.array([10.0, 10, 20, 40]), np.array([14.0, 10, 20, 40])
     people = np.stack([front, behind])
     assert covering(behind, front[None], people).tolist() == [False]

@@ -1,0 +1,153 @@
+#!/usr/bin/env python3
+"""Where identities are lost: fragmentations and switches of sotmot, by the stage that made them, beside a peer's.
+
+Tracks every full-length sequence with frames (public detections, the
+configuration given or the defaults) and matches its output to the ground
+truth with TrackEval's own CLEAR matching (:func:`sotmot.evaluate.frame_errors`).
+Counted, for sotmot and for a peer's results on the same boxes (``--peer``, a
+results folder of ``scripts/bench_peers.py``, e.g. ``peers/results/StrongSORT_+GSI_4s``):
+
+* **fragmentations**: a person matched to ``k`` output ids counts ``k - 1``;
+* **switches**: an output id matched to ``k`` people counts ``k - 1``.
+
+sotmot's are explained by the stage that made them, one count per change of
+output id along a life (a person who goes ``a -> b -> a`` is one fragmentation
+and two changes, so these counts can exceed the totals above):
+
+* a fragmentation (a person's output id changes from ``a`` to ``b``): the
+  trajectories ``a`` and ``b`` as association saw them, checked by the rule
+  table (:func:`sotmot.association.checks.check_pair`): ``refused: <rules>``
+  (the rules that fail), or ``allowed, not chosen`` (the merge was allowed,
+  but one of the two had been merged with someone else first);
+* a switch (an output id's person changes between two matched frames):
+  ``inside a tracklet`` (both boxes from one tracklet: the tracklet stage
+  linked two people), ``a merge`` (boxes of two tracklets that association
+  joined), or ``interpolation`` (one of the two boxes is interpolated).
+
+    python scripts/identity_analysis.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
+        --peer peers/results/StrongSORT_+GSI_4s --json identities.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from common import DEFAULT_DATA
+from sotmot.association.checks import check_pair
+from sotmot.benchmarks import cached_features, machine, sequences
+from sotmot.config import TrackerConfig, load_config
+from sotmot.evaluate import FrameErrors, frame_errors
+from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
+from sotmot.pipeline import TrackResult, finish_sequence, prepare_sequence
+
+FULL_LENGTH = 100
+
+
+def lives(errors: FrameErrors) -> tuple[dict[int, list[tuple[int, int]]], dict[int, list[tuple[int, int]]]]:
+    """Person -> its matched ``(frame, output id)`` in frame order, and output id -> its ``(frame, person)``."""
+    people: dict[int, list[tuple[int, int]]] = {}
+    tracks: dict[int, list[tuple[int, int]]] = {}
+    for (frame, tid), g in sorted(errors.identities.items()):
+        people.setdefault(g, []).append((frame, tid))
+        tracks.setdefault(tid, []).append((frame, g))
+    return people, tracks
+
+
+def changes(life: list[tuple[int, int]]) -> list[tuple[int, int, int, int]]:
+    """``(frame_a, value_a, frame_b, value_b)`` where consecutive entries of a life change value."""
+    return [(fa, a, fb, b) for (fa, a), (fb, b) in zip(life, life[1:]) if a != b]
+
+
+def counts(errors: FrameErrors) -> dict[str, int]:
+    people, tracks = lives(errors)
+    return {"fragmentations": sum(len({t for _, t in life}) - 1 for life in people.values()),
+            "switches": sum(len({g for _, g in life}) - 1 for life in tracks.values())}
+
+
+def explain(result: TrackResult, errors: FrameErrors, config: TrackerConfig) -> dict[str, Counter]:
+    """sotmot's fragmentations and switches by the stage that made them (see the module docstring)."""
+    association = config.association.at(result.info.frame_rate)
+    by_output = {i: t for t, i in zip(result.trajectories, result.track_ids) if i is not None}
+    tracklet_of = {int(d): t.id for t in result.tracklets for d in t.det_index}
+    tracks = result.tracks
+    filled = {(int(f), int(i)): bool(x) for f, i, x in zip(tracks.frames, tracks.ids, tracks.interpolated)}
+    people, track_lives = lives(errors)
+    frag: Counter = Counter()
+    for life in people.values():
+        for _, a, _, b in changes(life):
+            check = check_pair(by_output[a], by_output[b], association)
+            frag["refused: " + ", ".join(check.failed) if check.failed else "allowed, not chosen"] += 1
+    switch: Counter = Counter()
+
+    def source(tid: int, frame: int) -> int | None:
+        t = by_output[tid]
+        row = int(np.searchsorted(t.frames, frame))
+        return tracklet_of.get(int(t.det_index[row])) if row < len(t) and t.frames[row] == frame else None
+
+    for tid, life in track_lives.items():
+        for fa, _, fb, _ in changes(life):
+            if filled.get((fa, tid)) or filled.get((fb, tid)):
+                switch["interpolation"] += 1
+            else:
+                a, b = source(tid, fa), source(tid, fb)
+                switch["inside a tracklet" if a is not None and a == b else "a merge"] += 1
+    return {"fragmentations": frag, "switches": switch}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
+    parser.add_argument("--model", required=True, help="ONNX re-ID model")
+    parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
+    parser.add_argument("--peer", type=Path, help="a peer's results folder (<sequence>.txt), on the same boxes")
+    parser.add_argument("--cache", type=Path, default=Path(".cache/validation/features"),
+                        help="re-ID features kept between runs (default: %(default)s)")
+    parser.add_argument("--json", type=Path, help="write the report here")
+    args = parser.parse_args(argv)
+
+    config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
+    seqs = [p for p in sequences(args.data) if read_seqinfo(p).length > FULL_LENGTH]
+    report: dict[str, dict] = {}
+    embedder: list = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for seq in seqs:
+            prepared = prepare_sequence(seq, config, features=cached_features(seq, config, args.cache, embedder))
+            result = finish_sequence(prepared, config)
+            info = result.info
+            path = results_path(Path(tmp), info.name)
+            write_results(path, result.tracks)
+            errors = frame_errors(path, info.gt_path, info.length, info.name)
+            row = {"sotmot": counts(errors), "sotmot_by_stage": {k: dict(v) for k, v in
+                                                                explain(result, errors, config).items()}}
+            peer_file = args.peer / f"{info.name}.txt" if args.peer else None
+            if peer_file is not None and peer_file.is_file():
+                row["peer"] = counts(frame_errors(peer_file, info.gt_path, info.length, info.name))
+            report[info.name] = row
+            print(f"{info.name}: done", file=sys.stderr)
+    peer = args.peer.name.replace("_", " ") if args.peer else None
+    lines = [f"{'sequence':<16}{'sotmot frag':>12}{'switch':>8}" + (f"{'peer frag':>11}{'switch':>8}" if peer else "")
+             + "   sotmot's changes of id (fragmentations / switches) by stage"]
+    for name, row in report.items():
+        p = row.get("peer")
+        stages = "; ".join(f"{k} {v}" for k, v in sorted(row["sotmot_by_stage"]["fragmentations"].items())) + " / " \
+            + "; ".join(f"{k} {v}" for k, v in sorted(row["sotmot_by_stage"]["switches"].items()))
+        lines.append(f"{name:<16}{row['sotmot']['fragmentations']:>12}{row['sotmot']['switches']:>8}"
+                     + (f"{p['fragmentations']:>11}{p['switches']:>8}" if p else f"{'-':>11}{'-':>8}" if peer else "")
+                     + "   " + stages)
+    print("\n".join(lines))
+    print(f"peer: {peer or 'none'}; public detections; machine: {machine()}")
+    if args.json:
+        write_text_atomic(args.json, json.dumps({"machine": machine(), "peer": peer, "config": config.to_dict(),
+                                                 "sequences": report}, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
