@@ -35,7 +35,6 @@ import time
 from pathlib import Path
 
 from common import DEFAULT_DATA
-from sotmot.appearance import make_embedder
 from sotmot.benchmarks import cached_features, machine, sequences, subsampled_sequence
 from sotmot.config import TrackerConfig, load_config
 from sotmot.evaluate import evaluate_files
@@ -135,16 +134,18 @@ def main(argv: list[str] | None = None) -> int:
             group_of[prepared.info.name] = group
             seconds[prepared.info.name] = time.perf_counter() - start
             print(f"{prepared.info.name}: {seconds[prepared.info.name]:.1f} s", file=sys.stderr)
-        reports = {name: evaluate_files(p) for name, p in pairs.items()}
         by_group = {name: {g: evaluate_files([p for p in pairs[name] if group_of[p[3]] == g])
                            for g in sorted(set(group_of.values()))} for name in configs}
+    # per sequence: each group's own rows (a sequence's scores do not depend on what it is scored beside)
+    per_seq = {name: {s: row for rep in by_group[name].values() for s, row in rep.sequences.items()}
+               for name in configs}
 
     names = list(group_of)
     head = f"{'sequence':<28}{'config':<16}" + "".join(f"{c:>8}" for c in COLUMNS)
     lines = [head, "-" * len(head)]
     for seq in names:
         for name in configs:
-            lines.append(f"{seq:<28}{name:<16}" + cells(reports[name].sequences[seq]))
+            lines.append(f"{seq:<28}{name:<16}" + cells(per_seq[name][seq]))
     lines.append("")
     for g in sorted(set(group_of.values())):
         for name in configs:
@@ -155,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
     for name in list(configs)[1:]:
         worst[name] = {}
         for metric in ("HOTA", "MOTA", "IDF1"):
-            delta = {s: reports[name].sequences[s][metric] - reports[reference].sequences[s][metric] for s in names}
+            delta = {s: per_seq[name][s][metric] - per_seq[reference][s][metric] for s in names}
             low = min(delta, key=delta.get)
             worst[name][metric] = {"worst_sequence": low, "worst": delta[low],
                                    "mean": sum(delta.values()) / len(delta),
@@ -172,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
             "configs": {name: cfg.to_dict() for name, cfg in configs.items()},
             "configs_described": {name: about for name, (_, about) in described.items()},
             "groups": group_of, "seconds": seconds,
-            "sequences": {name: rep.sequences for name, rep in reports.items()},
+            "sequences": per_seq,
             "combined": {name: {g: rep.combined for g, rep in by_group[name].items()} for name in configs},
             "worst": worst,
         }, indent=2, default=float) + "\n")

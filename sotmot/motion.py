@@ -313,12 +313,16 @@ def estimate_motion(info: SeqInfo, detections: Detections, config: MotionConfig,
                     progress: "bool | Progress" = False) -> CameraMotion:
     """The camera's motion over the sequence as ``[motion]`` asks (``compensation``: auto, on or off).
 
-    ``detections`` (image pixels) are masked out of the frames. Off, or auto
-    on a still camera: :meth:`CameraMotion.still`. A frame pair whose
+    ``detections`` (image pixels) are masked out of the frames. Off, auto on
+    a still camera, or auto on a folder without frames (detections and ground
+    truth only): :meth:`CameraMotion.still`. A frame pair whose
     estimate is not trusted (fewer than :data:`MIN_INLIERS` corners agree, or
     fewer than ``min_confidence`` of them) gets the identity.
     """
     if config.compensation == "off" or info.length < 2:
+        return CameraMotion.still(info.length)
+    if config.compensation == "auto" and info.video is None and not info.frames_dir.is_dir():
+        log.info("%s: no frames (%s missing): camera motion not estimated", info.name, info.frames_dir)
         return CameraMotion.still(info.length)
     source = frame_source(info)
     try:

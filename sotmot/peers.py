@@ -139,8 +139,8 @@ def run_boxmot(row: str, seq: SeqInput, shuffle: bool = False) -> tuple[Tracks, 
     name, mode = BOXMOT_ROWS[row]
     boxmot_name, cmc_off = BOXMOT[name]
     options = tuple(sorted((cmc_off or {}).items())) if mode == "no-cmc" else ()
-    memory = max(1, int(round(MEMORY_SECONDS * float(seq.info.frame_rate))))
-    if mode == "memory":
+    memory = max(1, int(round(MEMORY_SECONDS * float(seq.info.frame_rate)))) if mode == "memory" else None
+    if memory is not None:
         options = ((BOXMOT_MEMORY[name], memory),)
     tracker = create_tracker(TrackerSpec(name=boxmot_name, options=options))
     features = seq.features.astype(np.float32)
@@ -161,7 +161,7 @@ def run_boxmot(row: str, seq: SeqInput, shuffle: bool = False) -> tuple[Tracks, 
         out.append((frame, result.track_ids.numpy().astype(np.int64), result.geometry.values.numpy().astype(float),
                     result.scores.numpy().astype(float)))
     tracks = as_tracks(out, boxes_are_xyxy=True)
-    if mode == "memory":
+    if memory is not None:
         return gsi(tracks, interval=memory), seconds
     return (gsi(tracks) if mode == "gsi" else tracks), seconds
 

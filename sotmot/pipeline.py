@@ -268,11 +268,7 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
     clock.lap("appearance")
     links, steps = np.zeros((0, 2), np.int64), 0
-    if config.motion.compensation == "auto" and info.video is None and not info.frames_dir.is_dir():
-        log.info("%s: no frames (%s missing): camera motion not estimated", info.name, info.frames_dir)
-        motion = CameraMotion.still(info.length)
-    else:
-        motion = estimate_motion(info, dets, config.motion, progress)
+    motion = estimate_motion(info, dets, config.motion, progress)
     if config.motion.compensation != "off":
         clock.lap("motion")
     method, knots = confidence_knots(config.preprocess.confidence, raw.scores,

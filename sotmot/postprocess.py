@@ -42,8 +42,9 @@ def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_g
     full = np.arange(frames[0], frames[-1] + 1, dtype=np.int64)
     if max_gap is not None or skip is not None:
         gaps = np.diff(frames)
-        fill = (gaps <= (max_gap if max_gap is not None else gaps.max(initial=0))) & (
-            ~np.asarray(skip, dtype=bool) if skip is not None else True)
+        fill = np.ones(len(gaps), dtype=bool) if max_gap is None else gaps <= max_gap
+        if skip is not None:
+            fill &= ~np.asarray(skip, dtype=bool)
         after = np.searchsorted(frames, full, side="right")  # index of the box after each frame
         inside = np.clip(after, 1, len(gaps)) - 1
         full = full[np.isin(full, frames) | fill[inside]]
