@@ -57,7 +57,7 @@ from common import DEFAULT_DATA
 from sotmot.benchmarks import machine, sequences
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
-from sotmot.evaluate import evaluate_files
+from sotmot.scoring import evaluate_files
 from sotmot.io import read_ground_truth, read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, pass_detector, prepare_sequence
 

@@ -46,7 +46,7 @@ from common import DEFAULT_DATA
 from sotmot.benchmarks import before_confirmation, machine, private_config, sequences
 from sotmot.fitting.confidence import box_labels
 from sotmot.config import TrackerConfig, load_config
-from sotmot.evaluate import METRICS, EvalReport, evaluate_files
+from sotmot.scoring import METRICS, EvalReport, evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.postprocess import to_tracks

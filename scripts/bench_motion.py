@@ -41,7 +41,7 @@ import make_moving
 from sotmot.appearance import make_embedder
 from sotmot.benchmarks import cached_features, machine
 from sotmot.config import TrackerConfig
-from sotmot.evaluate import evaluate_files
+from sotmot.scoring import evaluate_files
 from sotmot.io import read_detections, read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.motion import compose, estimate_motion, invert
 from sotmot.pipeline import track_sequence

@@ -72,7 +72,7 @@ from sotmot.appearance import make_embedder
 from common import DEFAULT_DATA
 from sotmot.benchmarks import machine, private_config, sequences
 from sotmot.config import TrackerConfig
-from sotmot.evaluate import evaluate_files
+from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.peers import BOXMOT, BOXMOT_CMC, BOXMOT_ROWS, SeqInput, load, run_boxmot, run_peer
 from sotmot.pipeline import finish_sequence, prepare_sequence

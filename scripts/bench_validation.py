@@ -37,7 +37,7 @@ from pathlib import Path
 from common import DEFAULT_DATA
 from sotmot.benchmarks import cached_features, machine, sequences, subsampled_sequence
 from sotmot.config import TrackerConfig, load_config
-from sotmot.evaluate import evaluate_files
+from sotmot.scoring import evaluate_files
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 

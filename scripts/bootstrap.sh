@@ -23,7 +23,7 @@ if [ -x .venv/bin/sotmot ] && { [ "$have" = "$want" ] || { [ "$bench" = 0 ] && [
 fi
 echo "bootstrap: creating .venv and installing sotmot (first run takes a minute or two)" >&2
 "$PY" -m venv .venv
-extras=test,torch,openvino
+extras=test,torch
 [ "$bench" = 1 ] && extras=$extras,bench
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -c constraints.txt -e ".[$extras]"
 .venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps -c constraints.txt \

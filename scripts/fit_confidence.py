@@ -35,7 +35,7 @@ from sotmot.benchmarks import before_confirmation
 from sotmot.fitting.confidence import fit, held_out_tracks, labelled_data, score, unconfirmed_tracks
 from sotmot.confidence import OWN_MODELS, model_kind
 from sotmot.config import TrackerConfig, load_config
-from sotmot.evaluate import METRICS
+from sotmot.scoring import METRICS
 from sotmot.io import read_seqinfo, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]

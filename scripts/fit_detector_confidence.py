@@ -47,7 +47,7 @@ from sotmot.fitting.confidence import (
     unconfirmed_tracks,
 )
 from sotmot.config import TrackerConfig
-from sotmot.evaluate import METRICS
+from sotmot.scoring import METRICS
 from sotmot.io import read_detections, read_seqinfo, write_text_atomic
 from sotmot.pipeline import prepare_sequence
 from sotmot.preprocess import preprocess_indices

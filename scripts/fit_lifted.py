@@ -40,7 +40,7 @@ from sotmot.appearance import make_embedder
 from common import add_fit_arguments, fit_setup
 from sotmot.benchmarks import cached_features, machine
 from sotmot.fitting.lifted import fit_lifted_costs, lifted_pair_samples, tracklet_identities
-from sotmot.evaluate import evaluate_files
+from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 

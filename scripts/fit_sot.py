@@ -48,7 +48,7 @@ from common import add_fit_arguments, fit_setup, video_of
 from sotmot.appearance import make_embedder
 from sotmot.benchmarks import cached_features, machine, private_config
 from sotmot.fitting.confidence import box_labels
-from sotmot.evaluate import evaluate_files
+from sotmot.scoring import evaluate_files
 from sotmot.sot.extend import DetectorSupport, extend_ends, gated, with_added
 from sotmot.io import FrameReader, results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence

@@ -3,7 +3,7 @@
 
 Tracks every full-length sequence with frames (public detections, the
 configuration given or the defaults) and matches its output to the ground
-truth with TrackEval's own CLEAR matching (:func:`sotmot.evaluate.frame_errors`).
+truth with TrackEval's own CLEAR matching (:func:`sotmot.scoring.frame_errors`).
 Counted, for sotmot and for a peer's results on the same boxes (``--peer``, a
 results folder of ``scripts/bench_peers.py``, e.g. ``peers/results/StrongSORT_+GSI_4s``):
 
@@ -43,7 +43,7 @@ from common import DEFAULT_DATA
 from sotmot.association.checks import check_pair
 from sotmot.benchmarks import cached_features, machine, sequences
 from sotmot.config import TrackerConfig, load_config
-from sotmot.evaluate import FrameErrors, frame_errors
+from sotmot.scoring import FrameErrors, frame_errors
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.pipeline import TrackResult, finish_sequence, prepare_sequence
 

@@ -20,7 +20,7 @@ from sotmot.appearance import make_embedder
 from common import DEFAULT_DATA
 from sotmot.benchmarks import before_confirmation
 from sotmot.config import TrackerConfig
-from sotmot.evaluate import evaluate_files
+from sotmot.scoring import evaluate_files
 from sotmot.inspect.explain import inspection_graph
 from sotmot.inspect.graph_view import draw_png
 from sotmot.io import (

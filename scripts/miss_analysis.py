@@ -65,7 +65,7 @@ from sotmot.appearance import make_embedder
 from sotmot.benchmarks import machine, model_detections, private_config, sequences
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
-from sotmot.evaluate import evaluate_files, frame_errors
+from sotmot.scoring import evaluate_files, frame_errors
 from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_path, write_results
 from sotmot.io import write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence

@@ -220,7 +220,7 @@ def _solve_component(window: _Window, comp: np.ndarray, arcs: np.ndarray, reach:
 
 def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Association:
     """Lifted association of ``tracklets`` (see the module docstring)."""
-    from solvers.greedy import solve as greedy
+    from sotmot.solvers.greedy import solve as greedy
 
     n = len(tracklets)
     if n == 0:

@@ -9,7 +9,7 @@ A status other than OPTIMAL raises :class:`~sotmot.errors.SolverError`.
 
 It builds the network straight from the arrays of
 :func:`sotmot.association.candidates.candidate_links` (the networkx graph of the same links is
-what :mod:`solvers.networkx_flow` and the inspection tools use).
+what :mod:`sotmot.solvers.networkx_flow` and the inspection tools use).
 
 :func:`solve_staged` (``flow-staged``) runs the same flow twice: first with
 links over at most ``[association] flow_stage_gap`` frames, then on the

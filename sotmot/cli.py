@@ -15,20 +15,20 @@ from sotmot.errors import SotmotError
 
 EPILOG_TRACK = """\
 examples:
-  sotmot track ../shared/data/PETS09-S2L1 --out results \\
-      --reid-model ../shared/models/person-reidentification-retail-0288.onnx
+  sotmot track ../shared/data/PETS09-S2L1 --out results --eval   # the bundled models
   sotmot track ../shared/data/MOT16-*-clip30 --out results --eval
   sotmot track SEQ --out results --config my.toml   # every threshold, see docs/configuration.md
   sotmot track DATA/* --out results --workers 2 --resume   # 2 processes, skip finished sequences
   sotmot track /shared/DATA/* --out /shared/results --cluster dask://scheduler:8786
-  sotmot track street.mp4 --out results \\
-      --detector-model ../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml \\
-      --reid-model ../shared/models/person-reidentification-retail-0288.onnx   # a plain video
+  sotmot track street.mp4 --out results   # a plain video: the bundled detector finds the people
+  sotmot track SEQ --out results --reid-model my-reid.onnx --detector-model my-detector.xml   # other models
   sotmot track street.mp4 --det street_det.txt --out results   # a video and its detections
   sotmot track ../shared/data/MOT16-09 --detections model --out results   # the detector, not det/det.txt
 
-The re-ID model path may also come from the environment variable SOTMOT_REID_MODEL, the
-detector's from SOTMOT_DETECTOR_MODEL. A sequence folder with det/det.txt is tracked from that
+The models are the two sotmot ships with (`sotmot models` lists them): Intel's
+person-reidentification-retail-0288 and person-detection-0202 (Apache-2.0). Another model comes
+from --reid-model / --detector-model, the config, or the environment variables SOTMOT_REID_MODEL
+and SOTMOT_DETECTOR_MODEL. A sequence folder with det/det.txt is tracked from that
 file; a plain video (or --detections model) from the detector's boxes, written beside the
 results as <name>.det.txt (MOTChallenge det format) so that the run can be repeated with --det.
 Results are written as DIR/<name>.txt (MOTChallenge format: frame, id, x, y, w, h,
@@ -93,12 +93,13 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                    help="TOML or JSON file with " + ", ".join(f"[{name}]" for name in SECTIONS)
                         + " tables (docs/configuration.md); unknown keys are errors")
     p.add_argument("--reid-model", metavar="PATH",
-                   help="ONNX person re-ID model (overrides the config and SOTMOT_REID_MODEL)")
+                   help="ONNX (or OpenVINO IR) person re-ID model instead of the bundled person-reidentification-retail-0288 "
+                        "(overrides the config and SOTMOT_REID_MODEL)")
     from sotmot.plugins import BACKENDS
 
     p.add_argument("--appearance", choices=["auto", *sorted(BACKENDS)],
                    help="run the re-ID model with openvino (about twice as fast on CPUs, the same tracking scores; "
-                        "the openvino extra), onnxruntime (onnx) or torch (the torch extra); auto = openvino where "
+                        "a dependency of sotmot), onnxruntime (onnx) or torch (the torch extra); auto = openvino where "
                         "it is installed and the device is the CPU, else onnx (default: auto); none = no re-ID, "
                         "motion only: tracklets by IoU, links by motion agreement, no model, no frames read for "
                         "appearance")
@@ -112,7 +113,7 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                         "--det), model = the person detector (--detector-model) run on every frame, auto = the "
                         "file when there is one, else the model (default)")
     p.add_argument("--detector-model", metavar="PATH.xml",
-                   help="person detector, an OpenVINO IR .xml with its .bin beside it, e.g. Intel's "
+                   help="person detector, an OpenVINO IR .xml with its .bin beside it, instead of the bundled "
                         "person-detection-0202 (overrides the config and SOTMOT_DETECTOR_MODEL)")
     p.add_argument("--score-threshold", type=float, metavar="S",
                    help="drop detections scoring below S (default: keep all)")
@@ -255,7 +256,7 @@ def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
 
         ran = resolve_backend(config.appearance).backend
         other = ("--appearance onnx runs onnxruntime" if ran == "openvino"
-                 else "the openvino extra gives a backend about twice as fast")
+                 else "openvino, a dependency of sotmot, gives a backend about twice as fast: pip install openvino")
         print(f"sotmot: re-ID by {ran} (--appearance auto; {other})", file=sys.stderr)
     outcomes = track_many(seq_dirs, args.out, config, workers=args.workers,
                           resume=args.resume, progress=_progress(args), report=report, cluster=args.cluster)
@@ -300,7 +301,7 @@ def _write_json(path: Path | None, data: dict, what: str) -> None:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    from sotmot.evaluate import evaluate, format_table
+    from sotmot.scoring import evaluate, format_table
 
     _check_json(args.json, args.seq_dirs, args.results_dir)
     report = evaluate(args.results_dir, args.seq_dirs)
@@ -354,7 +355,7 @@ def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
     tracks = read_flags(args.results, read_results(args.results, info.length))
     errors = None
     if args.gt:
-        from sotmot.evaluate import frame_errors
+        from sotmot.scoring import frame_errors
 
         errors = frame_errors(args.results, info.gt_path, info.length, info.name)
         totals = errors.totals()
@@ -385,6 +386,26 @@ def cmd_train(args: argparse.Namespace) -> int:
           f"{summary['crops']} crops; validation AUC {summary['val_auc_before']:.4f} before, "
           f"{summary['val_auc_best']:.4f} best (epoch {summary['best_epoch']}); {summary['seconds']:.0f} s "
           f"-> {summary['out']}")
+    return 0
+
+
+def cmd_models(args: argparse.Namespace) -> int:
+    from sotmot.models import MODELS, bundled_path, describe
+
+    for kind in MODELS:
+        bundled_path(kind)  # a changed or cut bundled file: one clear error, not a table that hides it
+    rows = describe()
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    for row in rows:
+        print(f"{row['kind']}: {row['files'][0]} ({row['bytes'] / 1e6:.2f} MB, checked)")
+        print(f"  origin   {row['origin']}")
+        print(f"  licence  {row['licence']}")
+        for name, digest in row["sha256"].items():
+            print(f"  sha256   {digest}  {name}")
+        print(f"  in use   {row['in_use']}")
+        print(f"  change   {row['how_to_change']}")
     return 0
 
 
@@ -437,8 +458,7 @@ network's own cost (entry cost per trajectory + (1 - affinity) per link; lower i
 network only); the solver's time in seconds.
 
 example:
-  sotmot compare ../shared/data/PETS09-S2L1 --solvers greedy,flow,lifted \\
-      --reid-model ../shared/models/person-reidentification-retail-0288.onnx --json compare.json
+  sotmot compare ../shared/data/PETS09-S2L1 --solvers greedy,flow,lifted --json compare.json
 """
 
 
@@ -514,11 +534,12 @@ def build_parser() -> argparse.ArgumentParser:
                                    "ground-truth crops of the given sequences; a quarter of the identities is "
                                    "held out for validation; early layers are frozen. Use the result with "
                                    "--appearance torch --weights FILE.",
-                       epilog="example:\n  sotmot train-appearance ../shared/data/PETS09-S2L1 --init "
-                              "../shared/models/person-reidentification-retail-0288.onnx --out tuned.pt",
+                       epilog="example:\n  sotmot train-appearance ../shared/data/PETS09-S2L1 --out tuned.pt",
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequences with gt/gt.txt and img1/")
-    p.add_argument("--init", required=True, metavar="MODEL.onnx", help="the re-ID model to start from")
+    p.add_argument("--init", metavar="MODEL.onnx",
+                   help="the re-ID model to start from (default: the bundled person-reidentification-retail-0288, "
+                        "or SOTMOT_REID_MODEL)")
     p.add_argument("--out", type=Path, required=True, metavar="FILE.pt", help="checkpoint (best validation AUC)")
     p.add_argument("--epochs", type=_positive_int, default=3, help="passes over the crops (default: %(default)s)")
     p.add_argument("--margin", type=_positive_float, default=0.3, help="triplet margin (default: %(default)s)")
@@ -549,6 +570,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--gt", action="store_true", help="draw SEQ_DIR/gt/gt.txt beside, with the errors marked")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar (drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("models", help="list the models a run uses: origin, licence, size, SHA-256",
+                       description="The two models sotmot ships with (Intel Open Model Zoo, Apache-2.0) and the ones "
+                                   "a run uses now: a model named by SOTMOT_REID_MODEL or SOTMOT_DETECTOR_MODEL "
+                                   "replaces the bundled one, as --reid-model / --detector-model or the config do "
+                                   "for one run. Each bundled file is checked against its SHA-256.")
+    p.add_argument("--json", action="store_true", help="print the table as JSON")
+    p.set_defaults(func=cmd_models)
 
     for name, func, text in (("graph", cmd_graph, "export the association graph (GraphML, JSON, PNG, HTML)"),
                              ("explain", cmd_explain, "say why two output tracks were or were not merged")):

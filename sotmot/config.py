@@ -78,8 +78,8 @@ class DetectionConfig:
     model
         The detector: an OpenVINO IR ``.xml`` (its ``.bin`` beside it) of an
         SSD-style person detector such as Intel's person-detection-0202.
-        Never bundled or downloaded; also read from the environment variable
-        ``SOTMOT_DETECTOR_MODEL``.
+        ``None`` reads the environment variable ``SOTMOT_DETECTOR_MODEL``, else
+        runs the bundled person-detection-0202 FP16-INT8 (``sotmot models``).
     backend
         The runtime that runs ``model`` (``sotmot.plugins.DETECTORS``).
     min_score
@@ -200,7 +200,8 @@ class AppearanceConfig:
     model
         Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
         person-reidentification-retail-0288). ``None`` reads the environment
-        variable ``SOTMOT_REID_MODEL``.
+        variable ``SOTMOT_REID_MODEL``, else runs the bundled
+        person-reidentification-retail-0288 (``sotmot models``).
     flip
         Average the features of the crop and its mirror image (paper eq. 1).
     batch_size

@@ -321,7 +321,7 @@ def estimate_motion(info: SeqInfo, detections: Detections, config: MotionConfig,
     """
     if config.compensation == "off" or info.length < 2:
         return CameraMotion.still(info.length)
-    if config.compensation == "auto" and info.video is None and not info.frames_dir.is_dir():
+    if config.compensation == "auto" and info.video is None and info.frames is None and not info.frames_dir.is_dir():
         log.info("%s: no frames (%s missing): camera motion not estimated", info.name, info.frames_dir)
         return CameraMotion.still(info.length)
     source = frame_source(info)

@@ -214,21 +214,22 @@ def pass_detector(config: TrackerConfig, verify: bool) -> Detector:
     return make_detector(dataclasses.replace(config.detection, min_score=low))
 
 
-def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
+def prepare_sequence(seq_dir: "str | Path | SeqInfo", config: TrackerConfig = TrackerConfig(),
                      embedder: Embedder | None = None, progress: "bool | Progress" = False,
-                     features: np.ndarray | None = None, detector: Detector | None = None) -> Prepared:
+                     features: np.ndarray | None = None, detector: Detector | None = None,
+                     detections: Detections | None = None) -> Prepared:
     """Detect or read, preprocess, embed and build tracklets: the stages no solver choice can change.
 
     Parameters are those of :func:`track_sequence`.
     """
     timings: dict[str, float] = {}
     clock = _Clock(timings)
-    info = read_seqinfo(seq_dir, config.input.fps)
+    info = seq_dir if isinstance(seq_dir, SeqInfo) else read_seqinfo(seq_dir, config.input.fps)
     sot = config.sot.variant != "none"
     if sot and config.appearance.backend == "none":
         raise ConfigError(f"[sot] variant = {config.sot.variant!r} needs a re-ID model; [appearance] backend = "
                           f"'none' (motion only) tracks without one: set variant = 'none' or choose a backend")
-    source, det_file = detection_source(config.detection, info)
+    source, det_file = ("given", None) if detections is not None else detection_source(config.detection, info)
     sot_config = config.sot.resolved(detector_detections(config.detection, info))
     verify = sot_config.verify == "detector"
     detected = raw_features = support = None
@@ -253,7 +254,8 @@ def prepare_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(
         log.info("%s: the detector found %d boxes", info.name, len(raw))
         clock.lap("appearance" if embed_now else "detect")
     else:
-        raw = read_detections(det_file, info.length, (info.width, info.height))
+        raw = detections if detections is not None else read_detections(det_file, info.length,
+                                                                         (info.width, info.height))
         clock.lap("read")
     kept = preprocess_indices(raw, config.preprocess)
     dets = raw.subset(kept)
@@ -384,15 +386,17 @@ def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tra
     return tracks
 
 
-def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
+def track_sequence(seq_dir: "str | Path | SeqInfo", config: TrackerConfig = TrackerConfig(),
                    embedder: Embedder | None = None, progress: "bool | Progress" = False,
-                   features: np.ndarray | None = None, detector: Detector | None = None) -> TrackResult:
-    """Track one MOTChallenge sequence folder.
+                   features: np.ndarray | None = None, detector: Detector | None = None,
+                   detections: Detections | None = None) -> TrackResult:
+    """Track one sequence: a MOTChallenge folder, a video file, or a :class:`~sotmot.io.SeqInfo` (frames in
+    memory: :func:`sotmot.track`).
 
     Parameters
     ----------
     seq_dir
-        Folder with ``seqinfo.ini``, ``det/det.txt`` and ``img1/``.
+        Folder with ``seqinfo.ini``, ``det/det.txt`` and ``img1/``; a video file; or the sequence itself.
     config
         Tracker configuration; ``[association] solver`` names the long-term
         association solver (a key of :data:`sotmot.plugins.SOLVERS`).
@@ -409,7 +413,10 @@ def track_sequence(seq_dir: str | Path, config: TrackerConfig = TrackerConfig(),
         source``), or that checks SOT boxes (``[sot] verify``; used when its
         ``min_score`` is at most ``verify_min_score``); built from
         ``config.detection`` when needed and omitted.
+    detections
+        The detections, already read and checked (:func:`sotmot.io.detections_from_array`), instead of a file
+        or the detector; tracked as a detections file is (``[detection] source = "file"``).
     """
     get_solver(config.association.solver)  # an unknown name fails before any work is done
-    return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features, detector), config,
-                           embedder, progress)
+    return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features, detector, detections),
+                           config, embedder, progress)

@@ -8,13 +8,13 @@ plug-in or its heavy dependencies. Each entry maps the name a user writes
 only when it is asked for. Adding a plug-in is one module plus one line here.
 """
 
-#: Long-term association solvers: CLI name -> "module:function" (``solvers.get_solver``).
+#: Long-term association solvers: CLI name -> "module:function" (``sotmot.solvers.get_solver``).
 SOLVERS: dict[str, str] = {
-    "greedy": "solvers.greedy:solve",
-    "flow": "solvers.mincostflow:solve",
-    "flow-nx": "solvers.networkx_flow:solve",
-    "flow-staged": "solvers.mincostflow:solve_staged",
-    "lifted": "solvers.lifted:solve",
+    "greedy": "sotmot.solvers.greedy:solve",
+    "flow": "sotmot.solvers.mincostflow:solve",
+    "flow-nx": "sotmot.solvers.networkx_flow:solve",
+    "flow-staged": "sotmot.solvers.mincostflow:solve_staged",
+    "lifted": "sotmot.solvers.lifted:solve",
 }
 
 #: Re-ID backends: config name -> "module:factory", the factory taking an AppearanceConfig.
@@ -31,4 +31,4 @@ DETECTORS: dict[str, str] = {
 }
 
 #: The extra that installs what each optional backend or detector imports.
-EXTRAS: dict[str, str] = {"torch": "'sotmot[torch]' (torch==2.13.0 and onnx)", "openvino": "'sotmot[openvino]'"}
+EXTRAS: dict[str, str] = {"torch": "'sotmot[torch]' (torch==2.13.0 and onnx)", "openvino": "openvino (a dependency of sotmot)"}

@@ -171,24 +171,24 @@ def sequence_inputs(info, config: TrackerConfig) -> list[Path | None]:
 
 
 def resolve_paths(config: TrackerConfig) -> TrackerConfig:
-    """``config`` with the re-ID model (flag, config or ``SOTMOT_REID_MODEL``), the detector model (flag, config
-    or ``SOTMOT_DETECTOR_MODEL``), the detections file, fine-tuned weights and calibration file as absolute paths.
+    """``config`` with the re-ID model (flag, config or ``SOTMOT_REID_MODEL``, else the bundled one), the detector
+    model (flag, config or ``SOTMOT_DETECTOR_MODEL``, else the bundled one), the detections file, fine-tuned weights and calibration file as absolute paths.
 
     Done once, by the process that starts the run: the run record then names
     (and hashes) the model however it was given, and workers on other
     machines read the same files rather than their own environment.
     """
-    from sotmot.appearance.base import ENV_VAR
-    from sotmot.detection import ENV_VAR as DETECTOR_ENV_VAR
-    from sotmot.io.mot import model_given
+    from sotmot.models import model_given, model_in_use
 
     def absolute(path: str | None) -> str | None:
         return None if not path else str(Path(path).expanduser().resolve())
 
-    config = config.replace("appearance", model=absolute(model_given(config.appearance.model, ENV_VAR)),
+    # a run with re-ID names its model, the bundled one too; motion only names one only when it was given
+    reid = model_given if config.appearance.backend == "none" else model_in_use
+    config = config.replace("appearance", model=absolute(reid(config.appearance.model, "reid")),
                             weights=absolute(config.appearance.weights))
     config = config.replace("detection", file=absolute(config.detection.file),
-                            model=absolute(model_given(config.detection.model, DETECTOR_ENV_VAR)))
+                            model=absolute(model_in_use(config.detection.model, "detector")))
     return config.replace("confirm", calibration=absolute(config.confirm.calibration))
 
 

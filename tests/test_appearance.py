@@ -23,11 +23,12 @@ def test_affinity_definition():
     np.testing.assert_allclose(affinity_rows(x, y), np.diag(affinity(x, y)))
 
 
-def test_missing_model_says_how_to_point_at_one(monkeypatch):
+def test_no_model_runs_the_bundled_one_and_a_missing_one_says_how_to_point_at_one(monkeypatch):
+    from sotmot.models import MODELS
+
     monkeypatch.delenv("SOTMOT_REID_MODEL", raising=False)
-    with pytest.raises(ModelError, match="--reid-model"):
-        make_embedder(AppearanceConfig())
-    with pytest.raises(ModelError, match="not found"):
+    assert make_embedder(AppearanceConfig(backend="onnx")).path == MODELS["reid"].path
+    with pytest.raises(ModelError, match="not found.*--reid-model"):
         make_embedder(AppearanceConfig(model="/nonexistent/model.onnx"))
 
 

@@ -51,10 +51,10 @@ def test_errors_print_one_line_and_exit_2(tmp_path, capsys):
 
 
 def test_missing_model_error_names_the_flag(tmp_path, capsys, monkeypatch):
-    monkeypatch.delenv("SOTMOT_REID_MODEL", raising=False)
+    monkeypatch.setenv("SOTMOT_REID_MODEL", str(tmp_path / "gone.onnx"))
     seq = require(DATA / "MOT16-05-clip30")
     assert main(["track", str(seq), "--out", str(tmp_path)]) == 2
-    assert "--reid-model" in capsys.readouterr().err
+    assert "gone.onnx (from --reid-model" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())  # nothing half-written
 
 
@@ -122,10 +122,9 @@ def test_graph_and_explain_commands_run_to_the_end(tmp_path, model_0288, capsys)
     assert "tracks 1 and 2" in capsys.readouterr().out
 
 
-def test_verifying_sot_boxes_without_a_detector_fails_before_tracking(tmp_path, model_0288, capsys, monkeypatch):
-    monkeypatch.delenv("SOTMOT_DETECTOR_MODEL", raising=False)
+def test_verifying_sot_boxes_with_a_missing_detector_fails_before_tracking(tmp_path, model_0288, capsys):
     seq = require(DATA / "MOT16-05-clip30")
     assert main(["track", str(seq), "--out", str(tmp_path / "out"), "--reid-model", str(model_0288),
-                 "--verify-sot", "detector", "-q"]) == 2
-    assert "no person detector given: pass --detector-model" in capsys.readouterr().err
+                 "--verify-sot", "detector", "--detector-model", str(tmp_path / "gone.xml"), "-q"]) == 2
+    assert "person detector not found" in capsys.readouterr().err
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

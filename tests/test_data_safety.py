@@ -385,7 +385,7 @@ def test_eval_without_ground_truth_is_refused_before_tracking(tmp_path, capsys, 
 
 
 def test_json_reports_never_land_on_an_input_and_are_checked_before_the_work(tmp_path, capsys, monkeypatch):
-    from sotmot import evaluate
+    from sotmot import scoring
     from sotmot.inspect import compare
 
     seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False, gt_lines=["1,1,10,10,5,8,1,1,1"])
@@ -393,7 +393,7 @@ def test_json_reports_never_land_on_an_input_and_are_checked_before_the_work(tmp
     results.mkdir()
     (results / "SYN.txt").write_text("1,1,10,10,5,8,1,-1,-1,-1\n")
     before = (seq / "gt" / "gt.txt").read_text()
-    monkeypatch.setattr(evaluate, "evaluate", lambda *a, **k: pytest.fail("scored before checking --json"))
+    monkeypatch.setattr(scoring, "evaluate", lambda *a, **k: pytest.fail("scored before checking --json"))
     monkeypatch.setattr(compare, "compare", lambda *a, **k: pytest.fail("compared before checking --json"))
     for target in (seq / "gt" / "gt.txt", results / "SYN.txt"):
         assert main(["eval", str(results), str(seq), "--json", str(target)]) == 2

@@ -35,7 +35,7 @@ def tud():
 
 
 def scores(tud, tmp_path, config: TrackerConfig | None = None, solver: str = "greedy") -> dict[str, float]:
-    from sotmot.evaluate import evaluate_files
+    from sotmot.scoring import evaluate_files
     from sotmot.io import results_path, write_results
     from sotmot.pipeline import track_sequence
 

@@ -6,7 +6,7 @@ import pytest
 
 from conftest import write_sequence
 from sotmot.errors import InputError
-from sotmot.evaluate import evaluate, evaluate_files, format_table
+from sotmot.scoring import evaluate, evaluate_files, format_table
 
 
 def tud_campus():
@@ -55,7 +55,7 @@ def test_malformed_results_are_reported_with_file_and_line(tmp_path):
 
 def test_frame_errors_count_what_trackeval_counts():
     # the per-frame matching used for drawing errors must agree with TrackEval's CLEAR numbers
-    from sotmot.evaluate import frame_errors
+    from sotmot.scoring import frame_errors
 
     path = tud_campus()
     totals = frame_errors(path / "test.txt", path / "gt.txt", 71, "TUD-Campus").totals()
@@ -66,7 +66,7 @@ def test_miss_positions_say_gap_end_or_never(tmp_path):
     # person 1 is matched by track 7 at frames 1 and 4, missed at 2-3 (inside that trajectory), matched by track 8
     # at frame 6 (missed at 5: between two trajectories) and missed at 7-8 (past its end); person 2 is never
     # matched, so it needs a trajectory of its own
-    from sotmot.evaluate import frame_errors
+    from sotmot.scoring import frame_errors
 
     gt = [f"{f},1,10,10,20,40,1,1,1" for f in range(1, 9)] + [f"{f},2,40,5,10,20,1,1,1" for f in (2, 3)]
     seq = write_sequence(tmp_path, [], length=8, width=64, height=48, gt_lines=gt, images=False)

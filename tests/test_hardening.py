@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -42,7 +43,7 @@ def test_track_never_writes_outside_out(tmp_path):
 
 
 def test_evaluation_refuses_names_with_separators(tmp_path):
-    from sotmot.evaluate import evaluate_files
+    from sotmot.scoring import evaluate_files
 
     with pytest.raises(EvaluationError, match="plain file names"):
         evaluate_files([(tmp_path / "r.txt", tmp_path / "gt.txt", 5, "../x")])
@@ -299,9 +300,11 @@ def test_track_a_video_with_its_detections_then_render_it(tmp_path, model_0288, 
     assert main(["render", str(video), str(out / "street.txt"), "--out", str(tmp_path / "r.avi"), "-q"]) == 0
     assert (tmp_path / "r.avi").is_file()
     capsys.readouterr()
-    monkeypatch.delenv("SOTMOT_DETECTOR_MODEL", raising=False)
-    assert main(["track", str(video), "--out", str(out), "--reid-model", str(model_0288), "-q"]) == 2
-    assert "no person detector given: pass --detector-model" in capsys.readouterr().err
+    monkeypatch.delenv("SOTMOT_DETECTOR_MODEL", raising=False)  # the bundled detector finds the people
+    assert main(["track", str(video), "--out", str(tmp_path / "model"), "--reid-model", str(model_0288), "-q"]) == 0
+    assert (tmp_path / "model" / "street.det.txt").is_file()
+    record = json.loads((tmp_path / "model" / "street.run.json").read_text())
+    assert record["detector_model"]["path"].endswith("sotmot/models/person-detection-0202.FP16-INT8.xml")
 
 
 def test_video_detections_are_checked_against_the_user_file(tmp_path, capsys, model_0288):

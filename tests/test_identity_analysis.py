@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from helpers import load_script
-from sotmot.evaluate import FrameErrors
+from sotmot.scoring import FrameErrors
 
 
 def test_a_person_on_three_ids_is_two_fragmentations_and_an_id_on_two_people_one_switch():

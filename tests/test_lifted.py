@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from helpers import direction, one_person_in_three_pieces, tk
 from sotmot.association import get_solver
 from sotmot.association.flow_network import chains_from_links
-from solvers.lifted import LiftedWindowError
+from sotmot.solvers.lifted import LiftedWindowError
 from sotmot.association.objective import lifted_objective, link_pairs, pair_scores
 from sotmot.config import AssociationConfig
 from sotmot.association.merge import link_order_key

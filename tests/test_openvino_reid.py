@@ -8,7 +8,7 @@ from sotmot.appearance import make_embedder
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
 
-pytest.importorskip("openvino", reason="the openvino extra is not installed (pip install 'sotmot[openvino]')")
+pytest.importorskip("openvino", reason="openvino is not installed (a dependency of sotmot)")
 
 
 @pytest.mark.parametrize("model", ["person-reidentification-retail-0288.onnx",

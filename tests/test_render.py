@@ -47,7 +47,7 @@ def test_render_with_ground_truth_marks_errors_side_by_side(tmp_path):
     # frame 1: a hit and a false box; frame 2: person 1 found under another id (a switch), person 2 missed
     results.parent.mkdir()
     results.write_text("1,1,10,10,20,30,1,-1,-1,-1\n1,5,70,5,10,10,1,-1,-1,-1\n2,3,12,10,20,30,1,-1,-1,-1\n")
-    from sotmot.evaluate import frame_errors
+    from sotmot.scoring import frame_errors
 
     errors = frame_errors(results, seq / "gt" / "gt.txt", 2, "SYN")
     assert errors.totals() == {"TP": 2, "FP": 1, "FN": 1, "IDSW": 1}

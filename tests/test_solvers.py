@@ -142,7 +142,7 @@ MANY = st.lists(st.tuples(st.integers(1, 90), st.integers(1, 8), st.sampled_from
 @given(specs=MANY)
 def test_greedy_equals_the_plain_loop(max_check, specs):
     # the lazily checked candidate lists must give exactly the plain loop's result, whatever the batch size
-    import solvers.greedy as greedy
+    import sotmot.solvers.greedy as greedy
 
     ts = random_tracklets(specs)
     saved, greedy.MAX_CHECK = greedy.MAX_CHECK, max_check

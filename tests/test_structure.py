@@ -12,26 +12,26 @@ ROOT = Path(__file__).resolve().parents[1]
 #: lower ones. A new module needs a line here: where it sits is a decision, not an accident.
 FLOORS = {
     "sotmot.errors": 0, "sotmot.types": 0, "sotmot.plugins": 0, "sotmot.boxes": 0, "sotmot.progress": 0,
-    "sotmot": 0,  # the package's __init__
-    "sotmot.config": 1,
-    "sotmot.io": 2, "sotmot.evaluate": 2,
+    "sotmot": 0,  # the package's __init__ (its public names are imported lazily from their own modules)
+    "sotmot.config": 1, "sotmot.models": 1,
+    "sotmot.io": 2, "sotmot.scoring": 2,
     "sotmot.appearance": 3, "sotmot.detection": 3, "sotmot.postprocess": 3, "sotmot.motion": 3,
     "sotmot.confidence": 4, "sotmot.provenance": 4, "sotmot.passes": 4, "sotmot.sot": 4, "sotmot.tracklets": 4,
     "sotmot.preprocess": 5, "sotmot.confirm": 5, "sotmot.association": 5,
-    "solvers": 6,
+    "sotmot.solvers": 6,  # the solvers/ folder of the source tree, installed as sotmot.solvers
     "sotmot.pipeline": 7,
     "sotmot.runs": 8, "sotmot.peers": 8, "sotmot.train": 8, "sotmot.benchmarks": 8,
-    "sotmot.inspect": 9, "sotmot.fitting": 9,
+    "sotmot.inspect": 9, "sotmot.fitting": 9, "sotmot.api": 9,
     "sotmot.cli": 10, "sotmot.__main__": 10,
 }
 
 
 def modules() -> dict[str, Path]:
     found = {}
-    for package in ("sotmot", "solvers"):
+    for package, name in (("sotmot", "sotmot"), ("solvers", "sotmot.solvers")):  # pyproject.toml's package-dir
         for path in (ROOT / package).rglob("*.py"):
-            name = ".".join(path.relative_to(ROOT).with_suffix("").parts)
-            found[name.removesuffix(".__init__")] = path
+            module = ".".join((name, *path.relative_to(ROOT / package).with_suffix("").parts))
+            found[module.removesuffix(".__init__")] = path
     return found
 
 
@@ -59,7 +59,8 @@ def floor(module: str) -> int:
 
 
 def test_every_import_goes_down_or_sideways():
-    upward = [(a, b) for a, b in import_graph().edges if floor(b) > floor(a)]
+    # a package re-exporting its own modules' names (sotmot.track from sotmot.api) is not an import upward
+    upward = [(a, b) for a, b in import_graph().edges if floor(b) > floor(a) and not b.startswith(a + ".")]
     assert not upward, f"imports from a lower floor to a higher one: {upward}"
 
 
@@ -75,11 +76,14 @@ def test_no_import_cycle():
 
 def test_the_core_reaches_a_solver_only_through_the_name_table():
     graph = import_graph()
-    reached = [(a, b) for a, b in graph.edges if a.startswith("sotmot") and b.split(".")[0] == "solvers"]
+    def solver(module: str) -> bool:
+        return module == "sotmot.solvers" or module.startswith("sotmot.solvers.")
+
+    reached = [(a, b) for a, b in graph.edges if not solver(a) and solver(b)]
     assert not reached, f"the core imports a solver module directly: {reached}"
     from sotmot.plugins import SOLVERS
 
-    assert all(target.startswith("solvers.") for target in SOLVERS.values())
+    assert all(target.startswith("sotmot.solvers.") for target in SOLVERS.values())
 
 
 def test_the_floor_check_sees_an_upward_import():

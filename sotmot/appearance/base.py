@@ -3,8 +3,9 @@
 Made for Intel's Open Model Zoo person-reidentification-retail models
 (input ``N x 3 x 256 x 128``, BGR, raw 0-255, mean and scale inside the model;
 output ``N x D``), but any model with that input contract works. The model
-file is never bundled: its path comes from the configuration or from the
-environment variable ``SOTMOT_REID_MODEL``.
+file comes from the configuration or from the
+environment variable ``SOTMOT_REID_MODEL``, else the bundled
+person-reidentification-retail-0288 (:mod:`sotmot.models`).
 """
 
 from __future__ import annotations
@@ -17,19 +18,18 @@ import numpy as np
 from sotmot.appearance.affinity import normalize
 from sotmot.boxes import pixel_bounds
 from sotmot.errors import ModelError
-from sotmot.io.mot import resolve_model_file
+from sotmot.models import MODELS, resolve_model_file
 
 log = logging.getLogger(__name__)
 
-ENV_VAR = "SOTMOT_REID_MODEL"
+ENV_VAR = MODELS["reid"].env_var
 CROP_HEIGHT = 256
 CROP_WIDTH = 128
 
 
 def resolve_model_path(model: str | None) -> Path:
-    """The model path from the config, else from ``SOTMOT_REID_MODEL``; it must exist."""
-    return resolve_model_file(model, ENV_VAR, "person re-ID model", "--reid-model", "[appearance] model",
-                              "../shared/models/person-reidentification-retail-0288.onnx")
+    """The model path from the config, else from ``SOTMOT_REID_MODEL`` (it must exist), else the bundled one."""
+    return resolve_model_file(model, "reid")
 
 
 def check_model_io(path: Path, inputs: list[tuple[str, list]], outputs: list[tuple[str, list]]) -> tuple[str, object]:

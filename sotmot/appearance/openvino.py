@@ -4,7 +4,7 @@ The model contract, cropping, batching and flip-averaging are those of
 :mod:`sotmot.appearance.onnx`; only the runtime differs. On the 2-core
 CPUs these benchmarks ran on, OpenVINO runs model 0288 about twice as fast
 as onnxruntime with the same features (cosine >= 0.999; docs/benchmarks.md).
-Needs the ``openvino`` extra (``pip install 'sotmot[openvino]'``); CPU only.
+OpenVINO is a dependency of sotmot (it also runs the bundled detector); CPU only.
 """
 
 from __future__ import annotations

@@ -23,8 +23,8 @@ the fewest, most similar trajectories.
 
 :func:`flow_arcs` lays the network out as arc arrays and returns where the
 link arcs are, so a solver maps its flows back to links without knowing the
-layout (:mod:`solvers.mincostflow`); :func:`flow_network` gives the same arcs
-for a networkx association graph (:mod:`solvers.networkx_flow`).
+layout (:mod:`sotmot.solvers.mincostflow`); :func:`flow_network` gives the same arcs
+for a networkx association graph (:mod:`sotmot.solvers.networkx_flow`).
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@
   ``c0 + c1 a + c2 log m + c3 a log m`` with ``a`` the affinity and ``m =
   min(n_a, n_b)`` (:func:`pair_features`), fitted on ground truth by
   ``scripts/fit_lifted.py``; or ``"threshold"``, ``affinity(a, b) - tau``.
-  The solver that maximises it: :mod:`solvers.lifted`.
+  The solver that maximises it: :mod:`sotmot.solvers.lifted`.
 
 ``compare`` reports both for every solver's grouping; ``explain`` shows which
 pairs paid for a link (:func:`link_pairs`).

@@ -25,11 +25,11 @@ import numpy as np
 
 from sotmot.config import DetectionConfig
 from sotmot.errors import ConfigError
-from sotmot.io.mot import model_given, resolve_model_file
+from sotmot.models import MODELS, model_in_use, resolve_model_file
 from sotmot.plugins import DETECTORS, EXTRAS
 
 #: The environment variable that may name the detector model.
-ENV_VAR = "SOTMOT_DETECTOR_MODEL"
+ENV_VAR = MODELS["detector"].env_var
 #: How a ``det.txt`` written by sotmot holds boxes and scores; :func:`rounded` gives exactly these values.
 BOX_FORMAT, SCORE_FORMAT = "%.2f", "%.5f"
 
@@ -43,15 +43,15 @@ class Detector(Protocol):
 
 
 def resolve_detector_path(model: str | None) -> Path:
-    """The detector model from the config (or ``--detector-model``), else from ``SOTMOT_DETECTOR_MODEL``.
+    """The detector model from the config (or ``--detector-model``), else from ``SOTMOT_DETECTOR_MODEL``, else
+    the bundled person-detection-0202 (:mod:`sotmot.models`).
 
     Raises
     ------
     ModelError
-        None given, or the file is missing.
+        The given file is missing, or the bundled one is missing or changed.
     """
-    return resolve_model_file(model, ENV_VAR, "person detector", "--detector-model", "[detection] model",
-                              "../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml")
+    return resolve_model_file(model, "detector")
 
 
 def make_detector(config: DetectionConfig) -> Detector:
@@ -99,7 +99,7 @@ def detector_model_of(config: DetectionConfig, info) -> str | None:
     wrote (so that replaying it with ``--det`` repeats the run); None for any other detections file."""
     source, path = detection_source(config, info)
     if source == "model":
-        return model_given(config.model, ENV_VAR)
+        return model_in_use(config.model, "detector")
     if path is not None and path.name.endswith(".det.txt"):
         record = path.with_name(path.name.removesuffix(".det.txt") + ".run.json")
         try:
@@ -129,8 +129,8 @@ def detector_detections(config: DetectionConfig, info) -> bool:
     source, _ = detection_source(config, info)
     if source == "model":
         return True
-    made_by, given = detector_model_of(config, info), model_given(config.model, ENV_VAR)
-    return made_by is not None and given is not None and \
+    made_by, given = detector_model_of(config, info), model_in_use(config.model, "detector")
+    return made_by is not None and \
         Path(made_by).expanduser().resolve() == Path(given).expanduser().resolve()
 
 

@@ -3,7 +3,7 @@
 Used by ``scripts/fit_confidence.py`` and ``scripts/fit_detector_confidence.py`` (the lifted costs:
 :mod:`sotmot.fitting.lifted`); nothing here runs while tracking. Labels
 come from TrackEval's own preprocessing and the CLEAR matching rule
-(:func:`sotmot.evaluate.frame_errors`): a box is a true positive when it is
+(:func:`sotmot.scoring.frame_errors`): a box is a true positive when it is
 matched to a considered pedestrian at IoU >= 0.5, a false positive when it is
 unmatched, and is left out when TrackEval removes it (a box on a distractor
 class of MOT16 ground truth). The labels come from one matching of the whole
@@ -37,7 +37,7 @@ from sotmot.confidence import (
     self_map,
 )
 from sotmot.config import TrackerConfig
-from sotmot.evaluate import EvalReport, FrameErrors, evaluate_files, frame_errors
+from sotmot.scoring import EvalReport, FrameErrors, evaluate_files, frame_errors
 from sotmot.io import SeqInfo, read_detections, read_seqinfo, results_path, write_results
 from sotmot.confirm import box_scorer, confirm
 from sotmot.pipeline import Prepared, associate
@@ -48,7 +48,7 @@ from sotmot.types import Tracklet, Tracks
 
 def clear_matching(tracks: Tracks, info: SeqInfo, workdir: Path) -> FrameErrors:
     """``tracks`` written as the sequence's results under ``workdir`` and matched to its ground truth, frame by
-    frame (:func:`sotmot.evaluate.frame_errors`)."""
+    frame (:func:`sotmot.scoring.frame_errors`)."""
     path = results_path(workdir, info.name)
     write_results(path, tracks)
     return frame_errors(path, info.gt_path, info.length, info.name)

@@ -25,7 +25,7 @@ def tracklet_identities(tracklets: Sequence[Tracklet], info: SeqInfo, workdir: P
     """``(T,)`` ground-truth identity of each tracklet, or -1 when fewer than half its boxes are one identity's.
 
     Each tracklet is written as a track of its own and matched by the CLEAR
-    rule (:func:`sotmot.evaluate.frame_errors`); a box on a distractor or on
+    rule (:func:`sotmot.scoring.frame_errors`); a box on a distractor or on
     no one counts against every identity.
     """
     if not tracklets:

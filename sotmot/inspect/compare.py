@@ -23,7 +23,7 @@ from sotmot.association import get_solver
 from sotmot.appearance import Embedder, embedder_for
 from sotmot.config import TrackerConfig
 from sotmot.errors import SotmotError
-from sotmot.evaluate import evaluate_files
+from sotmot.scoring import evaluate_files
 from sotmot.association.objective import flow_objective, lifted_objective
 from sotmot.io import results_path, write_results
 from sotmot.pipeline import finish_sequence, prepare_sequence

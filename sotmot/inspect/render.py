@@ -178,7 +178,7 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
     folder (empty, or an earlier render) is written into frame by frame,
     each frame replaced atomically; nothing else in it is touched. Every
     write is checked (a full disk is an error, never a short video). With
-    ``errors`` (:func:`sotmot.evaluate.frame_errors`), the ground truth is
+    ``errors`` (:func:`sotmot.scoring.frame_errors`), the ground truth is
     drawn beside the results with the errors marked.
 
     Raises

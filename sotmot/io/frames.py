@@ -54,6 +54,17 @@ class FrameSource(Protocol):
         ...
 
 
+def grey_reduced(image: np.ndarray, factor: int) -> np.ndarray:
+    """A decoded BGR ``image`` in grey, ``factor`` times smaller on each side (rounded up; area averaging)."""
+    import cv2
+
+    grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    if factor == 1:
+        return grey
+    height, width = reduced_size(*grey.shape, factor)
+    return cv2.resize(grey, (width, height), interpolation=cv2.INTER_AREA)
+
+
 class JpegFolder:
     """The ``img1/NNNNNN.jpg`` files of a MOTChallenge folder, each decoded on request."""
 
@@ -148,13 +159,7 @@ class VideoFile:
         return image
 
     def read_grey(self, frame: int, factor: int) -> np.ndarray:
-        import cv2
-
-        grey = cv2.cvtColor(self.read(frame), cv2.COLOR_BGR2GRAY)
-        if factor == 1:
-            return grey
-        height, width = reduced_size(self.info.height, self.info.width, factor)
-        return cv2.resize(grey, (width, height), interpolation=cv2.INTER_AREA)
+        return grey_reduced(self.read(frame), factor)
 
     def _seek(self, frame: int) -> None:
         import cv2
@@ -178,8 +183,36 @@ class VideoFile:
             self._capture = None
 
 
+class ArrayFrames:
+    """Frames the caller holds (``info.frames``): a list, a 4-D array or any sequence of BGR ``uint8`` images,
+    ``frames[k]`` being frame ``k + 1``, each fetched when a stage asks for it. Never changed: the reader
+    marks a view read-only, not the caller's array."""
+
+    def __init__(self, info: SeqInfo) -> None:
+        self.info = info
+        self.decodes = 0
+
+    def read(self, frame: int) -> np.ndarray:
+        if not 1 <= frame <= self.info.length:
+            raise InputError(self.info.path, f"frame {frame} is outside the frames 1..{self.info.length}")
+        image = np.asarray(self.info.frames[frame - 1])
+        self.decodes += 1
+        if image.dtype != np.uint8 or image.shape != (self.info.height, self.info.width, 3):
+            raise InputError(self.info.path, f"frame {frame} is a {image.dtype} array of shape {image.shape}; "
+                             f"expected BGR uint8 ({self.info.height}, {self.info.width}, 3) as the first frame")
+        return image.view()
+
+    def read_grey(self, frame: int, factor: int) -> np.ndarray:
+        return grey_reduced(self.read(frame), factor)
+
+    def close(self) -> None:
+        pass
+
+
 def frame_source(info: SeqInfo) -> FrameSource:
-    """The source of ``info``'s frames: its video file, or its folder of JPEGs."""
+    """The source of ``info``'s frames: the images the caller holds, its video file, or its folder of JPEGs."""
+    if info.frames is not None:
+        return ArrayFrames(info)
     return VideoFile(info) if info.video is not None else JpegFolder(info)
 
 

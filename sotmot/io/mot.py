@@ -14,15 +14,15 @@ import os
 import tempfile
 from collections.abc import Iterable, Iterator
 from contextlib import ExitStack, contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
 from sotmot.config import MAX_FRAME_RATE
-from sotmot.errors import InputError, ModelError
+from sotmot.errors import InputError
 from sotmot.types import Detections, Tracks
 
 GtStyle = Literal["MOT15", "MOT16"]
@@ -60,6 +60,10 @@ class SeqInfo:
     video
         For a sequence read straight from a video file (:func:`sotmot.io.video.video_info`): that
         file, which is then also ``path``; None for a MOTChallenge folder.
+    frames
+        For a sequence whose frames the caller holds (:func:`sotmot.track` on images in memory):
+        a sequence of BGR ``uint8`` images, ``frames[k]`` being frame ``k + 1``
+        (:class:`sotmot.io.frames.ArrayFrames` reads them); ``path`` then only names it.
     """
 
     path: Path
@@ -71,6 +75,7 @@ class SeqInfo:
     im_dir: str = "img1"
     im_ext: str = ".jpg"
     video: Path | None = None
+    frames: Any = field(default=None, compare=False, repr=False)
 
     @property
     def source(self) -> Path:
@@ -185,9 +190,7 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
 
     Returns the ``(N, max_cols)`` array (missing trailing columns filled with -1)
     and the 1-based line number of each row. Every row is validated: column
-    count, numbers, finiteness, positive width and height, frame range, and
-    with ``ids`` (results, ground truth) an id that is an integer in
-    ``1..MAX_ID``.
+    count and numbers here, the values by :func:`check_rows`.
     """
     if not path.is_file():
         raise InputError(path, f"missing; expected the {what} file here")
@@ -207,26 +210,53 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
             except ValueError:
                 bad = next(f for f in fields if not _is_float(f))
                 raise InputError(path, f"non-numeric field {bad!r}", line=number) from None
-            bad_col = next((i for i, v in enumerate(values) if not math.isfinite(v)), None)
-            if bad_col is not None:
-                raise InputError(path, f"column {bad_col + 1} is {fields[bad_col]!r}; NaN and inf "
-                                 f"are not allowed", line=number)
-            frame = values[0]
-            if frame != int(frame):
-                raise InputError(path, f"frame number {fields[0]!r} is not an integer", line=number)
-            if frame < 1 or (seq_length is not None and frame > seq_length):
-                limit = f"1..{seq_length}" if seq_length is not None else ">= 1"
-                raise InputError(path, f"frame {int(frame)} is outside {limit} (seqLength in seqinfo.ini)",
-                                 line=number)
-            if ids and not (values[1] == int(values[1]) and 1 <= values[1] <= MAX_ID):
-                raise InputError(path, f"id {fields[1]!r} must be an integer from 1 to {MAX_ID}", line=number)
-            if values[4] <= 0 or values[5] <= 0:
-                raise InputError(path, f"box width and height must be positive, got w={fields[4]}, "
-                                 f"h={fields[5]}", line=number)
             rows.append(values + [-1.0] * (max_cols - len(values)))
             lines.append(number)
     arr = np.asarray(rows, dtype=np.float64).reshape(-1, max_cols)
+    check_rows(arr, lines, path, seq_length, ids)
     return arr, lines
+
+
+def check_rows(arr: np.ndarray, lines: list[int], path: str | Path, seq_length: int | None,
+               ids: bool = False) -> None:
+    """Check the values of MOTChallenge rows ``arr`` (``frame, id, x, y, w, h, score, ...``; the line of each in
+    ``lines``): finite, an integer frame in ``1..seq_length``, with ``ids`` an id that is an integer in
+    ``1..MAX_ID``, positive width and height.
+
+    Raises
+    ------
+    InputError
+        At the first bad row, naming ``path`` and its line.
+    """
+    if not len(arr):
+        return
+    finite = np.isfinite(arr)
+    frame = arr[:, 0]
+    with np.errstate(invalid="ignore"):
+        checks = [  # in the order a row is read; the first that fails names the problem
+            ~finite.all(axis=1),
+            frame != np.floor(frame),
+            (frame < 1) | ((frame > seq_length) if seq_length is not None else False),
+            ~((arr[:, 1] == np.floor(arr[:, 1])) & (arr[:, 1] >= 1) & (arr[:, 1] <= MAX_ID)) if ids
+            else np.zeros(len(arr), bool),
+            (arr[:, 4] <= 0) | (arr[:, 5] <= 0),
+        ]
+    bad = np.logical_or.reduce(checks)
+    if not bad.any():
+        return
+    k = int(np.flatnonzero(bad)[0])
+    row, line = arr[k], lines[k]
+    if checks[0][k]:
+        col = int(np.flatnonzero(~finite[k])[0])
+        raise InputError(path, f"column {col + 1} is '{row[col]:g}'; NaN and inf are not allowed", line=line)
+    if checks[1][k]:
+        raise InputError(path, f"frame number '{row[0]:g}' is not an integer", line=line)
+    if checks[2][k]:
+        limit = f"1..{seq_length}" if seq_length is not None else ">= 1"
+        raise InputError(path, f"frame {int(row[0])} is outside {limit} (seqLength in seqinfo.ini)", line=line)
+    if checks[3][k]:
+        raise InputError(path, f"id '{row[1]:g}' must be an integer from 1 to {MAX_ID}", line=line)
+    raise InputError(path, f"box width and height must be positive, got w={row[4]:g}, h={row[5]:g}", line=line)
 
 
 def _fields(text: str) -> list[str]:
@@ -259,6 +289,35 @@ def read_detections(path: str | Path, seq_length: int | None = None,
     """
     path = Path(path)
     arr, lines = _parse_rows(path, 7, 10, seq_length, "detections")
+    return _detections(arr, lines, path, image_size)
+
+
+def detections_from_array(rows: np.ndarray, seq_length: int | None = None,
+                          image_size: tuple[int, int] | None = None, source: str = "detections") -> Detections:
+    """Detections held in memory: ``rows`` ``(N, 6)`` ``frame, x, y, w, h, score`` (boxes in pixels, frames
+    1-based), checked as :func:`read_detections` checks a ``det.txt`` (errors name ``source`` and the 1-based
+    row), in the same canonical order.
+
+    Raises
+    ------
+    InputError
+        Not an ``(N, 6)`` array of numbers, or a bad row.
+    """
+    try:
+        rows = np.asarray(rows, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InputError(source, f"must be an (N, 6) array of numbers (frame, x, y, w, h, score): {exc}") from None
+    if rows.ndim != 2 or rows.shape[1] != 6:
+        raise InputError(source, f"must be an (N, 6) array (frame, x, y, w, h, score); got shape {rows.shape}")
+    arr = np.column_stack([rows[:, :1], np.full(len(rows), -1.0), rows[:, 1:]])  # the det.txt columns
+    lines = list(range(1, len(arr) + 1))
+    check_rows(arr, lines, f"{source} row", seq_length)
+    return _detections(arr, lines, Path(f"{source} row"), image_size)
+
+
+def _detections(arr: np.ndarray, lines: list[int], path: Path, image_size: tuple[int, int] | None) -> Detections:
+    """Checked ``det.txt`` rows as :class:`Detections`; with ``image_size = (width, height)`` an absurdly large
+    box is an error and boxes mostly outside the image are counted in a warning."""
     if image_size is not None and len(arr):
         width, height = image_size
         huge = np.flatnonzero((arr[:, 4] > MAX_BOX_SCALE * width) | (arr[:, 5] > MAX_BOX_SCALE * height))
@@ -451,27 +510,6 @@ def same_file(a: str | Path, b: str | Path) -> bool:
         return a.exists() and b.exists() and os.path.samefile(a, b)
     except OSError:
         return False
-
-
-def model_given(given: str | None, env_var: str) -> str | None:
-    """The model path the user gave: ``given`` (a flag or the config), else the environment variable ``env_var``."""
-    return given or os.environ.get(env_var) or None
-
-
-def resolve_model_file(given: str | None, env_var: str, what: str, flag: str, section: str, example: str) -> Path:
-    """A model file from the user: ``given`` (flag or config), else the environment variable ``env_var``.
-
-    Models are never bundled or downloaded, so a missing one is a
-    :class:`~sotmot.errors.ModelError` that says every way to give it.
-    """
-    value = model_given(given, env_var)
-    if not value:
-        raise ModelError(f"no {what} given: pass {flag} PATH (or set {section} in the config, or the environment "
-                         f"variable {env_var}), e.g. {example}")
-    path = Path(value).expanduser()
-    if not path.is_file():
-        raise ModelError(f"{what} not found: {path} (from {flag}, the config or {env_var})")
-    return path
 
 
 def refuse_overwriting(outputs: Iterable[str | Path], inputs: Iterable[str | Path | None], hint: str) -> None:

@@ -1,0 +1,264 @@
+"""Tracking from Python: :func:`track` a video, a MOTChallenge folder or frames held in memory, and
+:func:`evaluate` the result.
+
+sotmot is an **offline** tracker by design: tracklets are built per second and
+long-term association looks at the whole sequence at once (paper Sec. 3.4), so
+:func:`track` returns when it has seen every frame; it does not give tracks
+frame by frame. Models are the two bundled ones unless the configuration names
+others (``sotmot models``); nothing is downloaded.
+
+Example (``docs/api.md`` holds more; a test runs them)::
+
+    import sotmot
+    result = sotmot.track("../shared/data/MOT16-02-clip30")
+    print(result.tracks.n_tracks, "people")
+    result.save("out/MOT16-02.txt")
+    print(result.scores(gt="../shared/data/MOT16-02-clip30/gt/gt.txt")["HOTA"])
+
+Boxes are ``x, y, w, h`` in pixels and frames 1-based, as in MOTChallenge files.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import tempfile
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sotmot.config import MAX_FRAME_RATE, TrackerConfig, config_from_dict, load_config
+from sotmot.errors import ConfigError, InputError
+from sotmot.io import (
+    SeqInfo, detections_from_array, format_results, is_plain_name, read_results, read_seqinfo, refuse_overwriting,
+    write_text_atomic,
+)
+from sotmot.io.video import is_video
+from sotmot.types import Tracks
+
+
+@dataclass(frozen=True, eq=False)
+class Result:
+    """What :func:`track` made of a sequence.
+
+    Attributes
+    ----------
+    tracks
+        The tracked boxes (:class:`~sotmot.types.Tracks`): ``frames``, ``ids``,
+        ``boxes`` (``x, y, w, h`` pixels), ``scores`` as numpy arrays, one row
+        per box, exactly what :meth:`save` writes.
+    dropped
+        Boxes confirmation judged more likely false than true (not in ``tracks``).
+    info
+        The sequence: name, frame rate, length, image size.
+    config
+        The configuration the run used.
+    """
+
+    tracks: Tracks
+    dropped: Tracks
+    info: SeqInfo
+    config: TrackerConfig
+
+    def save(self, path: str | Path) -> Path:
+        """Write :attr:`tracks` as a MOTChallenge results file (``frame, id, x, y, w, h, score, -1, -1, -1``),
+        atomically: byte for byte what ``sotmot track`` writes for the same run. Never over one of the
+        sequence's own files. Returns the path."""
+        path = Path(path)
+        if self.info.frames is None:
+            inputs = [self.info.source, self.info.det_path, self.info.gt_path, self.config.detection.file]
+            refuse_overwriting([path], inputs, "choose another path")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(path, format_results(self.tracks))
+        return path
+
+    def scores(self, gt: str | Path) -> dict[str, float]:
+        """TrackEval's scores (HOTA, DetA, AssA, MOTA, IDF1, IDSW, FP, FN, ...) of :attr:`tracks` against the
+        ground truth ``gt`` (a ``gt.txt``, or a sequence folder holding ``gt/gt.txt``); see :func:`evaluate`."""
+        return evaluate(self, gt)
+
+    def __repr__(self) -> str:
+        return (f"Result({self.info.name!r}: {self.tracks.n_tracks} tracks, {len(self.tracks)} boxes over "
+                f"{self.info.length} frames at {self.info.frame_rate:g} fps)")
+
+
+class _Spool:
+    """Frames of a one-pass iterable kept on disk as ``.npy`` files in ``folder``, so that the stages that look
+    back and ahead read them again without holding them all in memory."""
+
+    def __init__(self, frames: Iterable, folder: Path) -> None:
+        self.paths: list[Path] = []
+        for k, image in enumerate(frames):
+            path = folder / f"{k + 1:06d}.npy"
+            np.save(path, np.asarray(image), allow_pickle=False)
+            self.paths.append(path)
+
+    def __len__(self) -> int:
+        return len(self.paths)
+
+    def __getitem__(self, index: int) -> np.ndarray:
+        return np.load(self.paths[index], allow_pickle=False)
+
+
+def _config(config: TrackerConfig | dict | str | Path | None) -> TrackerConfig:
+    if config is None:
+        return TrackerConfig()
+    if isinstance(config, TrackerConfig):
+        return config
+    if isinstance(config, dict):
+        return config_from_dict(config)
+    if isinstance(config, (str, Path)):
+        return load_config(config)
+    raise ConfigError(f"config must be a TrackerConfig, a dict of sections or a .toml/.json path; got "
+                      f"{type(config).__name__}")
+
+
+def _in_memory(frames: Any, frame_rate: float | None, name: str, stack: contextlib.ExitStack) -> SeqInfo:
+    """The sequence of frames held by the caller (spooled to a temporary folder when they come one pass only)."""
+    if frame_rate is None:
+        raise ConfigError("frame_rate is needed for frames held in memory (a video or a folder says its own)")
+    if isinstance(frame_rate, bool) or not isinstance(frame_rate, (int, float)) or \
+            not 0 < frame_rate <= MAX_FRAME_RATE:
+        raise ConfigError(f"frame_rate must be a number above 0 and at most {MAX_FRAME_RATE:g}; got {frame_rate!r}")
+    if not is_plain_name(name):
+        raise ConfigError(f"name must be a plain file name (no path separators); got {name!r}")
+    if isinstance(frames, np.ndarray) and frames.ndim == 3:
+        raise InputError(name, "frames is one image; pass a list (or an iterable, or a 4-D array) of images")
+    if not (hasattr(frames, "__len__") and hasattr(frames, "__getitem__")):
+        if not isinstance(frames, Iterable):
+            raise InputError(name, f"frames must be images (a list, an iterable or a 4-D array), a video path or a "
+                                   f"folder; got {type(frames).__name__}")
+        folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="sotmot-frames-")))
+        frames = _Spool(frames, folder)
+    if len(frames) == 0:
+        raise InputError(name, "no frames")
+    first = np.asarray(frames[0])
+    if first.dtype != np.uint8 or first.ndim != 3 or first.shape[2] != 3:
+        raise InputError(name, f"frame 1 is a {first.dtype} array of shape {first.shape}; expected a BGR uint8 "
+                               f"image (height, width, 3), as OpenCV reads one")
+    return SeqInfo(path=Path(f"<{name}>"), name=name, frame_rate=float(frame_rate), length=len(frames),
+                   width=int(first.shape[1]), height=int(first.shape[0]), frames=frames)
+
+
+def track(frames: Any, detections: Any = None, *, frame_rate: float | None = None,
+          config: TrackerConfig | dict | str | Path | None = None, name: str = "frames",
+          progress: bool = False) -> Result:
+    """Track the people in a sequence and return the tracks (offline: the whole sequence is associated at once).
+
+    Parameters
+    ----------
+    frames
+        A video file, a MOTChallenge folder (``seqinfo.ini``, ``img1/``), or the
+        frames themselves: a list, a 4-D array or any sequence of BGR ``uint8``
+        images (as ``cv2.imread`` gives them), each fetched when a stage needs
+        it, or any iterable of them (read once, kept on disk in a temporary
+        folder while tracking, so memory stays bounded).
+    detections
+        ``None``: a folder's ``det/det.txt`` when it has one, else the bundled
+        person detector runs on the frames. A ``det.txt`` path. Or an
+        ``(N, 6)`` array ``frame, x, y, w, h, score`` (frames 1-based, boxes in
+        pixels), checked as a file is.
+    frame_rate
+        Frames per second: needed for frames in memory; for a video it
+        replaces the container's rate; a folder's ``seqinfo.ini`` says its own.
+    config
+        A :class:`~sotmot.config.TrackerConfig`, a dict of sections as a config
+        file holds them (e.g. ``{"association": {"l_max_seconds": 3}}``), or the
+        path of a ``.toml``/``.json`` file; ``None`` for the defaults.
+    name
+        The sequence's name for frames in memory (folders and videos have one).
+    progress
+        Progress bars on stderr.
+
+    Returns
+    -------
+    Result
+        ``tracks`` (numpy arrays), ``save(path)``, ``scores(gt=...)``.
+
+    Raises
+    ------
+    InputError, ConfigError, ModelError
+        What the command line prints for the same input, e.g. a bad detection
+        row named by its number.
+    """
+    from sotmot.pipeline import track_sequence
+
+    cfg = _config(config)
+    given = None
+    with contextlib.ExitStack() as stack:
+        if isinstance(frames, (str, Path)):
+            path = Path(frames)
+            if not path.exists():
+                raise InputError(path, "not found; expected a video file or a MOTChallenge folder (seqinfo.ini)")
+            if frame_rate is not None and is_video(path):
+                cfg = cfg.replace("input", fps=frame_rate)
+            info = read_seqinfo(path, cfg.input.fps)
+            if frame_rate is not None and frame_rate != info.frame_rate:
+                raise ConfigError(f"{info.source}: the folder's frame rate is {info.frame_rate:g}; frame_rate "
+                                  f"{frame_rate:g} does not apply to a folder (edit frameRate in seqinfo.ini)")
+        else:
+            info = _in_memory(frames, frame_rate, name, stack)
+            if detections is None and not cfg.detection.file:
+                cfg = cfg.replace("detection", source="model")
+        if isinstance(detections, (str, Path)):
+            cfg = cfg.replace("detection", source="file", file=str(detections))
+        elif detections is not None:
+            given = detections_from_array(detections, info.length, (info.width, info.height))
+            cfg = cfg.replace("detection", source="file", file=None)
+        result = track_sequence(info, cfg, progress=progress, detections=given)
+    return Result(result.tracks, result.dropped, info, cfg)
+
+
+def evaluate(results: "Result | Tracks | str | Path", gt: str | Path, *, length: int | None = None,
+             name: str | None = None) -> dict[str, float]:
+    """TrackEval's scores of one sequence's tracks against its ground truth.
+
+    Parameters
+    ----------
+    results
+        A :class:`Result`, :class:`~sotmot.types.Tracks`, or a MOTChallenge results file.
+    gt
+        A ``gt.txt`` (MOT16 or 2DMOT2015 layout), or a sequence folder with ``gt/gt.txt``.
+    length
+        The sequence's number of frames: from the result or the folder's
+        ``seqinfo.ini`` when omitted, else the last frame of either file.
+    name
+        The sequence's name in the scores (default: the result's or the folder's).
+
+    Returns
+    -------
+    dict
+        Metric name -> value (``HOTA``, ``DetA``, ``AssA``, ``MOTA``, ``MOTP``,
+        ``IDF1``, ``IDSW``, ``FP``, ``FN``, ...; fractions as percentages).
+
+    Raises
+    ------
+    InputError, EvaluationError
+        A malformed file (named, with its line), or TrackEval missing or failing.
+    """
+    from sotmot.io import read_ground_truth
+    from sotmot.scoring import evaluate_files
+
+    gt = Path(gt)
+    if gt.is_dir():
+        folder = read_seqinfo(gt)
+        gt, length, name = folder.gt_path, length or folder.length, name or folder.name
+    if isinstance(results, Result):
+        length, name = length or results.info.length, name or results.info.name
+        results = results.tracks
+    with tempfile.TemporaryDirectory(prefix="sotmot-scores-") as tmp:
+        if isinstance(results, Tracks):
+            path = Path(tmp) / "results.txt"
+            path.write_text(format_results(results), encoding="utf-8")
+        else:
+            path = Path(results)
+        if length is None:
+            frames = [read_results(path).frames, read_ground_truth(gt).frames]
+            length = int(max((f.max() for f in frames if len(f)), default=1))
+        name = name or "sequence"
+        return evaluate_files([(path, gt, length, name)]).sequences[name]
+
+
+__all__ = ["Result", "evaluate", "track"]
