@@ -287,6 +287,17 @@ def _check_json(path: Path | None, seq_dirs: list[Path], results_dir: Path | Non
     refuse_overwriting([path], inputs, "choose another --json")
 
 
+def _json_ready(value):
+    """``value`` with every NaN or infinite float as None: JSON has no NaN (``JSON.parse`` refuses it)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_ready(v) for v in value]
+    return value
+
+
 def _write_json(path: Path | None, data: dict, what: str) -> None:
     """Write ``data`` as JSON to ``path`` (atomically) when a path was given (checked by :func:`_check_json` before
     the work), and say so."""
@@ -294,7 +305,7 @@ def _write_json(path: Path | None, data: dict, what: str) -> None:
         from sotmot.io import write_text_atomic
 
         try:
-            write_text_atomic(path, json.dumps(data, indent=2) + "\n")
+            write_text_atomic(path, json.dumps(_json_ready(data), indent=2, allow_nan=False) + "\n")
         except OSError as exc:
             raise SotmotError(f"{path}: cannot write the {what}: {exc.strerror}") from exc
         print(f"{what} written to {path}")
@@ -448,8 +459,8 @@ def cmd_explain(args: argparse.Namespace) -> int:
 
 EPILOG_COMPARE = """\
 Each sequence goes once through detection cleaning, appearance and tracklets; then every
-solver runs on those same tracklets. Columns: TrackEval HOTA, MOTA, IDF1, IDSW; the number of
-trajectories; lifted_obj, the one objective every solver is scored on (the sum over pairs of
+solver runs on those same tracklets. Columns: TrackEval HOTA, MOTA, IDF1, IDSW; tracks, the
+identities in the results the run writes (as 'sotmot track' writes them); lifted_obj, the one objective every solver is scored on (the sum over pairs of
 tracklets in one trajectory within the horizon of n_a * n_b times the learned log-likelihood
 ratio that they are one person, or (affinity - lifted_threshold) with lifted_costs = "threshold";
 higher is better); window_gap, for the lifted solver, how far CP-SAT's proved bound lies above

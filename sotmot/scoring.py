@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import contextlib
 import io
-import shutil
 import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -26,6 +25,7 @@ import numpy as np
 
 from sotmot.errors import EvaluationError, InputError
 from sotmot.io import gt_style, is_plain_name, read_ground_truth, read_results, read_seqinfo, results_path
+from sotmot.io.mot import mot_rows
 
 #: Reported metrics: name -> (TrackEval metric family, field, is a fraction to show as %).
 METRICS: dict[str, tuple[str, str, bool]] = {
@@ -100,17 +100,25 @@ def _metric_objects(te: Any) -> list[Any]:
             te.metrics.Identity({"THRESHOLD": 0.5, "PRINT_CONFIG": False})]
 
 
+def _write_rows(rows: np.ndarray, path: Path) -> None:
+    """Checked rows (:func:`sotmot.io.mot.mot_rows`) as the plain comma-separated file TrackEval reads: no blank
+    line, no byte-order mark, one layout; frame and id as integers, every other value exactly as read."""
+    text = "".join(",".join([str(int(row[0])), str(int(row[1])), *map(repr, row[2:])]) + "\n"
+                   for row in rows.tolist())
+    path.write_text(text, encoding="utf-8")
+
+
 def _trackeval_layout(root: Path, members: Sequence[tuple[Path, Path, int, str]], benchmark: str) -> dict:
     """Copy results and ground truth into the folder layout TrackEval reads; return its dataset config.
 
     ``members`` are ``(results_txt, gt_txt, seq_length, seq_name)``; the
     tracker is called ``sotmot``.
     """
-    for results, gt, _, name in members:
+    for results, gt, length, name in members:
         (root / "gt" / name / "gt").mkdir(parents=True)
-        shutil.copyfile(gt, root / "gt" / name / "gt" / "gt.txt")
+        _write_rows(mot_rows(gt, "gt", length), root / "gt" / name / "gt" / "gt.txt")
         (root / "trackers" / "sotmot" / "data").mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(results, root / "trackers" / "sotmot" / "data" / f"{name}.txt")
+        _write_rows(mot_rows(results, "results", length), root / "trackers" / "sotmot" / "data" / f"{name}.txt")
     return {
         "GT_FOLDER": str(root / "gt"), "TRACKERS_FOLDER": str(root / "trackers"),
         "OUTPUT_FOLDER": str(root / "out"), "TRACKERS_TO_EVAL": ["sotmot"],
@@ -270,10 +278,14 @@ def frame_errors(results: str | Path, gt: str | Path, length: int, name: str) ->
     out = FrameErrors()
     with tempfile.TemporaryDirectory(prefix="sotmot-match-") as tmp:
         config = _trackeval_layout(Path(tmp), [(Path(results), Path(gt), length, name)], style)
-        with contextlib.redirect_stdout(io.StringIO()):
-            dataset = te.datasets.MotChallenge2DBox(config)
-            raw = dataset.get_raw_seq_data("sotmot", name)
-            data = dataset.get_preprocessed_seq_data(raw, "pedestrian")
+        with contextlib.redirect_stdout(io.StringIO()) as captured:
+            try:
+                dataset = te.datasets.MotChallenge2DBox(config)
+                raw = dataset.get_raw_seq_data("sotmot", name)
+                data = dataset.get_preprocessed_seq_data(raw, "pedestrian")
+            except Exception as exc:  # TrackEval raises bare exceptions
+                raise EvaluationError(f"TrackEval failed on {results} and {gt}: {exc}\n"
+                                      f"{captured.getvalue()[-2000:]}") from exc
     last_match: dict[int, int] = {}  # gt id -> tracker id it was last matched to
     previous: dict[int, int] = {}  # gt id -> tracker id matched in the previous frame
     for t in range(data["num_timesteps"]):

@@ -69,7 +69,7 @@ def test_compare_runs_every_solver_on_the_same_tracklets(tmp_path, model_0288, c
     assert set(by) == {"greedy", "flow", "flow-nx"}
     # both flow solvers are optimal on the same network: the same cost
     assert by["flow"]["flow_net_cost"] == pytest.approx(by["flow-nx"]["flow_net_cost"], abs=1e-6)
-    assert "trajectories" in capsys.readouterr().out
+    assert "tracks" in capsys.readouterr().out
     assert main(["compare", str(seq), "--mergers", "greedy,nope", "--reid-model", str(model_0288)]) == 2
     assert "valid solvers" in capsys.readouterr().err
 

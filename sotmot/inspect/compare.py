@@ -33,9 +33,10 @@ from sotmot.types import Tracklet
 #: (:func:`sotmot.association.objective.lifted_objective`, higher is
 #: better), the one objective every solver is scored on. ``window_gap``: for the lifted solver, the summed gap
 #: between CP-SAT's proved bound and its solution over the windows not proven optimal (0: every window optimal;
-#: NaN for solvers without a bound). ``flow_net_cost``: the flow network's own cost (lower is better for that
-#: network only; :func:`sotmot.association.objective.flow_objective`).
-COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "trajectories", "lifted_obj", "window_gap", "flow_net_cost", "solver_s")
+#: NaN for solvers without a bound; ``null`` in JSON). ``flow_net_cost``: the flow network's own cost (lower is
+#: better for that network only; :func:`sotmot.association.objective.flow_objective`). ``tracks``: the identities
+#: in the results the solver's run writes (after confirmation), as ``sotmot track`` counts them.
+COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "tracks", "lifted_obj", "window_gap", "flow_net_cost", "solver_s")
 _FLOAT_COLUMNS = {"lifted_obj": 1, "window_gap": 1, "flow_net_cost": 3, "solver_s": 3}
 
 
@@ -87,7 +88,7 @@ def compare(seq_dirs: Sequence[str | Path], solvers: Sequence[str], config: Trac
                 write_results(path, run.tracks)
                 pairs[solver].append((path, prepared.info.gt_path, prepared.info.length, name))
                 result.rows[name][solver] = {
-                    "trajectories": float(len(run.association.groups)),
+                    "tracks": float(run.tracks.n_tracks),  # the ids of the results file, as `track` writes it
                     "lifted_obj": lifted_objective(prepared.tracklets, run.association.groups, gaps),
                     "window_gap": run.association.stats.get("bound_gap", float("nan")),
                     "flow_net_cost": flow_objective(prepared.tracklets, run.association.groups, gaps),
@@ -100,7 +101,7 @@ def compare(seq_dirs: Sequence[str | Path], solvers: Sequence[str], config: Trac
                 result.rows[name][solver].update(scores)
             combined = result.rows["COMBINED"][solver]
             combined.update(report.combined)
-            for key in ("trajectories", "lifted_obj", "window_gap", "flow_net_cost", "solver_s"):
+            for key in ("tracks", "lifted_obj", "window_gap", "flow_net_cost", "solver_s"):
                 combined[key] = float(sum(result.rows[n][solver][key] for n in result.tracklets))
     return result
 
@@ -112,10 +113,11 @@ def _width(column: str) -> int:
 def format_comparison(comparison: Comparison) -> str:
     """One block per sequence and a COMBINED block: a row per solver."""
     lines = []
+    solver_width = max([9, *(len(s) for by_solver in comparison.rows.values() for s in by_solver)])
     for name, by_solver in comparison.rows.items():
         extra = f" ({comparison.tracklets[name]} tracklets)" if name in comparison.tracklets else ""
         lines.append(f"{name}{extra}")
-        head = f"  {'solver':<9}" + "".join(f"{c:>{_width(c)}}" for c in COLUMNS)
+        head = f"  {'solver':<{solver_width}}" + "".join(f"{c:>{_width(c)}}" for c in COLUMNS)
         lines.append(head)
         for solver, values in by_solver.items():
             cells = []
@@ -123,6 +125,6 @@ def format_comparison(comparison: Comparison) -> str:
                 v = values.get(c, float("nan"))
                 digits = 1 if c in ("HOTA", "MOTA", "IDF1") else _FLOAT_COLUMNS.get(c, 0)
                 cells.append(f"{v:{_width(c)}.{digits}f}")
-            lines.append(f"  {solver:<9}" + "".join(cells))
+            lines.append(f"  {solver:<{solver_width}}" + "".join(cells))
         lines.append("")
     return "\n".join(lines)

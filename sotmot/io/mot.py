@@ -190,12 +190,14 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
 
     Returns the ``(N, max_cols)`` array (missing trailing columns filled with -1)
     and the 1-based line number of each row. Every row is validated: column
-    count and numbers here, the values by :func:`check_rows`.
+    count and numbers here (with ``ids``, results and ground truth, every row
+    as many columns as the first), the values by :func:`check_rows`.
     """
     if not path.is_file():
         raise InputError(path, f"missing; expected the {what} file here")
     rows: list[list[float]] = []
     lines: list[int] = []
+    first: tuple[int, int] | None = None  # (columns, line) of the first row: every row has as many
     with open(path, encoding="utf-8-sig", errors="replace") as fh:  # -sig: tolerate a leading BOM
         for number, text in enumerate(fh, 1):
             text = text.strip()
@@ -210,6 +212,11 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
             except ValueError:
                 bad = next(f for f in fields if not _is_float(f))
                 raise InputError(path, f"non-numeric field {bad!r}", line=number) from None
+            if first is None:
+                first = (len(fields), number)
+            elif ids and len(fields) != first[0]:  # results and ground truth go to TrackEval, which needs one layout
+                raise InputError(path, f"{len(fields)} columns where line {first[1]} has {first[0]}: a line cut "
+                                 f"short, or lines of two layouts mixed in one file", line=number)
             rows.append(values + [-1.0] * (max_cols - len(values)))
             lines.append(number)
     arr = np.asarray(rows, dtype=np.float64).reshape(-1, max_cols)
@@ -387,31 +394,49 @@ def gt_style(path: str | Path) -> GtStyle:
     return "MOT15"
 
 
+def mot_rows(path: str | Path, kind: Literal["results", "gt"], seq_length: int | None = None) -> np.ndarray:
+    """The checked rows of a results or ground-truth file as an ``(N, C)`` float array, every row with the
+    file's own columns (10 for results and 2DMOT2015 ground truth, shorter rows filled with -1; 9 for MOT16
+    ground truth), in the file's order: what :func:`read_results` and :func:`read_ground_truth` read, and what
+    TrackEval is given (:mod:`sotmot.scoring`), so that a blank line or a byte-order mark never reaches it.
+
+    Raises
+    ------
+    InputError
+        A bad line, named; an id with two boxes in one frame.
+    """
+    return _id_rows(Path(path), kind, seq_length)[0]
+
+
+def _id_rows(path: Path, kind: str, seq_length: int | None) -> tuple[np.ndarray, list[int]]:
+    if kind == "gt" and gt_style(path) == "MOT16":
+        arr, lines = _parse_rows(path, 9, 9, seq_length, "ground-truth", ids=True)
+    else:
+        arr, lines = _parse_rows(path, 7, 10, seq_length, "ground-truth" if kind == "gt" else "results", ids=True)
+    # TrackEval asserts this with a traceback; say which line instead
+    _check_one_box_per_id(path, arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), lines)
+    return arr, lines
+
+
 def read_ground_truth(path: str | Path, seq_length: int | None = None) -> GroundTruth:
     """Read a ``gt.txt`` in MOT16 (9 columns) or 2DMOT2015 (10 columns) layout."""
     path = Path(path)
     style = gt_style(path)
+    arr, _ = _id_rows(path, "gt", seq_length)
     if style == "MOT16":
-        arr, lines = _parse_rows(path, 9, 9, seq_length, "ground-truth", ids=True)
         classes = arr[:, 7].astype(np.int64)
         visibility = arr[:, 8]
     else:
-        arr, lines = _parse_rows(path, 7, 10, seq_length, "ground-truth", ids=True)
         classes = np.ones(len(arr), np.int64)
         visibility = np.ones(len(arr))
-    # TrackEval asserts this with a traceback; say which line instead
-    _check_one_box_per_id(path, arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), lines)
     return GroundTruth(arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), arr[:, 2:6],
                        arr[:, 6] != 0, classes, visibility, style)
 
 
 def read_results(path: str | Path, seq_length: int | None = None) -> Tracks:
     """Read a MOTChallenge results file (``frame, id, x, y, w, h, score, -1, -1, -1``)."""
-    path = Path(path)
-    arr, lines = _parse_rows(path, 7, 10, seq_length, "results", ids=True)
-    ids = arr[:, 1].astype(np.int64)
-    _check_one_box_per_id(path, arr[:, 0].astype(np.int64), ids, lines)
-    return Tracks(arr[:, 0].astype(np.int64), ids, arr[:, 2:6], arr[:, 6])
+    arr, _ = _id_rows(Path(path), "results", seq_length)
+    return Tracks(arr[:, 0].astype(np.int64), arr[:, 1].astype(np.int64), arr[:, 2:6], arr[:, 6])
 
 
 def _check_one_box_per_id(path: Path, frames: np.ndarray, ids: np.ndarray, lines: list[int]) -> None:
