@@ -39,6 +39,9 @@ the name in seqinfo.ini and must be a plain file name (no path separators). Besi
 skips a sequence only when that record matches the current run.
 """
 
+#: train-appearance warns when fewer people than this are held out: their validation AUC is then mostly chance.
+MIN_VALIDATION_IDENTITIES = 5
+
 EPILOG_EVAL = """\
 Scores RESULTS_DIR/<name>.txt against SEQ_DIR/gt/gt.txt with TrackEval (HOTA, CLEAR,
 Identity). MOT16-layout ground truth (9 columns) is scored with the MOT16 rules
@@ -258,12 +261,19 @@ def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
         other = ("--appearance onnx runs onnxruntime" if ran == "openvino"
                  else "openvino, a dependency of sotmot, gives a backend about twice as fast: pip install openvino")
         print(f"sotmot: re-ID by {ran} (--appearance auto; {other})", file=sys.stderr)
+    made = not args.out.exists()
     outcomes = track_many(seq_dirs, args.out, config, workers=args.workers,
                           resume=args.resume, progress=_progress(args), report=report, cluster=args.cluster)
     failed = [o for o in outcomes if o.status == "failed"]
     if failed:
-        print(f"sotmot: {len(failed)} of {len(outcomes)} sequences failed; the others' results are in "
-              f"{args.out}", file=sys.stderr)
+        if len(failed) < len(outcomes):
+            print(f"sotmot: {len(failed)} of {len(outcomes)} sequences failed; the others' results are in "
+                  f"{args.out}", file=sys.stderr)
+            return 2
+        if made and args.out.is_dir() and not any(args.out.iterdir()):
+            args.out.rmdir()  # this run made the folder and wrote nothing into it
+        what = "the sequence" if len(outcomes) == 1 else f"all {len(outcomes)} sequences"
+        print(f"sotmot: {what} failed; no results written", file=sys.stderr)
         return 2
     if args.eval:
         return cmd_eval(argparse.Namespace(results_dir=args.out, seq_dirs=seq_dirs, json=None))
@@ -312,10 +322,15 @@ def _write_json(path: Path | None, data: dict, what: str) -> None:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
+    from sotmot.io import read_seqinfo, results_path
+    from sotmot.provenance import results_doubts
     from sotmot.scoring import evaluate, format_table
 
     _check_json(args.json, args.seq_dirs, args.results_dir)
     report = evaluate(args.results_dir, args.seq_dirs)
+    for seq in args.seq_dirs:
+        for doubt in results_doubts(results_path(args.results_dir, read_seqinfo(seq).name)):
+            print(f"sotmot: warning: {doubt}", file=sys.stderr)
     print(format_table(report))
     print("TrackEval rules: " + ", ".join(f"{name} {rules}" for name, rules in report.benchmark.items())
           + " (MOT16: distractor classes removed; MOT15: every ground-truth box counts)")
@@ -335,6 +350,16 @@ def cmd_compare(args: argparse.Namespace) -> int:
         raise SotmotError(f"--solvers {args.solvers!r} names a solver twice")
     for m in solvers:
         get_solver(m)  # unknown names fail here, listing the valid ones
+    from sotmot.io import read_seqinfo
+
+    for seq in args.seq_dirs:  # every solver is scored: the ground truth must be there, said before the work
+        info = read_seqinfo(seq)
+        if info.video is not None:
+            raise SotmotError(f"{seq}: compare scores each solver against ground truth (gt/gt.txt of a sequence "
+                              f"folder); a video has none")
+        if not info.gt_path.is_file():
+            raise SotmotError(f"{info.gt_path}: compare scores each solver against the ground truth of {info.name}, "
+                              f"and there is none")
     config = _build_config(args)
     _check_json(args.json, args.seq_dirs)
     result = compare(args.seq_dirs, solvers, config, progress=_progress(args))
@@ -359,11 +384,17 @@ def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
     from sotmot.io import read_results, read_seqinfo
     from sotmot.progress import progress_bar
     from sotmot.inspect.render import check_render_target, render
-    from sotmot.io.flags import read_flags
+    from sotmot.io.flags import flags_path, read_flags
+    from sotmot.provenance import side_file_doubt
 
     info = read_seqinfo(seq_dir)
     check_render_target(info, args.out, inputs)  # before reading and matching anything
-    tracks = read_flags(args.results, read_results(args.results, info.length))
+    tracks = read_results(args.results, info.length)
+    doubt = side_file_doubt(args.results, flags_path(args.results))
+    if doubt:
+        print(f"sotmot: warning: {doubt}: drawn without the SOT and interpolation markers", file=sys.stderr)
+    else:
+        tracks = read_flags(args.results, tracks)
     errors = None
     if args.gt:
         from sotmot.scoring import frame_errors
@@ -393,6 +424,10 @@ def cmd_train(args: argparse.Namespace) -> int:
                     progress=lambda it: progress_bar(it, "epochs", _progress(args), config.epochs))
     for h in summary["history"]:
         print(f"epoch {h['epoch']}: train loss {h['train_loss']:.4f}, validation AUC {h['val_auc']:.4f}")
+    if summary["identities_val"] < MIN_VALIDATION_IDENTITIES:
+        print(f"sotmot: warning: only {summary['identities_val']} validation identities: their AUC says little "
+              f"about other people (an AUC of 1.0 is easy with two); train on more sequences, at least "
+              f"{MIN_VALIDATION_IDENTITIES * 4} identities in all", file=sys.stderr)
     print(f"{summary['identities_train']} training / {summary['identities_val']} validation identities, "
           f"{summary['crops']} crops; validation AUC {summary['val_auc_before']:.4f} before, "
           f"{summary['val_auc_best']:.4f} best (epoch {summary['best_epoch']}); {summary['seconds']:.0f} s "
@@ -429,7 +464,7 @@ def _track_for_inspection(args: argparse.Namespace):
 
 def cmd_graph(args: argparse.Namespace) -> int:
     from sotmot.inspect.explain import graph_files, inspection_graph, parse_frames
-    from sotmot.inspect.graph_view import html_page, png_bytes, tracklet_crops
+    from sotmot.inspect.graph_view import SHOWN, html_page, png_bytes, shown_edges, tracklet_crops
     from sotmot.io import check_output_dir, read_seqinfo, write_files_atomic
 
     frames = parse_frames(args.frames, read_seqinfo(args.seq_dir).length)
@@ -443,25 +478,33 @@ def cmd_graph(args: argparse.Namespace) -> int:
     write_files_atomic(files)  # all four or none: a full disk leaves no partial set
     paths = list(files)
     taken = sum(1 for *_, d in graph.edges(data=True) if d["taken"])
-    print(f"{graph.number_of_nodes()} tracklets, {graph.number_of_edges()} candidate links "
-          f"({taken} taken by {config.association.solver}) -> " + ", ".join(str(p) for p in paths))
+    dropped = len({d["track"] for _, d in graph.nodes(data=True) if d["track"] >= 0 and not d["in_results"]})
+    kept = len({d["track"] for _, d in graph.nodes(data=True) if d["in_results"]})
+    print(f"{graph.number_of_nodes()} tracklets in {kept} tracks of the results"
+          + (f" (and {dropped} tracks confirmation dropped)" if dropped else "")
+          + f", {graph.number_of_edges()} candidate links ({taken} taken by {config.association.solver}); the "
+          f"picture and the page draw {len(shown_edges(graph))} of them ({SHOWN}) -> " + ", ".join(map(str, paths)))
     return 0
 
 
 def cmd_explain(args: argparse.Namespace) -> int:
-    from sotmot.inspect.explain import explain, inspection_graph, parse_ids
+    from sotmot.inspect.explain import explain, explain_tracklets, inspection_graph, parse_ids
 
-    a, b = parse_ids(args.ids)
+    if (args.ids is None) == (args.tracklets is None):
+        raise SotmotError("give --ids (one or two track ids of the results file) or --tracklets (two tracklet ids "
+                          "as 'sotmot graph' draws them)")
+    a, b = parse_ids(args.ids) if args.ids is not None else parse_ids(args.tracklets, "tracklet")
     config, result = _track_for_inspection(args)
-    print(explain(inspection_graph(result, config), a, b, config))
+    graph = inspection_graph(result, config)
+    print(explain(graph, a, b, config) if args.ids is not None else explain_tracklets(graph, a, b, config))
     return 0
 
 
 EPILOG_COMPARE = """\
 Each sequence goes once through detection cleaning, appearance and tracklets; then every
 solver runs on those same tracklets. Columns: TrackEval HOTA, MOTA, IDF1, IDSW; tracks, the
-identities in the results the run writes (as 'sotmot track' writes them); lifted_obj, the one objective every solver is scored on (the sum over pairs of
-tracklets in one trajectory within the horizon of n_a * n_b times the learned log-likelihood
+identities in the results the run writes (as 'sotmot track' writes them); lifted_obj, the one
+objective every solver is scored on (the sum over pairs of tracklets in one trajectory within the horizon of n_a * n_b times the learned log-likelihood
 ratio that they are one person, or (affinity - lifted_threshold) with lifted_costs = "threshold";
 higher is better); window_gap, for the lifted solver, how far CP-SAT's proved bound lies above
 its solution in windows not proven optimal (0: every window optimal); flow_net_cost, the flow
@@ -591,7 +634,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_models)
 
     for name, func, text in (("graph", cmd_graph, "export the association graph (GraphML, JSON, PNG, HTML)"),
-                             ("explain", cmd_explain, "say why two output tracks were or were not merged")):
+                             ("explain", cmd_explain, "say why two tracks (or two tracklets) were or were not merged")):
         p = sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + ". The sequence is "
                            "tracked first, with the same options as 'sotmot track'; track ids are those "
                            "of the results file that run writes.")
@@ -603,7 +646,11 @@ def build_parser() -> argparse.ArgumentParser:
                            help="folder for graph.graphml, graph.json, graph.png and graph.html")
             p.add_argument("--frames", metavar="A:B", help="only tracklets that touch frames A..B")
         else:
-            p.add_argument("--ids", required=True, metavar="ID,ID", help="two output track ids, e.g. 3,17")
+            p.add_argument("--ids", metavar="ID[,ID]",
+                           help="two track ids of the results file (e.g. 3,17: why they were not merged), or one "
+                                "(e.g. 5: why its tracklets were merged into it)")
+            p.add_argument("--tracklets", metavar="ID,ID",
+                           help="two tracklet ids, as 'sotmot graph' draws them (e.g. 4,9: merged or not, and why)")
         _add_tracker_options(p)
         p.add_argument("-q", "--quiet", action="store_true",
                        help="no progress bars (drawn only when stderr is a terminal)")

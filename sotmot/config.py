@@ -836,6 +836,10 @@ def config_from_dict(data: dict[str, Any]) -> TrackerConfig:
     """Build a :class:`TrackerConfig` from nested dicts, rejecting unknown sections and keys."""
     if not isinstance(data, dict):
         raise ConfigError("a configuration must be a table of sections")
+    loose = sorted(key for key, value in data.items() if not isinstance(value, dict))
+    if loose:  # `l_max = 30` above every [table] of a TOML file
+        raise ConfigError(f"key(s) {', '.join(loose)} outside any [section]: every key belongs to the table of its "
+                          f"stage, e.g. [association] l_max_seconds = 3; sections: {', '.join(SECTIONS)}")
     unknown = sorted(set(data) - set(SECTIONS))
     if unknown:
         raise ConfigError(f"unknown section(s) {', '.join(unknown)}; valid sections: {', '.join(SECTIONS)}")

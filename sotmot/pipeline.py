@@ -142,6 +142,9 @@ class TrackResult:
         ``tracklets`` and ``trajectories`` are in the reference frame's pixels
         (frame 1), where association judged them; ``detections`` and ``tracks``
         are in each frame's own.
+    confidence_method
+        How detection scores became confidences (``[preprocess] confidence`` as
+        ``"auto"`` resolved it: a detector family, ``"self"``, ``"quantile"``, ...).
     """
 
     info: SeqInfo
@@ -157,6 +160,7 @@ class TrackResult:
     detected: Detections | None = None
     track_ids: list[int | None] = field(default_factory=list)
     motion: CameraMotion | None = None
+    confidence_method: str = ""
 
     def identities(self) -> dict[int, np.ndarray]:
         """Output track id -> the mean appearance feature of its trajectory (its identity)."""
@@ -354,7 +358,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
              len(dropped), config.association.solver)
     return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
                        association, trajectories, tracks, timings, prepared.confidence, dropped, prepared.detected,
-                       ids, motion)
+                       ids, motion, prepared.confidence_method)
 
 
 def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tracks: Tracks, config: TrackerConfig,

@@ -16,11 +16,11 @@ from __future__ import annotations
 import hashlib
 import json
 from datetime import datetime, timezone
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 from sotmot.config import TrackerConfig
+from sotmot.hashing import file_sha256
 from sotmot.io import SeqInfo
 
 #: Record fields that never make a resume re-run: when it ran, how fast (threads, batch size), what it
@@ -29,7 +29,7 @@ from sotmot.io import SeqInfo
 IGNORED = ("time", "camera_motion", "sot_checks", "config.appearance.threads", "config.appearance.batch_size",
            "config.appearance.model", "config.confirm.calibration", "reid_model.path", "confidence_calibration.path",
            "results_sha256", "config.detection.model", "config.detection.file", "config.detection.threads",
-           "detector_model.path", "inputs.detections.path")
+           "detector_model.path", "inputs.detections.path", "side_files", "confidence_method")
 
 
 def sotmot_version() -> str:
@@ -40,24 +40,6 @@ def sotmot_version() -> str:
         return version("sotmot")
     except PackageNotFoundError:
         return "unknown"
-
-
-@lru_cache(maxsize=64)
-def _file_sha256(path: str, size: int, mtime_ns: int) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def file_sha256(path: str | Path) -> str | None:
-    """SHA-256 of a file's bytes (cached while its size and modification time stay), None if absent."""
-    path = Path(path)
-    if not path.is_file():
-        return None
-    st = path.stat()
-    return _file_sha256(str(path.resolve()), st.st_size, st.st_mtime_ns)
 
 
 def frames_fingerprint(info: SeqInfo) -> str | None:
@@ -137,6 +119,45 @@ def differences(old: dict[str, Any], new: dict[str, Any], prefix: str = "") -> l
     return out
 
 
+def side_file_doubt(results: str | Path, side: str | Path) -> str | None:
+    """Why the side file ``side`` of ``results`` cannot be trusted, when the run record beside ``results``
+    says: it is missing though the run wrote it, or it is not the file the run wrote. None: it is the run's, or
+    there is no record that lists side files (results from elsewhere)."""
+    results, side = Path(results), Path(side)
+    try:
+        sides = json.loads(record_path(results).read_text(encoding="utf-8")).get("side_files")
+    except (OSError, ValueError, AttributeError):
+        return None
+    if not isinstance(sides, dict):
+        return None
+    if side.name not in sides:
+        return (f"{side.name} is not one of the files the run of {results.name} wrote (from an earlier run?)"
+                if side.is_file() else None)
+    if not side.is_file():
+        return f"{side.name}, written with {results.name}, is missing"
+    if file_sha256(side) != sides[side.name]:
+        return f"{side.name} is not the file written with {results.name} (changed since)"
+    return None
+
+
+def results_doubts(results: str | Path) -> list[str]:
+    """What a reader of ``results`` should know before trusting scores of it: the file is empty, or it no
+    longer matches the run record ``sotmot track`` wrote beside it (cut or edited since). Empty: no doubt."""
+    results = Path(results)
+    doubts = []
+    if results.is_file() and not results.read_text(encoding="utf-8-sig", errors="replace").strip():
+        doubts.append(f"{results} is empty: every ground-truth box counts as missed")
+    try:
+        old = json.loads(record_path(results).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return doubts
+    made = old.get("results_sha256") if isinstance(old, dict) else None
+    if made is not None and made != file_sha256(results):
+        doubts.append(f"{results} is not the file its run record {record_path(results).name} describes (changed, "
+                      f"cut or emptied since sotmot track wrote it): the scores are of the file as it is now")
+    return doubts
+
+
 def why_rerun(results: str | Path, record: dict[str, Any]) -> str | None:
     """None when ``results`` exists with a record equal to ``record``; else why it must be made again."""
     results = Path(results)
@@ -155,6 +176,10 @@ def why_rerun(results: str | Path, record: dict[str, Any]) -> str | None:
             return f"its run record {path.name} holds no hash of {results.name}, so whether it is whole is unknown"
         if old["results_sha256"] != file_sha256(results):
             return f"{results.name} changed since it was written (emptied or cut?): its SHA-256 is not the record's"
+        for name, digest in (old.get("side_files") or {}).items():
+            side = results.with_name(name)
+            if file_sha256(side) != digest:
+                return f"its side file {name} is {'missing' if not side.is_file() else 'changed'}"
         return None
     shown = ", ".join(changed[:4]) + (f" and {len(changed) - 4} more" if len(changed) > 4 else "")
     return f"made with a different {shown}"

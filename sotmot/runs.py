@@ -195,8 +195,10 @@ def resolve_paths(config: TrackerConfig) -> TrackerConfig:
 def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
               progress=False, embedder=None) -> Outcome:
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
-    from sotmot.detection import detections_path, format_detections
+    from sotmot.detection import detections_header, detections_path, format_detections
+    from sotmot.hashing import file_sha256
     from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
+    from sotmot.models import model_in_use
     from sotmot.pipeline import track_sequence
     from sotmot.provenance import record_path, run_record, why_rerun, write_record
     from sotmot.io.flags import flags_path, write_flags
@@ -220,6 +222,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
         record["results_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()  # --resume checks it
         if result.motion is not None and result.motion.moving:
             record["camera_motion"] = result.motion.summary()
+        record["confidence_method"] = result.confidence_method  # what "auto" chose; a replay must choose the same
         written: list[Path] = []
         try:
             if low_confidence_path(out) in outputs:
@@ -227,10 +230,14 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
                 written.append(low_confidence_path(out))
             if result.detected is not None:  # what the model found, to repeat the run or feed the peers
                 found = result.detected
-                write_text_atomic(detections_path(out), format_detections(found.frames, found.boxes, found.scores))
+                header = detections_header(model_in_use(config.detection.model, "detector"))
+                write_text_atomic(detections_path(out),
+                                  format_detections(found.frames, found.boxes, found.scores, header))
                 written.append(detections_path(out))
             write_flags(out, result.tracks)
             written.append(flags_path(out))
+            # the side files of these results, each by its hash: --resume and render know them from an earlier run's
+            record["side_files"] = {path.name: file_sha256(path) for path in written}
             write_record(out, record)
             written.append(record_path(out))
             write_text_atomic(out, text)  # last: a results file exists only with its side files
@@ -239,7 +246,16 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
                 path.unlink(missing_ok=True)
             raise
         fps = info.length / (time.perf_counter() - start)
-        dropped = f", {len(result.dropped)} unconfirmed dropped" if len(result.dropped) else ""
+        stale = [path.name for path in (low_confidence_path(out), detections_path(out))
+                 if path not in written and path.exists()]
+        if stale:  # never removed (this run did not make them), but said: they do not belong to these results
+            rerun += (f"; {' and '.join(stale)} beside it {'is' if len(stale) == 1 else 'are'} from an earlier run, "
+                      f"not this one (left as {'it is' if len(stale) == 1 else 'they are'})")
+        dropped = ""
+        if len(result.dropped):
+            where = (f"written to {low_confidence_path(out).name}" if low_confidence_path(out) in outputs
+                     else "dropped")
+            dropped = f", {len(result.dropped)} unconfirmed {where}"
         return Outcome(seq_dir, "done", str(out), f"{info.name}: {result.tracks.n_tracks} tracks, "
                                                   f"{len(result.tracks)} boxes{dropped}, {fps:.1f} frames/s -> {out}"
                                                   f"{rerun}")
@@ -269,6 +285,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     """
     from sotmot.appearance import resolve_backend
     from sotmot.io import check_output_dir
+    from sotmot.io.mot import refuse_inside
 
     config = resolve_paths(config)
     # the backend "auto" picks, decided here once: the run record and every worker see the one that runs
@@ -278,6 +295,8 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
 
         resolve_detector_path(config.detection.model)
     seq_dirs = [str(s) for s in seq_dirs]
+    folders = [Path(seq) for seq in seq_dirs if Path(seq).is_dir()]  # a video's folder holds more than its inputs
+    refuse_inside(out_dir, [*folders, *(folder / "img1" for folder in folders)])
     out_dir = str(check_output_dir(out_dir))  # a file, a read-only folder: said now, not after the work
     report = report or (lambda outcome: None)
     if cluster is not None:

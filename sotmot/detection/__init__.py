@@ -17,7 +17,6 @@ fed back as the detections file, gives the very same run.
 from __future__ import annotations
 
 import importlib
-import json
 from pathlib import Path
 from typing import Protocol
 
@@ -25,6 +24,7 @@ import numpy as np
 
 from sotmot.config import DetectionConfig
 from sotmot.errors import ConfigError
+from sotmot.hashing import file_sha256
 from sotmot.models import MODELS, model_in_use, resolve_model_file
 from sotmot.plugins import DETECTORS, EXTRAS
 
@@ -93,45 +93,53 @@ def detection_source(config: DetectionConfig, info) -> tuple[str, Path | None]:
 KNOWN_FAMILIES = {"person-detection-0202": "pd0202"}
 
 
-def detector_model_of(config: DetectionConfig, info) -> str | None:
-    """The detector model that made sequence ``info``'s detections, when it is known: the model itself with
-    ``source = model``, or the one named in the run record beside a ``<name>.det.txt`` that ``sotmot track``
-    wrote (so that replaying it with ``--det`` repeats the run); None for any other detections file."""
-    source, path = detection_source(config, info)
-    if source == "model":
-        return model_in_use(config.model, "detector")
-    if path is not None and path.name.endswith(".det.txt"):
-        record = path.with_name(path.name.removesuffix(".det.txt") + ".run.json")
-        try:
-            made = json.loads(record.read_text(encoding="utf-8"))
-            if made["inputs"]["detections"]["source"] == "model":
-                return made["detector_model"]["path"]
-        except (OSError, ValueError, KeyError, TypeError):
-            return None
-    return None
+#: The first line of a ``<name>.det.txt`` that ``sotmot track`` writes: which detector made the boxes (its file's
+#: SHA-256) and their confidence family, so that the file replays the run under any name and without the run
+#: record beside it. Readers of MOTChallenge files skip lines starting with ``#`` (``numpy.loadtxt`` does too).
+HEADER = "# sotmot detections:"
+
+
+def detections_header(model: str | Path) -> str:
+    """The header line (:data:`HEADER`) of the detections that ``model`` found."""
+    name = Path(model).name
+    family = next((family for start, family in KNOWN_FAMILIES.items() if name.startswith(start)), "unknown")
+    return f"{HEADER} detector={name} sha256={file_sha256(model)} family={family}\n"
+
+
+def read_header(path: str | Path) -> dict[str, str]:
+    """The fields of a detections file's :data:`HEADER` line (``detector``, ``sha256``, ``family``); empty for a
+    file without one (any detector's ``det.txt``)."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace") as fh:
+            first = fh.readline().strip()
+    except OSError:
+        return {}
+    if not first.startswith(HEADER):
+        return {}
+    return dict(part.split("=", 1) for part in first[len(HEADER):].split() if "=" in part)
 
 
 def known_family(config: DetectionConfig, info) -> str | None:
-    """The confidence family of sequence ``info``'s detections when the detector that made them is known
-    (:func:`detector_model_of`): its family in :data:`KNOWN_FAMILIES`. None: the family is guessed from the
-    scores."""
-    model = detector_model_of(config, info)
-    if not model:
-        return None
-    name = Path(model).name
-    return next((family for start, family in KNOWN_FAMILIES.items() if name.startswith(start)), None)
+    """The confidence family of sequence ``info``'s detections when the detector that made them is known: the
+    model itself (``source = model``), or the one a ``sotmot track`` detections file names in its header
+    (:func:`read_header`), its family in :data:`KNOWN_FAMILIES`. None: the family is guessed from the scores."""
+    source, path = detection_source(config, info)
+    if source == "model":
+        name = Path(model_in_use(config.model, "detector")).name
+        return next((family for start, family in KNOWN_FAMILIES.items() if name.startswith(start)), None)
+    family = read_header(path).get("family")
+    return family if family in KNOWN_FAMILIES.values() else None
 
 
 def detector_detections(config: DetectionConfig, info) -> bool:
     """Whether the detector's own judgement is at hand for ``info``'s detections (what ``[sot] verify = "auto"``
-    turns on): they come from the model now, or they are a replayed ``<name>.det.txt`` of it and that same
-    detector is given (so its weak boxes can be found again, and the replay repeats the run)."""
-    source, _ = detection_source(config, info)
+    turns on): they come from the model now, or they are a replayed detections file whose header names the very
+    detector in use (by its SHA-256: its weak boxes can be found again, and the replay repeats the run)."""
+    source, path = detection_source(config, info)
     if source == "model":
         return True
-    made_by, given = detector_model_of(config, info), model_in_use(config.model, "detector")
-    return made_by is not None and \
-        Path(made_by).expanduser().resolve() == Path(given).expanduser().resolve()
+    made_by = read_header(path).get("sha256")
+    return made_by is not None and made_by == file_sha256(model_in_use(config.model, "detector"))
 
 
 def rounded(boxes: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -142,11 +150,13 @@ def rounded(boxes: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarr
             np.char.mod(SCORE_FORMAT, scores).astype(np.float64).reshape(-1))
 
 
-def format_detections(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray) -> str:
-    """MOTChallenge ``det.txt`` text: ``frame, -1, x, y, w, h, score, -1, -1, -1`` a line, in the given order."""
+def format_detections(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, header: str = "") -> str:
+    """MOTChallenge ``det.txt`` text: ``frame, -1, x, y, w, h, score, -1, -1, -1`` a line, in the given order,
+    after ``header`` (:func:`detections_header`, or nothing)."""
     line = f"%d,-1,{BOX_FORMAT},{BOX_FORMAT},{BOX_FORMAT},{BOX_FORMAT},{SCORE_FORMAT},-1,-1,-1\n"
-    return "".join(line % (f, *box, s) for f, box, s in zip(np.asarray(frames).tolist(), np.asarray(boxes).tolist(),
-                                                           np.asarray(scores).tolist()))
+    return header + "".join(line % (f, *box, s) for f, box, s in zip(np.asarray(frames).tolist(),
+                                                                    np.asarray(boxes).tolist(),
+                                                                    np.asarray(scores).tolist()))
 
 
 def detections_path(results: str | Path) -> Path:
@@ -155,5 +165,6 @@ def detections_path(results: str | Path) -> Path:
     return results.with_name(results.stem + ".det.txt")
 
 
-__all__ = ["BOX_FORMAT", "DETECTORS", "ENV_VAR", "KNOWN_FAMILIES", "SCORE_FORMAT", "Detector", "detection_source",
-           "detections_path", "format_detections", "known_family", "make_detector", "resolve_detector_path", "rounded"]
+__all__ = ["BOX_FORMAT", "DETECTORS", "ENV_VAR", "HEADER", "KNOWN_FAMILIES", "SCORE_FORMAT", "Detector",
+           "detection_source", "detections_header", "detections_path", "format_detections", "known_family",
+           "make_detector", "read_header", "resolve_detector_path", "rounded"]

@@ -36,13 +36,17 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
     """The annotated association graph of ``result``, optionally of tracklets inside ``frames = (A, B)``.
 
     Node attributes: ``start``, ``end``, ``length``, ``mean_score``,
-    ``sot_boxes`` (boxes added by the SOT step), ``track`` (output id, -1 if
-    the trajectory was dropped). Edge attributes: those of
+    ``sot_boxes`` (boxes added by the SOT step), ``track`` (the id of its track
+    in the results file, -1 for a trajectory too short to become a track),
+    ``in_results`` (False when confirmation dropped every box of its track:
+    the id is then in no results file). Edge attributes: those of
     :func:`~sotmot.association.candidates.build_graph` plus ``taken`` and ``round`` (greedy
     merge order, 0 when not taken or for solvers that decide at once), and on
     taken edges ``lifted_gain`` and ``lifted_pairs`` (see the module docstring).
-    Graph attribute ``compensated`` (only when the camera moved): every
-    position was compared in the reference frame (``[motion]``).
+    Graph attributes: ``l_max``, ``solver``, ``candidate_links`` (edges, the
+    rejected ones included), ``tracks_in_results``; ``compensated`` (only when
+    the camera moved): every position was compared in the reference frame
+    (``[motion]``).
     """
     tracklets = result.tracklets
     if frames is not None:
@@ -51,6 +55,10 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
     gaps = config.association.at(result.info.frame_rate)  # the constraints as the solver saw them
     graph = build_graph(tracklets, gaps, include_rejected=True)
     graph.graph["l_max"] = gaps.l_max
+    graph.graph["solver"] = config.association.solver
+    graph.graph["candidate_links"] = graph.number_of_edges()
+    written = {int(i) for i in np.unique(result.tracks.ids)}
+    graph.graph["tracks_in_results"] = len(written)
     if result.motion is not None and result.motion.moving:  # a still camera's graph stays as it was
         graph.graph["compensated"] = True
     track_of = {}
@@ -59,6 +67,7 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
             track_of[t] = -1 if track is None else track
     for t in tracklets:
         graph.nodes[t.id]["track"] = track_of.get(t.id, -1)
+        graph.nodes[t.id]["in_results"] = track_of.get(t.id, -1) in written
         graph.nodes[t.id]["sot_boxes"] = int(result.detections.from_sot[t.det_index].sum())
     nx.set_edge_attributes(graph, False, "taken")
     nx.set_edge_attributes(graph, 0, "round")
@@ -131,7 +140,7 @@ def export_graph(graph: nx.DiGraph, out_dir: str | Path) -> list[Path]:
 
 def graph_files(graph: nx.DiGraph) -> dict[str, bytes]:
     """``graph.graphml`` and ``graph.json`` (networkx node-link) of ``graph``: file name -> bytes."""
-    clean = nx.DiGraph()
+    clean = nx.DiGraph(**{key: json_scalar(value) for key, value in graph.graph.items()})
     for n, data in graph.nodes(data=True):
         clean.add_node(n, **{key: json_scalar(value) for key, value in data.items()})
     for u, v, data in graph.edges(data=True):
@@ -145,30 +154,67 @@ def _verdict(data: dict, gaps: AssociationConfig) -> list[str]:
     return [f"{rule.describe(data, gaps)} -> {'ok' if data[f'ok_{rule.name}'] else 'FAILS'}" for rule in RULES]
 
 
+def fate(data: dict) -> str:
+    """Where a tracklet (node ``data`` of :func:`inspection_graph`) ended, in the results file's words."""
+    if data.get("track", -1) < 0:
+        return "in no track (its trajectory was too short to be kept)"
+    if not data.get("in_results", True):
+        return f"in track {data['track']}, which is not in the results (confirmation dropped every box of it)"
+    return f"in track {data['track']}"
+
+
 def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig) -> str:
-    """Plain words on why output tracks ``track_a`` and ``track_b`` were or were not merged."""
+    """Plain words on why output tracks ``track_a`` and ``track_b`` (ids as in the results file) were not merged,
+    or, with ``track_a == track_b``, why that track's tracklets were merged into one."""
     members = {}
     for track in (track_a, track_b):
         members[track] = sorted(n for n, d in graph.nodes(data=True) if d.get("track") == track)
         if not members[track]:
             raise SotmotError(f"track {track} has no tracklet in this graph (wrong id, or outside --frames)")
-    out = []
+    tracks = list(dict.fromkeys((track_a, track_b)))
+    head = "; ".join(f"track {track}: tracklets {members[track]}" for track in tracks)
+    notes = [f"  track {track} is not in the results: confirmation dropped every box of it (more likely false than "
+             f"true)" for track in tracks if not graph.nodes[members[track][0]].get("in_results", True)]
+    if track_a == track_b:
+        verdict = (f"-> the {len(members[track_a])} tracklets of track {track_a} were merged "
+                   f"({config.association.solver})." if len(members[track_a]) > 1 else
+                   f"-> track {track_a} is one tracklet: there was nothing to merge.")
+    else:
+        verdict = f"-> tracks {track_a} and {track_b} were not merged ({config.association.solver})."
+    return _explain_members(graph, members[track_a], members[track_b], config, head, notes, verdict)
+
+
+def explain_tracklets(graph: nx.DiGraph, a: int, b: int, config: TrackerConfig) -> str:
+    """Plain words on why tracklets ``a`` and ``b`` (the ids ``sotmot graph`` draws) were or were not merged."""
+    for t in (a, b):
+        if t not in graph:
+            raise SotmotError(f"tracklet {t} is not in this graph (wrong id, or outside --frames); "
+                              f"'sotmot graph' shows the tracklet ids")
+    da, db = graph.nodes[a], graph.nodes[b]
+    same = da.get("track", -1) >= 0 and da.get("track") == db.get("track")
+    head = f"tracklet {a} ended {fate(da)}; tracklet {b} ended {fate(db)}"
+    verdict = (f"-> tracklets {a} and {b} were merged into track {da['track']} ({config.association.solver})."
+               if same else f"-> tracklets {a} and {b} were not merged ({config.association.solver}).")
+    return _explain_members(graph, [a], [b], config, head, [], verdict)
+
+
+def _explain_members(graph: nx.DiGraph, first: list[int], second: list[int], config: TrackerConfig, head: str,
+                     notes: list[str], verdict: str) -> str:
+    """The explanation of every candidate link between the tracklets ``first`` and ``second`` (each pair once)."""
     # the gap limit the graph was built with (``l_max_seconds`` at the sequence's frame rate)
     gaps = dataclasses.replace(config.association, l_max=graph.graph.get("l_max", config.association.l_max),
                                l_max_seconds=None)
-    same = track_a == track_b
-    out.append(f"track {track_a}: tracklets {members[track_a]}; track {track_b}: tracklets {members[track_b]}")
+    out = [head, *notes]
     if graph.graph.get("compensated"):
         out.append("  the camera moved: IoU, velocity and gaps below are measured after camera-motion compensation, "
                    "in frame 1's pixels")
-    for t in members[track_a] + ([] if same else members[track_b]):
+    for t in dict.fromkeys(first + second):
         d = graph.nodes[t]
         out.append(f"  tracklet {t}: frames {d['start']}-{d['end']}, {d['length']} boxes "
                    f"({d['sot_boxes']} from SOT), mean score {d['mean_score']:.2f}")
-    # within one track each unordered pair once (both directions are looked at below)
-    pairs = [(u, v) for u in members[track_a] for v in members[track_b] if (u < v if same else u != v)]
+    pairs = {tuple(sorted((u, v))) for u in first for v in second if u != v}  # each unordered pair once
     found = 0
-    for u, v in pairs:
+    for u, v in sorted(pairs):
         for x, y in ((u, v), (v, u)):
             if not graph.has_edge(x, y):
                 continue
@@ -179,17 +225,19 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
                 if data["taken"] else ("allowed, not taken" if data["allowed"] else
                                        f"REJECTED by {data['failed'].replace(',', ', ')}")
             out.append(f"candidate {x} -> {y}: {state}")
+            if data.get("overlap_frames"):
+                out.append(f"    the two share {data['overlap_frames']} frames: merged, their boxes would alternate "
+                           f"between two places, so IoU decides; the gap and velocity below measure those jumps")
             out.extend("    " + line for line in _verdict(data, gaps))
             if data.get("lifted_pairs"):
                 shown = data["lifted_pairs"].split(";")
                 out.append(f"    lifted objective: the link joins {len(shown)} scored pair(s) of tracklets, "
                            f"total {data['lifted_gain']:+.1f}: " + ", ".join(shown[:6])
                            + (", ..." if len(shown) > 6 else ""))
-    if not found:
+    if not found and pairs:
         out.append(f"no candidate pair between them: their tracklets are more than l_max = "
                    f"{gaps.l_max} frames apart, so they were never compared")
-    verdict = "were merged" if same else "were not merged"
-    out.append(f"-> tracks {track_a} and {track_b} {verdict} ({config.association.solver}).")
+    out.append(verdict)
     return "\n".join(out)
 
 
@@ -212,14 +260,17 @@ def parse_frames(text: str | None, length: int | None = None) -> tuple[int, int]
     return a, b
 
 
-def parse_ids(text: str) -> Sequence[int]:
-    """``"3,17"`` -> ``[3, 17]``."""
+def parse_ids(text: str, what: str = "track") -> Sequence[int]:
+    """``"3,17"`` -> ``[3, 17]``; for tracks also ``"5"`` -> ``[5, 5]`` (why one track's tracklets were merged)."""
     try:
         ids = [int(x) for x in text.split(",")]
     except ValueError:
-        raise SotmotError(f"--ids must be two track ids like 3,17, got {text!r}") from None
+        raise SotmotError(f"--{what}s must be {what} ids like 3,17, got {text!r}") from None
+    if what == "track" and len(ids) == 1:
+        return [ids[0], ids[0]]
     if len(ids) != 2:
-        raise SotmotError(f"--ids needs exactly two track ids, got {text!r}")
-    if ids[0] == ids[1]:
-        raise SotmotError(f"--ids needs two different track ids, got {text!r}")
+        raise SotmotError(f"--{what}s needs two {what} ids{' (or one track)' if what == 'track' else ''}, "
+                          f"got {text!r}")
+    if ids[0] == ids[1] and what != "track":
+        raise SotmotError(f"--{what}s needs two different {what} ids, got {text!r}")
     return ids

@@ -33,7 +33,7 @@ REJECT_COLOURS = {rule.name: rule.colour for rule in RULES}  # BGR, one per rule
 TAKEN = (40, 160, 40)
 ALLOWED = (170, 170, 170)
 LANE = 16
-MARGIN_LEFT, MARGIN_TOP, MARGIN_RIGHT, LEGEND = 60, 40, 20, 70
+MARGIN_LEFT, MARGIN_TOP, MARGIN_RIGHT, LEGEND = 100, 40, 20, 80
 
 
 def _hex(bgr: tuple[int, int, int]) -> str:
@@ -58,6 +58,23 @@ def layout(graph: nx.DiGraph, width: int = 1400) -> tuple[dict, dict]:
         pos[n] = (MARGIN_LEFT + (d["start"] - f0) * scale, MARGIN_LEFT + (d["end"] - f0 + 1) * scale, y)
     height = MARGIN_TOP + max(1, len(nodes)) * LANE + LEGEND
     return pos, {"width": width, "height": height, "f0": f0, "f1": f1, "scale": scale}
+
+
+#: Which candidate links the picture and the page draw (:func:`shown_edges`), in words.
+SHOWN = "every link taken, and per tracklet its most similar allowed and rejected candidates"
+
+
+def lane_label(n, data: dict) -> str:
+    """A lane's label: the tracklet id, then the id of its track in the results file (or why it has none)."""
+    track = data.get("track", -1)
+    if track < 0:
+        return f"{n} short"
+    return f"{n} T{track}" if data.get("in_results", True) else f"{n} T{track} dropped"
+
+
+def shown_note(graph: nx.DiGraph) -> str:
+    """How many of the graph's candidate links are drawn, and which."""
+    return f"drawn: {len(shown_edges(graph))} of {graph.number_of_edges()} candidate links ({SHOWN})"
 
 
 def shown_edges(graph: nx.DiGraph, per_node: int = 1) -> list[tuple]:
@@ -126,8 +143,9 @@ def png_bytes(graph: nx.DiGraph, width: int = 1400) -> bytes:
         d = graph.nodes[n]
         col = (60, 60, 60) if d.get("sot_boxes", 0) == 0 else (120, 60, 0)
         cv2.rectangle(img, (int(x1), y - 4), (max(int(x1) + 2, int(x2)), y + 4), col, -1)
-        cv2.putText(img, f"{n}", (4, y + 4), font, 0.35, (0, 0, 0), 1, cv2.LINE_AA)
-        cv2.putText(img, f"T{d.get('track', -1)}", (30, y + 4), font, 0.3, (120, 120, 120), 1, cv2.LINE_AA)
+        tracklet, _, track = lane_label(n, d).partition(" ")
+        cv2.putText(img, tracklet, (4, y + 4), font, 0.35, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(img, track, (30, y + 4), font, 0.3, (120, 120, 120), 1, cv2.LINE_AA)
     y = geo["height"] - LEGEND + 20
     items = [("taken", TAKEN), ("allowed, not taken", ALLOWED)] + \
         [(f"rejected: {c}", REJECT_COLOURS[c]) for c in CONSTRAINTS]
@@ -136,8 +154,10 @@ def png_bytes(graph: nx.DiGraph, width: int = 1400) -> bytes:
         cv2.line(img, (x, y), (x + 24, y), col, 2)
         cv2.putText(img, label, (x + 30, y + 4), font, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
         x += 40 + 8 * len(label)
-    cv2.putText(img, "x: frame; one lane per tracklet (id, then output track); blue bars hold SOT boxes",
+    cv2.putText(img, "x: frame; one lane per tracklet (its id, then its track T as in the results file; dropped: "
+                "not in the results; short: in no track); blue bars hold SOT boxes",
                 (MARGIN_LEFT, y + 28), font, 0.4, (90, 90, 90), 1, cv2.LINE_AA)
+    cv2.putText(img, shown_note(graph), (MARGIN_LEFT, y + 48), font, 0.4, (90, 90, 90), 1, cv2.LINE_AA)
     ok, data = cv2.imencode(".png", img)
     if not ok:
         raise RuntimeError("PNG encoding failed")
@@ -182,7 +202,7 @@ def html_page(graph: nx.DiGraph, crops: dict | None = None, title: str = "associ
         fill = "#3c3c3c" if d.get("sot_boxes", 0) == 0 else "#003c78"
         parts.append(f'<rect class="node" id="node-{n}" data-info="{html.escape(json.dumps(info))}" '
                      f'x="{x1:.1f}" y="{y - 4}" width="{max(2.0, x2 - x1):.1f}" height="8" fill="{fill}"/>')
-        parts.append(f'<text x="4" y="{y + 4}" font-size="10">{n} T{d.get("track", -1)}</text>')
+        parts.append(f'<text x="4" y="{y + 4}" font-size="10">{html.escape(lane_label(n, d))}</text>')
     parts.append("</svg>")
     compensated = ("<p>The camera moved: every IoU, velocity and gap here was measured after camera-motion "
                    "compensation, in frame 1's pixels.</p>" if graph.graph.get("compensated") else "")
@@ -201,9 +221,11 @@ body {{ font-family: sans-serif; margin: 12px; }}
 td {{ padding: 1px 6px; }}
 </style></head><body>
 <h2>{html.escape(title)}</h2>
-<p>x: frame; one lane per tracklet (its id, then its output track T). Green: links the solver took;
-grey: allowed, not taken; dashed: rejected, coloured by the first rule that failed. Dark blue bars hold
-boxes from the SOT step. Click a bar or a link for its numbers.</p>{compensated}
+<p>x: frame; one lane per tracklet (its id, then its track T as in the results file; "dropped": a track
+confirmation dropped, in no results file; "short": a trajectory too short to become a track). Green: links
+the solver took; grey: allowed, not taken; dashed: rejected, coloured by the first rule that failed. Dark
+blue bars hold boxes from the SOT step. Click a bar or a link for its numbers.</p>
+<p>{html.escape(shown_note(graph))}.</p>{compensated}
 <div id="filters">{filters}</div>
 {''.join(parts)}
 <div id="panel"><b>Click a tracklet or a link.</b><div id="details"></div></div>

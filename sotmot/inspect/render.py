@@ -23,6 +23,7 @@ import numpy as np
 
 from sotmot.errors import InputError
 from sotmot.io import FrameReader, SeqInfo, check_output_dir, refuse_overwriting, write_bytes_atomic
+from sotmot.io.mot import refuse_inside
 from sotmot.types import Tracks
 
 TRAIL = 12
@@ -135,10 +136,8 @@ def check_render_target(info: SeqInfo, out: Path, inputs: Iterable[str | Path] =
         be made (below a file, read-only).
     """
     target = out.resolve()
+    refuse_inside(out, [info.path, info.frames_dir])
     for protected in (info.path.resolve(), info.frames_dir.resolve()):
-        if target == protected or target.is_relative_to(protected):
-            raise InputError(out, f"refusing to write into the sequence folder {protected}: the frames and "
-                             f"detections there would be overwritten; choose --out elsewhere")
         if protected.is_relative_to(target):
             raise InputError(out, f"refusing to write into a folder that holds the sequence folder {protected}; "
                              f"choose --out elsewhere")

@@ -201,7 +201,7 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
     with open(path, encoding="utf-8-sig", errors="replace") as fh:  # -sig: tolerate a leading BOM
         for number, text in enumerate(fh, 1):
             text = text.strip()
-            if not text:
+            if not text or text.startswith("#"):  # a blank line, or a comment (the header sotmot's .det.txt has)
                 continue
             fields = _fields(text)
             if not (min_cols <= len(fields) <= max_cols):
@@ -260,7 +260,7 @@ def check_rows(arr: np.ndarray, lines: list[int], path: str | Path, seq_length: 
         raise InputError(path, f"frame number '{row[0]:g}' is not an integer", line=line)
     if checks[2][k]:
         limit = f"1..{seq_length}" if seq_length is not None else ">= 1"
-        raise InputError(path, f"frame {int(row[0])} is outside {limit} (seqLength in seqinfo.ini)", line=line)
+        raise InputError(path, f"frame {int(row[0])} is outside {limit}, the sequence's frames", line=line)
     if checks[3][k]:
         raise InputError(path, f"id '{row[1]:g}' must be an integer from 1 to {MAX_ID}", line=line)
     raise InputError(path, f"box width and height must be positive, got w={row[4]:g}, h={row[5]:g}", line=line)
@@ -331,7 +331,7 @@ def _detections(arr: np.ndarray, lines: list[int], path: Path, image_size: tuple
         if len(huge):
             k = int(huge[0])
             raise InputError(path, f"box {arr[k, 4]:g} x {arr[k, 5]:g} px is far larger than the "
-                             f"{width} x {height} image (imWidth, imHeight in seqinfo.ini)", line=lines[k])
+                             f"{width} x {height} image", line=lines[k])
         ix = np.clip(arr[:, 2] + arr[:, 4], 0, width) - np.clip(arr[:, 2], 0, width)
         iy = np.clip(arr[:, 3] + arr[:, 5], 0, height) - np.clip(arr[:, 3], 0, height)
         outside = np.flatnonzero(ix * iy < 0.5 * arr[:, 4] * arr[:, 5])
@@ -380,7 +380,7 @@ class GroundTruth:
 def gt_style(path: str | Path) -> GtStyle:
     """Whether a ``gt.txt`` is MOT16-style (9 columns) or 2DMOT2015-style.
 
-    Decided from the columns of the first non-empty line, split as the
+    Decided from the columns of the first line that is neither empty nor a comment, split as the
     readers split it (commas, or white space); :func:`read_ground_truth`
     checks the rest.
     """
@@ -389,7 +389,7 @@ def gt_style(path: str | Path) -> GtStyle:
         raise InputError(path, "missing; expected the ground-truth file here")
     with open(path, encoding="utf-8-sig", errors="replace") as fh:  # -sig: tolerate a leading BOM
         for text in fh:
-            if text.strip():
+            if text.strip() and not text.strip().startswith("#"):
                 return "MOT16" if len(_fields(text.strip())) == 9 else "MOT15"
     return "MOT15"
 
@@ -550,6 +550,17 @@ def refuse_overwriting(outputs: Iterable[str | Path], inputs: Iterable[str | Pat
         for source in inputs:
             if same_file(out, source) or out.resolve() == source.resolve():
                 raise InputError(out, f"would write over {source}, which this run reads; {hint}")
+
+
+def refuse_inside(out: str | Path, folders: Iterable[str | Path]) -> None:
+    """Raise an :class:`InputError` when ``out`` is one of the sequence ``folders`` (or their frame folders) or
+    lies inside one: results never land among a user's inputs (``track --out``, ``render --out``)."""
+    target = Path(out).resolve()
+    for folder in map(Path, folders):
+        protected = folder.resolve()
+        if target == protected or target.is_relative_to(protected):
+            raise InputError(out, f"refusing to write into the sequence folder {protected}: results would land "
+                             f"among its frames and detections; choose --out elsewhere")
 
 
 def check_output_dir(path: str | Path) -> Path:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from sotmot.errors import ConfigError
 from sotmot.io.mot import SeqInfo, read_seqinfo_ini
 from sotmot.io.video import is_video, video_info
 
@@ -16,5 +17,12 @@ def read_seqinfo(seq: str | Path, fps: float | None = None) -> SeqInfo:
     ------
     InputError
         What is wrong with the folder, its ``seqinfo.ini`` or the video, naming the file.
+    ConfigError
+        ``fps`` given for a folder, whose ``seqinfo.ini`` says its frame rate.
     """
-    return video_info(seq, fps) if is_video(seq) else read_seqinfo_ini(seq)
+    if is_video(seq):
+        return video_info(seq, fps)
+    if fps is not None:  # applied nowhere, it would only be recorded (and force a re-run on --resume)
+        raise ConfigError(f"{seq}: --fps ([input] fps) is for a video; a sequence folder's frame rate is frameRate in "
+                          f"its seqinfo.ini")
+    return read_seqinfo_ini(seq)

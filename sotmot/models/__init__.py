@@ -18,13 +18,13 @@ that silently computes something else.
 
 from __future__ import annotations
 
-import hashlib
 import os
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
 from sotmot.errors import ModelError
+from sotmot.hashing import file_sha256
 
 #: The folder of the bundled model files (package data).
 HERE = Path(__file__).resolve().parent
@@ -89,14 +89,6 @@ MODELS: dict[str, BundledModel] = {
 _WHAT = {"reid": "person re-ID model", "detector": "person detector"}
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 @lru_cache(maxsize=None)
 def _checked(kind: str, stamps: tuple) -> Path:
     model = MODELS[kind]
@@ -105,7 +97,7 @@ def _checked(kind: str, stamps: tuple) -> Path:
         if stamp is None:
             raise ModelError(f"the bundled {_WHAT[kind]} file is missing: {path}; reinstall sotmot, or give another "
                              f"model with {model.flag} PATH (or {model.env_var})")
-        found = _sha256(path)
+        found = file_sha256(path)
         if found != expected:
             raise ModelError(f"the bundled {_WHAT[kind]} file is changed or truncated: {path} ({stamp[0]:,} bytes, "
                              f"SHA-256 {found[:12]}..., expected {expected[:12]}...); reinstall sotmot, or give "
