@@ -135,7 +135,7 @@ def test_unconfirmed_file_holds_the_dropped_boxes(tmp_path):
     assert outcome.status == "done", outcome.message
     low = read_results(tmp_path / "out" / "SYN.low.txt", 40)
     kept = read_results(tmp_path / "out" / "SYN.txt", 40)
-    assert len(low) == 2 and len(kept) == 40 and "unconfirmed dropped" in outcome.message
+    assert len(low) == 2 and len(kept) == 40 and "2 unconfirmed written to SYN.low.txt" in outcome.message
     flags = (tmp_path / "out" / "SYN.flags.csv").read_text().splitlines()
     assert flags[0].endswith(",confidence") and all(float(line.split(",")[4]) >= 0.5 for line in flags[1:])
 

@@ -332,8 +332,10 @@ def test_explain_refuses_one_id_twice_and_graph_frames_past_the_end(tmp_path, ca
 
     monkeypatch.setattr(cli, "_track_for_inspection", lambda args: pytest.fail("tracked with bad arguments"))
     seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], length=30, images=False)
-    assert main(["explain", str(seq), "--ids", "1,1", "-q"]) == 2
-    assert "two different track ids" in capsys.readouterr().err
+    assert main(["explain", str(seq), "--tracklets", "1,1", "-q"]) == 2
+    assert "two different tracklet ids" in capsys.readouterr().err
+    assert main(["explain", str(seq), "--ids", "1,2,3", "-q"]) == 2
+    assert "--ids needs two track ids (or one track)" in capsys.readouterr().err
     assert main(["graph", str(seq), "--out", str(tmp_path / "g"), "--frames", "40:50", "-q"]) == 2
     assert "frames 1 to 30 only" in capsys.readouterr().err
     assert not (tmp_path / "g").exists()

@@ -195,7 +195,7 @@ def test_the_built_in_detectors_family_is_known_from_the_run_not_guessed(tmp_pat
     import json
 
     from conftest import write_sequence
-    from sotmot.detection import known_family
+    from sotmot.detection import detections_header, known_family
     from sotmot.io import read_seqinfo
 
     info = read_seqinfo(write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False))
@@ -206,13 +206,16 @@ def test_the_built_in_detectors_family_is_known_from_the_run_not_guessed(tmp_pat
     replay = tmp_path / "out" / "SYN.det.txt"
     replay.parent.mkdir()
     replay.write_text("1,-1,10,10,5,8,0.9\n")
-    assert known_family(DetectionConfig(file=str(replay)), info) is None  # no run record beside it
+    assert known_family(DetectionConfig(file=str(replay)), info) is None  # no header: any detector's file
+    # a run record beside it that says "model" does not make it so (it may belong to another run's results)
     record = {"inputs": {"detections": {"source": "model"}}, "detector_model": {"path": ours}}
     (tmp_path / "out" / "SYN.run.json").write_text(json.dumps(record))
-    assert known_family(DetectionConfig(file=str(replay)), info) == "pd0202"
-    record["inputs"]["detections"]["source"] = "file"
-    (tmp_path / "out" / "SYN.run.json").write_text(json.dumps(record))
     assert known_family(DetectionConfig(file=str(replay)), info) is None
+    model = tmp_path / "person-detection-0202.FP16-INT8.xml"
+    model.write_text("<net/>")
+    copy = tmp_path / "any-name.txt"  # the header travels with the file, under any name
+    copy.write_text(detections_header(model) + "1,-1,10,10,5,8,0.9\n")
+    assert known_family(DetectionConfig(file=str(copy)), info) == "pd0202"
 
 
 def test_a_video_asked_to_read_a_det_file_it_does_not_have_says_so_before_decoding(tmp_path, capsys):
@@ -226,20 +229,22 @@ def test_a_video_asked_to_read_a_det_file_it_does_not_have_says_so_before_decodi
 
 
 def test_a_replayed_det_txt_is_checked_by_the_detector_only_when_that_same_detector_is_given(tmp_path):
-    import json
-
     from conftest import write_sequence
-    from sotmot.detection import detector_detections
+    from sotmot.detection import detections_header, detector_detections
     from sotmot.io import read_seqinfo
 
     info = read_seqinfo(write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False))
-    replay = tmp_path / "out" / "SYN.det.txt"
-    replay.parent.mkdir()
-    replay.write_text("1,-1,10,10,5,8,0.9\n")
     ours, other = tmp_path / "a.xml", tmp_path / "b.xml"
-    record = {"inputs": {"detections": {"source": "model"}}, "detector_model": {"path": str(ours)}}
-    (tmp_path / "out" / "SYN.run.json").write_text(json.dumps(record))
+    ours.write_text("<net>ours</net>")
+    other.write_text("<net>other</net>")
+    replay = tmp_path / "out" / "boxes.txt"
+    replay.parent.mkdir()
+    replay.write_text(detections_header(ours) + "1,-1,10,10,5,8,0.9\n")
     assert detector_detections(DetectionConfig(file=str(replay), model=str(ours)), info)
+    moved = tmp_path / "elsewhere" / "a.xml"  # the same detector at another path: the same file by its hash
+    moved.parent.mkdir()
+    moved.write_text("<net>ours</net>")
+    assert detector_detections(DetectionConfig(file=str(replay), model=str(moved)), info)
     assert not detector_detections(DetectionConfig(file=str(replay), model=str(other)), info)
     assert not detector_detections(DetectionConfig(model=str(ours)), info)  # a public det.txt
     assert detector_detections(DetectionConfig(source="model", model=str(ours)), info)

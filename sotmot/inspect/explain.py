@@ -262,15 +262,15 @@ def parse_frames(text: str | None, length: int | None = None) -> tuple[int, int]
 
 def parse_ids(text: str, what: str = "track") -> Sequence[int]:
     """``"3,17"`` -> ``[3, 17]``; for tracks also ``"5"`` -> ``[5, 5]`` (why one track's tracklets were merged)."""
+    flag = "--ids" if what == "track" else f"--{what}s"
     try:
         ids = [int(x) for x in text.split(",")]
     except ValueError:
-        raise SotmotError(f"--{what}s must be {what} ids like 3,17, got {text!r}") from None
+        raise SotmotError(f"{flag} must be {what} ids like 3,17, got {text!r}") from None
     if what == "track" and len(ids) == 1:
         return [ids[0], ids[0]]
     if len(ids) != 2:
-        raise SotmotError(f"--{what}s needs two {what} ids{' (or one track)' if what == 'track' else ''}, "
-                          f"got {text!r}")
+        raise SotmotError(f"{flag} needs two {what} ids{' (or one track)' if what == 'track' else ''}, got {text!r}")
     if ids[0] == ids[1] and what != "track":
-        raise SotmotError(f"--{what}s needs two different {what} ids, got {text!r}")
+        raise SotmotError(f"{flag} needs two different {what} ids, got {text!r}")
     return ids
