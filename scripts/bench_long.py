@@ -13,6 +13,15 @@ log(time) and log(peak memory) against log(frames): 1 is linear.
 
     .venv/bin/python scripts/bench_long.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --json bench_long.json
+
+With ``--windows 30,60`` it measures committed windows instead (issue #45): for each
+``NAME:K`` the video of each ``--factors`` length (ground truth repeated, each copy's
+people under new ids), tracked whole, then in windows of each length serially, and
+the first window length also on ``--window-workers`` processes: wall time, peak
+RSS, HOTA / IDF1 / MOTA / IDSW, and whether the parallel results equal the serial.
+
+    .venv/bin/python scripts/bench_long.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
+        --sequences MOT16-09:16 --factors 8,16 --windows 30,60 --json docs/results/windows.json
 """
 
 from __future__ import annotations
@@ -106,6 +115,76 @@ def measure(command: list[str], tmpdir: Path) -> dict[str, float]:
     return {"seconds": seconds, "peak_rss_mb": int(match.group(1)) / 1024, "peak_tmp_mb": peak[0] / 2**20}
 
 
+def repeated_gt(seq: Path, factor: int, cache: Path) -> Path:
+    """``seq``'s ground truth for the video played ``factor`` times: frames shifted, each copy's ids new."""
+    from sotmot.io import atomic_path
+
+    info = read_seqinfo(seq)
+    gt = cache / f"{info.name}-x{factor}.gt.txt"
+    if not gt.is_file():
+        rows = [line.split(",") for line in info.gt_path.read_text().splitlines() if line.strip()]
+        top = max(int(float(r[1])) for r in rows)
+        lines = [",".join([str(int(float(r[0])) + k * info.length), str(int(float(r[1])) + k * top), *r[2:]])
+                 for k in range(factor) for r in rows]
+        cache.mkdir(parents=True, exist_ok=True)
+        with atomic_path(gt) as tmp:
+            tmp.write_text("\n".join(lines) + "\n")
+    return gt
+
+
+def windows_experiment(args, factors: list[int]) -> int:
+    """Whole-sequence against windowed tracking of long videos (``--windows``): time, memory, accuracy."""
+    from sotmot.api import evaluate
+
+    sotmot = Path(sys.executable).with_name("sotmot")
+    seconds = [float(w) for w in args.windows.split(",")]
+    rows = []
+    for item in args.sequences.split(","):
+        name, most = item.split(":")
+        seq = args.data / name
+        info = read_seqinfo(seq)
+        for factor in sorted({f for f in factors if f <= int(most)}):
+            video, det = repeated_video(seq, factor, args.cache)
+            gt = repeated_gt(seq, factor, args.cache)
+            modes = [("whole", [])] + [(f"W={w:g}s", ["--window", f"{w:g}"]) for w in seconds]
+            modes.append((f"W={seconds[0]:g}s, {args.window_workers} workers",
+                          ["--window", f"{seconds[0]:g}", "--workers", str(args.window_workers)]))
+            texts = {}
+            for mode, extra in modes:
+                with tempfile.TemporaryDirectory(prefix="sotmot-long-") as tmp:
+                    scratch = Path(tmp) / "tmp"
+                    scratch.mkdir()
+                    out = Path(tmp) / "out"
+                    got = measure([str(sotmot), "track", str(video), "--det", str(det), "--out", str(out),
+                                   "--reid-model", args.model, "-q", *extra], scratch)
+                    results = out / f"{video.stem}.txt"
+                    texts[mode] = results.read_bytes()
+                    scores = evaluate(results, gt, length=info.length * factor, name=f"{name}-x{factor}")
+                    record = json.loads((out / f"{video.stem}.run.json").read_text())
+                joins = record.get("windows", {}).get("joins", [])
+                row = {"sequence": name, "factor": factor, "frames": info.length * factor, "mode": mode, **got,
+                       "fps": info.length * factor / got["seconds"], "windows": len(record.get("windows", {}).get(
+                           "plan", [[1, 1]])), "joined": sum(j["joined"] for j in joins),
+                       **{k: scores[k] for k in ("HOTA", "IDF1", "MOTA", "IDSW")}}
+                rows.append(row)
+                print(f"{name} x{factor} {mode}: {got['seconds']:.0f} s ({row['fps']:.1f} frames/s), peak RSS "
+                      f"{got['peak_rss_mb']:.0f} MB, HOTA {row['HOTA']:.2f} IDF1 {row['IDF1']:.2f} MOTA "
+                      f"{row['MOTA']:.2f} IDSW {row['IDSW']:.0f}", flush=True)
+            parallel = modes[-1][0]
+            rows[-1]["equals_serial"] = texts[parallel] == texts[f"W={seconds[0]:g}s"]
+    print("\n| video | mode | wall s | frames/s | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | windows |\n"
+          "|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['sequence']} x{r['factor']} | {r['mode']} | {r['seconds']:.0f} | {r['fps']:.1f} | "
+              f"{r['peak_rss_mb']:.0f} | {r['HOTA']:.2f} | {r['IDF1']:.2f} | {r['MOTA']:.2f} | {r['IDSW']:.0f} | "
+              f"{r['windows']} |")
+    print(f"machine: {machine()}")
+    if args.json:
+        write_text_atomic(args.json, json.dumps({"script": "scripts/bench_long.py --windows", "machine": machine(),
+                                                 "rows": rows}, indent=2) + "\n")
+    return 0
+
+
 def exponent(frames: list[int], values: list[float]) -> float:
     """Slope of log(value) against log(frames): how a cost grows with length (1 = linearly)."""
     if len(frames) < 2:
@@ -124,12 +203,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cache", type=Path, default=ROOT / ".cache" / "long",
                         help="where the long videos are kept between runs (default: %(default)s)")
     parser.add_argument("--json", type=Path, help="write every number here")
+    parser.add_argument("--windows", metavar="S,S", help="measure committed windows of these lengths (seconds)")
+    parser.add_argument("--window-workers", type=int, default=2, help="processes for the parallel windowed run")
     args = parser.parse_args(argv)
     if not Path("/usr/bin/time").exists():
         print("needs /usr/bin/time (Debian package 'time')", file=sys.stderr)
         return 2
     sotmot = Path(sys.executable).with_name("sotmot")
     factors = sorted({int(f) for f in args.factors.split(",")})
+    if args.windows:
+        return windows_experiment(args, factors)
     rows, growth = [], {}
     for item in args.sequences.split(","):
         name, most = item.split(":")

@@ -206,6 +206,8 @@ def _build_config(args: argparse.Namespace):
         config = config.replace("association", solver=args.solver)
     if getattr(args, "camera_motion", None):
         config = config.replace("motion", compensation=args.camera_motion)
+    if getattr(args, "window", None) is not None:
+        config = config.replace("windows", seconds=args.window)
     return config
 
 
@@ -551,8 +553,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with a video: its frame rate, when the container's is missing or wrong")
     p.add_argument("--eval", action="store_true", help="score the results with TrackEval afterwards")
     p.add_argument("--workers", type=_positive_int, default=1, metavar="N",
-                   help="track N sequences at once in separate processes (default: 1; never more than the "
-                        "sequences or the CPUs; the workers end with this process)")
+                   help="track N sequences at once in separate processes, or the windows of one sequence with "
+                        "--window (default: 1; never more than the sequences or the CPUs; the workers end with this "
+                        "process)")
+    p.add_argument("--window", type=float, metavar="SECONDS",
+                   help="track in committed windows of this many seconds ([windows] seconds; 0: off, the default): "
+                        "memory holds one window, results are written while the video plays and --resume continues "
+                        "an interrupted run after its last window; windows overlap by the association's gap")
     p.add_argument("--cluster", metavar="dask://HOST:PORT",
                    help="run the sequences on an existing Dask cluster (its scheduler's address), one task a "
                         "sequence; the workers must see the same paths (shared filesystem) and have sotmot "

@@ -736,6 +736,44 @@ class MotionConfig:
 
 
 @dataclass(frozen=True)
+class WindowConfig:
+    """Committed time windows (``sotmot.windows``): a long sequence tracked window by window, so that memory holds
+    one window and results are written while the video plays. Off by default.
+
+    Each window is tracked as a sequence of its own; consecutive windows
+    overlap by at least the association's gap (``[association]
+    l_max_seconds``), so every link the gap rule allows lies wholly inside one
+    window, and the tracks of two windows are joined where their boxes agree
+    in the overlap (mean IoU at least ``join_iou``, one to one). Each frame's
+    boxes come from one window: the earlier one up to the middle of the
+    overlap, the later one after it. A sequence no longer than one window is
+    tracked exactly as without windows.
+
+    Attributes
+    ----------
+    seconds
+        Window length in seconds (0: off, the whole sequence at once). At least
+        twice the overlap.
+    overlap_seconds
+        Overlap of consecutive windows; ``None``: the association's gap limit
+        (``l_max_seconds``, or ``l_max`` frames). Never less than that gap.
+    join_iou
+        Two tracks of consecutive windows are one person when their boxes in
+        the overlap's shared frames have at least this mean IoU.
+    """
+
+    seconds: float = 0.0
+    overlap_seconds: float | None = None
+    join_iou: float = 0.5
+
+    def __post_init__(self) -> None:
+        _check(0.0 <= self.seconds <= 86400.0, "windows", "seconds must be in [0, 86400] (0: off)")
+        _check(self.overlap_seconds is None or 0.0 < self.overlap_seconds <= 3600.0, "windows",
+               "overlap_seconds must be in (0, 3600] (or absent: the association's gap limit)")
+        _check(0.0 < self.join_iou <= 1.0, "windows", "join_iou must be in (0, 1]")
+
+
+@dataclass(frozen=True)
 class TrackerConfig:
     """The whole tracker: one section per stage."""
 
@@ -749,6 +787,7 @@ class TrackerConfig:
     postprocess: PostprocessConfig = field(default_factory=PostprocessConfig)
     confirm: ConfirmConfig = field(default_factory=ConfirmConfig)
     motion: MotionConfig = field(default_factory=MotionConfig)
+    windows: WindowConfig = field(default_factory=WindowConfig)
 
     def to_dict(self) -> dict[str, dict[str, Any]]:
         """Plain nested dict, the same layout a config file uses."""
@@ -774,6 +813,7 @@ SECTIONS: dict[str, type] = {
     "postprocess": PostprocessConfig,
     "confirm": ConfirmConfig,
     "motion": MotionConfig,
+    "windows": WindowConfig,
 }
 
 

@@ -29,7 +29,8 @@ from sotmot.io import SeqInfo
 IGNORED = ("time", "camera_motion", "sot_checks", "config.appearance.threads", "config.appearance.batch_size",
            "config.appearance.model", "config.confirm.calibration", "reid_model.path", "confidence_calibration.path",
            "results_sha256", "config.detection.model", "config.detection.file", "config.detection.threads",
-           "detector_model.path", "inputs.detections.path", "side_files", "confidence_method")
+           "detector_model.path", "inputs.detections.path", "side_files", "confidence_method",
+           "windows")
 
 
 def sotmot_version() -> str:

@@ -25,9 +25,11 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import logging
 import os
 import signal
+import sys
 import threading
 import time
 import traceback
@@ -193,8 +195,10 @@ def resolve_paths(config: TrackerConfig) -> TrackerConfig:
 
 
 def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
-              progress=False, embedder=None) -> Outcome:
-    """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome)."""
+              progress=False, embedder=None, window_workers: int = 1) -> Outcome:
+    """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome). With ``[windows]``
+    on and a sequence longer than one window, window by window (:func:`track_windowed`, its windows in
+    ``window_workers`` processes)."""
     from sotmot.detection import detections_header, detections_path, format_detections
     from sotmot.hashing import file_sha256
     from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
@@ -216,6 +220,12 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
                 return Outcome(seq_dir, "skipped", str(out),
                                f"{info.name}: results exist from the same run settings, skipped (--resume)")
             rerun = f" (re-run: {why})" if out.is_file() else ""
+        from sotmot.windows import plan
+
+        windows = plan(info.length, info.frame_rate, config)
+        if len(windows) > 1:
+            return track_windowed(seq_dir, info, windows, outputs, config, record, resume, progress, embedder,
+                                  window_workers, rerun)
         start = time.perf_counter()
         result = track_sequence(seq_dir, config, embedder=embedder, progress=progress)
         text = format_results(result.tracks)
@@ -266,6 +276,107 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
         return Outcome(seq_dir, "failed", None, f"{seq_dir}: unexpected {type(exc).__name__}: {detail}")
 
 
+def _resumable_windows(out: Path, record: dict, windows: list) -> dict | None:
+    """The progress of an interrupted windowed run of the same settings into ``out`` (from its run record), when
+    every file it appended to still holds what it committed; else None."""
+    from sotmot.provenance import differences, record_path
+
+    try:
+        old = json.loads(record_path(out).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    done = old.get("windows") if isinstance(old, dict) else None
+    if not isinstance(done, dict) or done.get("complete") is not False or done.get("plan") != windows:
+        return None
+    if differences(old, json.loads(json.dumps(record, default=str))):
+        return None
+    sizes = done.get("bytes", {})
+    if any(not out.with_name(name).is_file() or out.with_name(name).stat().st_size < size
+           for name, size in sizes.items()):
+        return None
+    return done
+
+
+def _append(path: Path, text: str) -> None:
+    """Append whole lines to ``path`` in one write, flushed to disk before the run record says they are there."""
+    data = text.encode("utf-8")
+    if not data:
+        return
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+    try:
+        os.write(fd, data)
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], config: TrackerConfig, record: dict,
+                   resume: bool, progress=False, embedder=None, workers: int = 1, rerun: str = "") -> Outcome:
+    """Track ``info`` window by window (:mod:`sotmot.windows`), committing each window's boxes as soon as it is
+    joined to the one before: the results file, its flags and (when written) the unconfirmed boxes and the
+    detector's boxes grow by whole lines, and the run record says after each window how far they are final. An
+    interrupted run of the same settings resumes (``--resume``) after its last committed window, with the same
+    results as an uninterrupted one."""
+    from sotmot.detection import detection_source, detections_header, detections_path, format_detections
+    from sotmot.hashing import file_sha256
+    from sotmot.io import format_results, read_detections, write_text_atomic
+    from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
+    from sotmot.models import model_in_use
+    from sotmot.provenance import write_record
+    from sotmot.windows import Stitcher, windowed
+
+    start = time.perf_counter()
+    out = outputs[-1]
+    source, det_file = detection_source(config.detection, info)
+    detections = read_detections(det_file, info.length, (info.width, info.height)) if source == "file" else None
+    files = {out: "", flags_path(out): FLAGS_HEADER}
+    if low_confidence_path(out) in outputs:
+        files[low_confidence_path(out)] = ""
+    if source == "model":
+        files[detections_path(out)] = detections_header(model_in_use(config.detection.model, "detector"))
+    state = _resumable_windows(out, record, [list(w) for w in windows]) if resume else None
+    if state is not None:
+        stitcher = Stitcher.from_state(windows, config.windows.join_iou, state)
+        for name, size in state["bytes"].items():
+            os.truncate(out.with_name(name), size)  # lines appended after the last record are made again
+        rerun = f" (resumed after window {stitcher.done} of {len(windows)})"
+    else:
+        stitcher = Stitcher(windows, config.windows.join_iou)
+        for path, text in files.items():
+            write_text_atomic(path, text)
+
+    def progress_record(complete: bool) -> None:
+        record["windows"] = {"plan": [list(w) for w in windows], "complete": complete,
+                             "bytes": {path.name: path.stat().st_size for path in files}, **stitcher.state()}
+        write_record(out, record)
+
+    progress_record(False)
+    ids: set[int] = set()
+    for k, result in windowed(info, windows, config, detections, stitcher.done, workers, embedder, progress):
+        tracks, dropped, detected = stitcher.add(k, result)
+        _append(out, format_results(tracks))
+        _append(flags_path(out), format_flags(tracks))
+        if low_confidence_path(out) in files:
+            _append(low_confidence_path(out), format_results(dropped))
+        if detected is not None and detections_path(out) in files:
+            _append(detections_path(out), format_detections(detected.frames, detected.boxes, detected.scores))
+        progress_record(False)
+        ids.update(int(i) for i in tracks.ids)
+        if progress:
+            last = windows[k + 1][0] + (windows[k][1] - windows[k + 1][0] + 1) // 2 - 1 if k + 1 < len(windows) \
+                else windows[k][1]
+            print(f"{info.name}: frames 1-{last} of {info.length} final (window {k + 1} of {len(windows)}; "
+                  f"{time.perf_counter() - start:.0f} s)", file=sys.stderr)
+    record["results_sha256"] = file_sha256(out)
+    record["side_files"] = {path.name: file_sha256(path) for path in files if path != out}
+    progress_record(True)
+    fps = info.length / (time.perf_counter() - start)
+    joined = sum(j["joined"] for j in stitcher.joins)
+    return Outcome(seq_dir, "done", str(out),
+                   f"{info.name}: {len(windows)} windows of {config.windows.seconds:g} s ({joined} tracks joined "
+                   f"across them), {len(ids)} tracks in this run's windows, {fps:.1f} frames/s -> {out}{rerun}")
+
+
 def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerConfig,
                workers: int = 1, resume: bool = False, progress: bool = False, report=None,
                cluster: str | None = None) -> list[Outcome]:
@@ -303,6 +414,8 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         if workers > 1:
             raise ConfigError("use --workers (this machine) or --cluster (Dask), not both")
         return _track_on_dask(cluster, seq_dirs, out_dir, config, resume, progress, report)
+    # one sequence and several workers: its windows (when [windows] is on) are what is spread over them
+    window_workers = max(1, min(workers, os.cpu_count() or 1)) if len(seq_dirs) == 1 else 1
     workers = usable_workers(workers, len(seq_dirs))
     from sotmot.appearance import make_embedder
 
@@ -312,7 +425,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
         for seq in seq_dirs:
             if embedder is None and not (resume and _resumable(seq, out_dir, config)):
                 embedder = make_embedder(config.appearance)  # a bad model path stops everything, once
-            outcome = track_one(seq, out_dir, config, resume, progress, embedder)
+            outcome = track_one(seq, out_dir, config, resume, progress, embedder, window_workers)
             report(outcome)
             outcomes.append(outcome)
         return outcomes

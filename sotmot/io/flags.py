@@ -21,18 +21,25 @@ def flags_path(results: str | Path) -> Path:
     return results.with_name(results.stem + ".flags.csv")
 
 
+#: The first line of a flags file.
+FLAGS_HEADER = "frame,id,interpolated,from_sot,confidence\n"
+
+
+def format_flags(tracks: Tracks) -> str:
+    """The rows (no header) of a flags file for ``tracks``, sorted by frame then id as the results are."""
+    order = np.lexsort((tracks.ids, tracks.frames))
+    conf = ["" if np.isnan(c) else f"{c:.4f}" for c in tracks.confidence]
+    return "".join(f"{tracks.frames[i]},{tracks.ids[i]},{int(tracks.interpolated[i])},{int(tracks.from_sot[i])},"
+                   f"{conf[i]}\n" for i in order)
+
+
 def write_flags(results: str | Path, tracks: Tracks) -> None:
     """Write ``frame,id,interpolated,from_sot,confidence`` for every box of ``tracks`` (atomically).
 
     ``confidence`` is the confirmation stage's probability that the box is a
     true positive (empty where it was not computed).
     """
-    order = np.lexsort((tracks.ids, tracks.frames))
-    conf = ["" if np.isnan(c) else f"{c:.4f}" for c in tracks.confidence]
-    rows = ["frame,id,interpolated,from_sot,confidence\n"] + [
-        f"{tracks.frames[i]},{tracks.ids[i]},{int(tracks.interpolated[i])},{int(tracks.from_sot[i])},{conf[i]}\n"
-        for i in order]
-    write_text_atomic(flags_path(results), "".join(rows))
+    write_text_atomic(flags_path(results), FLAGS_HEADER + format_flags(tracks))
 
 
 def read_flags(results: str | Path, tracks: Tracks) -> Tracks:

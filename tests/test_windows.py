@@ -1,0 +1,117 @@
+"""Committed time windows (issue #45): identities across window joins, the gap rule across an overlap, the
+same results as the whole sequence where there is one window, in parallel as in series, and after a kill."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from sotmot.cli import main
+from sotmot.config import TrackerConfig
+from sotmot.errors import ConfigError
+from sotmot.windows import cut, plan
+
+from conftest import DATA, require, write_sequence
+
+RATE = 5  # frames per second of the synthetic sequences: the 4-s gap is 20 frames, windows of 8 s are 40
+
+
+def _walkers(tmp_path, gaps: dict[int, tuple[int, int]] | None = None, length: int = 120):
+    """Two people walking the whole sequence in opposite directions, 60 px apart; ``gaps``: person -> frames
+    (first, last) where the detector misses them."""
+    lines = []
+    for f in range(1, length + 1):
+        for person, (x0, dx, y) in enumerate(((10, 3.0, 20), (400, -3.0, 120))):
+            first, last = (gaps or {}).get(person, (0, -1))
+            if not first <= f <= last:
+                lines.append(f"{f},-1,{x0 + dx * f:.2f},{y},30,60,0.9")
+    return write_sequence(tmp_path, lines, length=length, frame_rate=RATE, width=800, height=240, images=False)
+
+
+def _track(seq, out, *extra) -> list[str]:
+    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "--unconfirmed", "keep", "-q",
+                 *extra]) == 0
+    return (out / "SYN.txt").read_text().splitlines()
+
+
+def _ids(lines: list[str]) -> set[str]:
+    return {line.split(",")[1] for line in lines}
+
+
+def test_the_plan_overlaps_by_the_gap_and_cuts_in_the_middle():
+    config = TrackerConfig().replace("windows", seconds=8)
+    windows = plan(120, RATE, config)
+    assert windows == [(1, 40), (21, 60), (41, 80), (61, 100), (81, 120)]
+    assert [cut(windows, k) for k in range(len(windows))] == [1, 31, 51, 71, 91]
+    assert plan(30, RATE, config) == [(1, 30)]  # no longer than one window: the whole sequence
+    with pytest.raises(ConfigError, match="less than twice the overlap"):
+        plan(120, RATE, TrackerConfig().replace("windows", seconds=6))
+
+
+def test_walkers_crossing_window_joins_keep_their_ids(tmp_path):
+    seq = _walkers(tmp_path)
+    whole = _track(seq, tmp_path / "whole")
+    windowed = _track(seq, tmp_path / "win", "--window", "8")
+    assert len(_ids(whole)) == len(_ids(windowed)) == 2
+    assert windowed == whole  # the same boxes, the same ids
+    record = json.loads((tmp_path / "win" / "SYN.run.json").read_text())
+    assert len(record["windows"]["plan"]) == 5 and record["windows"]["complete"] is True
+    assert [j["joined"] for j in record["windows"]["joins"]] == [2, 2, 2, 2]
+
+
+@pytest.mark.parametrize("gap_frames, people", [(15, 2), (30, 3)])
+def test_a_person_unseen_across_an_overlap_is_joined_only_when_the_gap_rule_allows(tmp_path, gap_frames, people):
+    # person 0 missed around the cut of windows 1 and 2 (frame 31): 15 frames (3 s, within the 4-s gap) or 30
+    gaps = {0: (31 - gap_frames // 2, 30 + (gap_frames + 1) // 2)}
+    seq = _walkers(tmp_path, gaps)
+    whole = _track(seq, tmp_path / "whole")
+    windowed = _track(seq, tmp_path / "win", "--window", "8")
+    assert len(_ids(whole)) == len(_ids(windowed)) == people
+
+
+def test_a_clip_shorter_than_one_window_gives_the_whole_sequence_run(tmp_path):
+    seq = require(DATA / "MOT16-02-clip30")
+    assert main(["track", str(seq), "--out", str(tmp_path / "a"), "-q"]) == 0
+    assert main(["track", str(seq), "--out", str(tmp_path / "b"), "--window", "10", "-q"]) == 0
+    name = "MOT16-02-clip30.txt"
+    assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+
+
+@pytest.mark.slow
+def test_windows_in_two_processes_equal_the_serial_run(tmp_path):
+    seq = _walkers(tmp_path, {0: (50, 58)}, length=200)
+    serial = _track(seq, tmp_path / "serial", "--window", "8")
+    parallel = _track(seq, tmp_path / "parallel", "--window", "8", "--workers", "2")
+    assert parallel == serial
+    for name in ("SYN.flags.csv",):
+        assert (tmp_path / "parallel" / name).read_bytes() == (tmp_path / "serial" / name).read_bytes()
+
+
+def test_a_killed_run_resumes_after_its_last_window_with_the_same_results(tmp_path, monkeypatch):
+    import sotmot.windows as windows
+
+    seq = _walkers(tmp_path, {1: (64, 70)})
+    reference = _track(seq, tmp_path / "ref", "--window", "8")
+    real_add = windows.Stitcher.add
+
+    def killed_after_two(self, k, result):
+        if k == 2:
+            raise KeyboardInterrupt  # as a kill would stop it: between two windows
+        return real_add(self, k, result)
+
+    monkeypatch.setattr(windows.Stitcher, "add", killed_after_two)
+    out = tmp_path / "run"
+    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "--unconfirmed", "keep", "-q",
+                 "--window", "8"]) == 130  # "sotmot: interrupted"
+    record = json.loads((out / "SYN.run.json").read_text())
+    assert record["windows"]["complete"] is False and record["windows"]["done"] == 2
+    committed = (out / "SYN.txt").read_text().splitlines()
+    assert committed == [line for line in reference if int(line.split(",")[0]) < cut(plan(120, RATE, TrackerConfig(
+        ).replace("windows", seconds=8)), 2)]  # the frames the first two windows own, final already
+    with open(out / "SYN.txt", "a") as fh:  # a line appended after the record was written is made again
+        fh.write("99,1,1,1,1,1,0.5,-1,-1,-1\n")
+    monkeypatch.setattr(windows.Stitcher, "add", real_add)
+    resumed = _track(seq, out, "--window", "8", "--resume")
+    assert resumed == reference
+    assert json.loads((out / "SYN.run.json").read_text())["windows"]["complete"] is True
