@@ -185,6 +185,35 @@ def windows_experiment(args, factors: list[int]) -> int:
     return 0
 
 
+def full_length_windows(args) -> int:
+    """The accuracy cost of windows (each ``--windows`` length) on each full-length folder: whole against
+    windowed, from the folder's own frames and public detections."""
+    from sotmot.api import evaluate
+
+    sotmot = Path(sys.executable).with_name("sotmot")
+    modes = [("whole", [])] + [(f"W={float(w):g}s", ["--window", f"{float(w):g}"]) for w in args.windows.split(",")]
+    rows = []
+    for name in args.full_length.split(","):
+        seq = args.data / name
+        for mode, extra in modes:
+            with tempfile.TemporaryDirectory(prefix="sotmot-windows-") as tmp:
+                out = Path(tmp) / "out"
+                subprocess.run([str(sotmot), "track", str(seq), "--out", str(out), "--reid-model", args.model, "-q",
+                                *extra], check=True)
+                info = read_seqinfo(seq)
+                scores = evaluate(out / f"{info.name}.txt", seq)
+                record = json.loads((out / f"{info.name}.run.json").read_text())
+            rows.append({"sequence": name, "mode": mode, "windows": len(record.get("windows", {}).get("plan", [0])),
+                         **{k: scores[k] for k in ("HOTA", "IDF1", "MOTA", "IDSW")}})
+            r = rows[-1]
+            print(f"{name} {mode}: {r['windows']} windows, HOTA {r['HOTA']:.2f} IDF1 {r['IDF1']:.2f} MOTA "
+                  f"{r['MOTA']:.2f} IDSW {r['IDSW']:.0f}", flush=True)
+    if args.json:
+        write_text_atomic(args.json, json.dumps({"script": "scripts/bench_long.py --full-length", "machine": machine(),
+                                                 "full_length": rows}, indent=2) + "\n")
+    return 0
+
+
 def exponent(frames: list[int], values: list[float]) -> float:
     """Slope of log(value) against log(frames): how a cost grows with length (1 = linearly)."""
     if len(frames) < 2:
@@ -205,7 +234,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path, help="write every number here")
     parser.add_argument("--windows", metavar="S,S", help="measure committed windows of these lengths (seconds)")
     parser.add_argument("--window-workers", type=int, default=2, help="processes for the parallel windowed run")
+    parser.add_argument("--full-length", metavar="NAME,NAME",
+                        help="with --windows: track these folders whole and in windows instead (accuracy only)")
     args = parser.parse_args(argv)
+    if args.windows and args.full_length:
+        return full_length_windows(args)
     if not Path("/usr/bin/time").exists():
         print("needs /usr/bin/time (Debian package 'time')", file=sys.stderr)
         return 2

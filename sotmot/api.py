@@ -184,7 +184,10 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         What the command line prints for the same input, e.g. a bad detection
         row named by its number.
     """
+    from sotmot.detection import detection_source
+    from sotmot.io import read_detections
     from sotmot.pipeline import track_sequence
+    from sotmot.windows import plan, track_in_windows
 
     cfg = _config(config)
     given = None
@@ -208,6 +211,13 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         elif detections is not None:
             given = detections_from_array(detections, info.length, (info.width, info.height))
             cfg = cfg.replace("detection", source="file", file=None)
+        windows = plan(info.length, info.frame_rate, cfg)
+        if len(windows) > 1:  # [windows] on: tracked window by window, joined (sotmot.windows)
+            if given is None and detection_source(cfg.detection, info)[0] == "file":
+                path = detection_source(cfg.detection, info)[1]
+                given = read_detections(path, info.length, (info.width, info.height))
+            tracks, dropped = track_in_windows(info, windows, cfg, given, progress=progress)
+            return Result(tracks, dropped, info, cfg)
         result = track_sequence(info, cfg, progress=progress, detections=given)
     return Result(result.tracks, result.dropped, info, cfg)
 

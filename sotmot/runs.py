@@ -323,7 +323,7 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
     from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
     from sotmot.models import model_in_use
     from sotmot.provenance import write_record
-    from sotmot.windows import Stitcher, windowed
+    from sotmot.windows import Stitcher, cut, windowed
 
     start = time.perf_counter()
     out = outputs[-1]
@@ -362,9 +362,9 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
             _append(detections_path(out), format_detections(detected.frames, detected.boxes, detected.scores))
         progress_record(False)
         ids.update(int(i) for i in tracks.ids)
+        last = cut(windows, k + 1) - 1 if k + 1 < len(windows) else windows[k][1]
+        log.info("%s: frames 1-%d of %d final (window %d of %d)", info.name, last, info.length, k + 1, len(windows))
         if progress:
-            last = windows[k + 1][0] + (windows[k][1] - windows[k + 1][0] + 1) // 2 - 1 if k + 1 < len(windows) \
-                else windows[k][1]
             print(f"{info.name}: frames 1-{last} of {info.length} final (window {k + 1} of {len(windows)}; "
                   f"{time.perf_counter() - start:.0f} s)", file=sys.stderr)
     record["results_sha256"] = file_sha256(out)

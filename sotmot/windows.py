@@ -264,6 +264,27 @@ def windowed(info: SeqInfo, windows: list[Window], config: TrackerConfig, detect
             yield k, futures.pop(k).result()
 
 
+def concatenated(parts: list[Tracks]) -> Tracks:
+    """One :class:`Tracks` of the committed ``parts`` (in frame order already: each window owns later frames)."""
+    if not parts:
+        return Tracks.empty()
+    return Tracks(*(np.concatenate([getattr(p, name) for p in parts])
+                    for name in ("frames", "ids", "boxes", "scores", "interpolated", "from_sot", "confidence")))
+
+
+def track_in_windows(info: SeqInfo, windows: list[Window], config: TrackerConfig, detections: Detections | None,
+                     workers: int = 1, embedder=None, progress=False) -> tuple[Tracks, Tracks]:
+    """The tracks and the unconfirmed boxes of ``info`` tracked in ``windows``, all in memory (the API's way;
+    ``sotmot track`` writes each window's boxes as it commits them)."""
+    stitcher = Stitcher(windows, config.windows.join_iou)
+    kept, dropped = [], []
+    for k, result in windowed(info, windows, config, detections, 0, workers, embedder, progress):
+        tracks, low, _ = stitcher.add(k, result)
+        kept.append(tracks)
+        dropped.append(low)
+    return concatenated(kept), concatenated(dropped)
+
+
 _EMBEDDER: dict = {}
 
 
@@ -278,5 +299,5 @@ def _window_job(info: SeqInfo, windows: list[Window], k: int, config: TrackerCon
     return track_window(info, windows, k, config, detections, _EMBEDDER[key])
 
 
-__all__ = ["Stitcher", "WindowFrames", "WindowResult", "cut", "join", "overlap_frames", "plan", "track_window",
-           "window_sequence", "windowed"]
+__all__ = ["Stitcher", "WindowFrames", "WindowResult", "concatenated", "cut", "join", "overlap_frames", "plan",
+           "track_in_windows", "track_window", "window_sequence", "windowed"]

@@ -115,3 +115,13 @@ def test_a_killed_run_resumes_after_its_last_window_with_the_same_results(tmp_pa
     resumed = _track(seq, out, "--window", "8", "--resume")
     assert resumed == reference
     assert json.loads((out / "SYN.run.json").read_text())["windows"]["complete"] is True
+
+
+def test_the_api_tracks_in_windows_as_the_command_line_does(tmp_path):
+    import sotmot
+
+    seq = _walkers(tmp_path, {0: (50, 58)})
+    cli = _track(seq, tmp_path / "cli", "--window", "8")
+    config = {"windows": {"seconds": 8}, "appearance": {"backend": "none"}, "confirm": {"enabled": False}}
+    result = sotmot.track(seq, config=config)
+    assert result.save(tmp_path / "api.txt").read_text().splitlines() == cli
