@@ -275,7 +275,9 @@ def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
         if made and args.out.is_dir() and not any(args.out.iterdir()):
             args.out.rmdir()  # this run made the folder and wrote nothing into it
         what = "the sequence" if len(outcomes) == 1 else f"all {len(outcomes)} sequences"
-        print(f"sotmot: {what} failed; no results written", file=sys.stderr)
+        kept = "; what was committed before the failure is kept" if any(o.results for o in failed) else \
+            "; no results written"
+        print(f"sotmot: {what} failed{kept}", file=sys.stderr)
         return 2
     if args.eval:
         return cmd_eval(argparse.Namespace(results_dir=args.out, seq_dirs=seq_dirs, json=None))

@@ -352,7 +352,15 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
 
     progress_record(False)
     ids: set[int] = set()
-    for k, result in windowed(info, windows, config, detections, stitcher.done, workers, embedder, progress):
+    results = windowed(info, windows, config, detections, stitcher.done, workers, embedder, progress)
+    while True:
+        try:
+            k, result = next(results)
+        except StopIteration:
+            break
+        except SotmotError as exc:  # what is committed stays, and says so: --resume continues from there
+            return Outcome(seq_dir, "failed", str(out), f"{seq_dir}: {exc}; windows 1-{stitcher.done} of "
+                                                        f"{len(windows)} are committed in {out} (--resume continues)")
         tracks, dropped, detected = stitcher.add(k, result)
         _append(out, format_results(tracks))
         _append(flags_path(out), format_flags(tracks))

@@ -125,3 +125,26 @@ def test_the_api_tracks_in_windows_as_the_command_line_does(tmp_path):
     config = {"windows": {"seconds": 8}, "appearance": {"backend": "none"}, "confirm": {"enabled": False}}
     result = sotmot.track(seq, config=config)
     assert result.save(tmp_path / "api.txt").read_text().splitlines() == cli
+
+
+def test_a_window_that_fails_keeps_what_was_committed_and_says_so(tmp_path, monkeypatch, capsys):
+    import sotmot.windows as windows
+    from sotmot.errors import InputError
+
+    seq = _walkers(tmp_path)
+    real = windows.track_window
+
+    def fails_at_three(info, plan_, k, *args, **kwargs):
+        if k == 3:
+            raise InputError(info.path, "frame 62 cannot be decoded")
+        return real(info, plan_, k, *args, **kwargs)
+
+    monkeypatch.setattr(windows, "track_window", fails_at_three)
+    out = tmp_path / "run"
+    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "--unconfirmed", "keep", "-q",
+                 "--window", "8"]) == 2
+    err = capsys.readouterr().err
+    assert "windows 1-3 of 5 are committed" in err and "what was committed before the failure is kept" in err
+    assert (out / "SYN.txt").read_text().strip()
+    monkeypatch.setattr(windows, "track_window", real)
+    assert _track(seq, out, "--window", "8", "--resume") == _track(seq, tmp_path / "ref", "--window", "8")
