@@ -9,6 +9,7 @@ import math
 import signal
 import sys
 import threading
+import typing
 from pathlib import Path
 
 from sotmot.errors import SotmotError
@@ -90,7 +91,7 @@ def _progress(args: argparse.Namespace) -> bool:
 
 
 def _add_tracker_options(p: argparse.ArgumentParser) -> None:
-    from sotmot.config import SECTIONS  # light: the config imports no plug-in
+    from sotmot.config import SECTIONS, ConfidenceMethod  # light: the config imports no plug-in
 
     p.add_argument("--config", type=Path, metavar="FILE",
                    help="TOML or JSON file with " + ", ".join(f"[{name}]" for name in SECTIONS)
@@ -122,8 +123,7 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                    help="drop detections scoring below S (default: keep all)")
     p.add_argument("--nms", choices=["auto", "iou", "iom", "none"],
                    help="NMS overlap: auto = IoM for non-probability scores such as DPM's, else IoU (default: auto)")
-    p.add_argument("--confidence",
-                   choices=["auto", "raw", "quantile", "self", "dpm", "acf", "frcnn", "sdp", "pd0202"],
+    p.add_argument("--confidence", choices=typing.get_args(ConfidenceMethod),
                    help="how detector scores become confidences in [0, 1]: a stored map per detector family "
                         "(dpm, acf, frcnn, sdp; pd0202 the built-in detector), the score's rank in the sequence "
                         "(quantile), a map fitted on the sequence from what the tracker made of it (self: long "

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import json
 import math
+import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
@@ -48,17 +49,18 @@ import numpy as np
 
 from sotmot.appearance import unit, unit_affinity_rows
 from sotmot.boxes import centers
+from sotmot.config import ConfidenceMethod
 from sotmot.errors import ConfigError
 from sotmot.postprocess import Expanded
 from sotmot.types import Detections, Tracklet
 
 #: Detector families with a stored calibration, and the names ``[preprocess] confidence`` accepts. ``pd0202`` is
 #: the built-in detector (Intel's person-detection-0202): never guessed from scores, known from the detector run.
-FAMILIES = ("dpm", "acf", "frcnn", "sdp", "pd0202")
+METHODS: tuple[str, ...] = typing.get_args(ConfidenceMethod)
+FAMILIES = METHODS[4:]
 #: Families whose confirmation model and threshold are their own (fitted on that detector's runs only); the
 #: public detectors' families share the ``"calibrated"`` model.
 OWN_MODELS = ("pd0202",)
-METHODS = ("auto", "raw", "quantile", "self") + FAMILIES
 
 #: Names of the features :func:`box_features` computes, in column order.
 FEATURES = ("box_conf", "interpolated", "track_conf_mean", "track_conf_top", "track_interp_share",

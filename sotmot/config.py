@@ -122,6 +122,11 @@ class DetectionConfig:
         _check(0 <= self.threads <= 1024, "detection", "threads must be between 0 and 1024")
 
 
+#: The names ``[preprocess] confidence`` accepts: the one list (``sotmot.confidence.METHODS`` and the command
+#: line's choices read it). After the four methods, the detector families with a stored calibration.
+ConfidenceMethod = Literal["auto", "raw", "quantile", "self", "dpm", "acf", "frcnn", "sdp", "pd0202"]
+
+
 @dataclass(frozen=True)
 class PreprocessConfig:
     """Detection cleaning before tracking (paper Sec. 6.1).
@@ -147,8 +152,8 @@ class PreprocessConfig:
         clipped to [0, 1]), ``"self"`` (a map fitted on the sequence itself from
         what association made of it: detections of long trajectories against
         lone ones; for a detector none of the families fits) or ``"auto"``: pd0202 for the built-in detector's
-        boxes (run now, or a ``<name>.det.txt`` whose run record beside it says
-        so), else the family the sequence's name ends with (MOTChallenge's
+        boxes (run now, or a detections file whose first line names it, as the
+        ``<name>.det.txt`` of a model run does), else the family the sequence's name ends with (MOTChallenge's
         ``-DPM``, ``-FRCNN``, ``-SDP``), else the family guessed from the score
         range (all in [0, 1] frcnn, any above 10 acf, else dpm).
     """
@@ -156,7 +161,7 @@ class PreprocessConfig:
     score_threshold: float | None = None
     nms: Literal["auto", "iou", "iom", "none"] = "auto"
     nms_threshold: float = 0.6
-    confidence: Literal["auto", "raw", "quantile", "self", "dpm", "acf", "frcnn", "sdp", "pd0202"] = "auto"
+    confidence: ConfidenceMethod = "auto"
 
     def __post_init__(self) -> None:
         _check(self.nms in ("auto", "iou", "iom", "none"), "preprocess",
