@@ -97,8 +97,8 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                    help="TOML or JSON file with " + ", ".join(f"[{name}]" for name in SECTIONS)
                         + " tables (docs/configuration.md); unknown keys are errors")
     p.add_argument("--reid-model", metavar="PATH",
-                   help="ONNX (or OpenVINO IR) person re-ID model instead of the bundled person-reidentification-retail-0288 "
-                        "(overrides the config and SOTMOT_REID_MODEL)")
+                   help="ONNX (or OpenVINO IR) person re-ID model instead of the bundled "
+                        "person-reidentification-retail-0288 (overrides the config and SOTMOT_REID_MODEL)")
     from sotmot.plugins import BACKENDS
 
     p.add_argument("--appearance", choices=["auto", *sorted(BACKENDS)],
@@ -508,9 +508,9 @@ EPILOG_COMPARE = """\
 Each sequence goes once through detection cleaning, appearance and tracklets; then every
 solver runs on those same tracklets. Columns: TrackEval HOTA, MOTA, IDF1, IDSW; tracks, the
 identities in the results the run writes (as 'sotmot track' writes them); lifted_obj, the one
-objective every solver is scored on (the sum over pairs of tracklets in one trajectory within the horizon of n_a * n_b times the learned log-likelihood
-ratio that they are one person, or (affinity - lifted_threshold) with lifted_costs = "threshold";
-higher is better); window_gap, for the lifted solver, how far CP-SAT's proved bound lies above
+objective every solver is scored on (the sum over pairs of tracklets in one trajectory within the
+horizon of n_a * n_b times the learned log-likelihood ratio that they are one person, or
+(affinity - lifted_threshold) with lifted_costs = "threshold"; higher is better); window_gap, for the lifted solver, how far CP-SAT's proved bound lies above
 its solution in windows not proven optimal (0: every window optimal); flow_net_cost, the flow
 network's own cost (entry cost per trajectory + (1 - affinity) per link; lower is better for that
 network only); the solver's time in seconds.

@@ -31,4 +31,5 @@ DETECTORS: dict[str, str] = {
 }
 
 #: The extra that installs what each optional backend or detector imports.
-EXTRAS: dict[str, str] = {"torch": "'sotmot[torch]' (torch==2.13.0 and onnx)", "openvino": "openvino (a dependency of sotmot)"}
+EXTRAS: dict[str, str] = {"torch": "'sotmot[torch]' (torch==2.13.0 and onnx)",
+                          "openvino": "openvino (a dependency of sotmot)"}

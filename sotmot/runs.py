@@ -174,7 +174,8 @@ def sequence_inputs(info, config: TrackerConfig) -> list[Path | None]:
 
 def resolve_paths(config: TrackerConfig) -> TrackerConfig:
     """``config`` with the re-ID model (flag, config or ``SOTMOT_REID_MODEL``, else the bundled one), the detector
-    model (flag, config or ``SOTMOT_DETECTOR_MODEL``, else the bundled one), the detections file, fine-tuned weights and calibration file as absolute paths.
+    model (flag, config or ``SOTMOT_DETECTOR_MODEL``, else the bundled one), the detections file, fine-tuned
+    weights and calibration file as absolute paths.
 
     Done once, by the process that starts the run: the run record then names
     (and hashes) the model however it was given, and workers on other
