@@ -196,10 +196,10 @@ def resolve_paths(config: TrackerConfig) -> TrackerConfig:
 
 
 def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
-              progress=False, embedder=None, window_workers: int = 1) -> Outcome:
+              progress=False, embedder=None, window_workers: int = 1, window_submit=None) -> Outcome:
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome). With ``[windows]``
     on and a sequence longer than one window, window by window (:func:`track_windowed`, its windows in
-    ``window_workers`` processes)."""
+    ``window_workers`` processes, or submitted to ``window_submit``, a Dask client's ``submit``)."""
     from sotmot.detection import detections_header, detections_path, format_detections
     from sotmot.hashing import file_sha256
     from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
@@ -226,7 +226,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
         windows = plan(info.length, info.frame_rate, config)
         if len(windows) > 1:
             return track_windowed(seq_dir, info, windows, outputs, config, record, resume, progress, embedder,
-                                  window_workers, rerun)
+                                  window_workers, rerun, window_submit)
         start = time.perf_counter()
         result = track_sequence(seq_dir, config, embedder=embedder, progress=progress)
         text = format_results(result.tracks)
@@ -312,7 +312,8 @@ def _append(path: Path, text: str) -> None:
 
 
 def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], config: TrackerConfig, record: dict,
-                   resume: bool, progress=False, embedder=None, workers: int = 1, rerun: str = "") -> Outcome:
+                   resume: bool, progress=False, embedder=None, workers: int = 1, rerun: str = "",
+                   submit=None) -> Outcome:
     """Track ``info`` window by window (:mod:`sotmot.windows`), committing each window's boxes as soon as it is
     joined to the one before: the results file, its flags and (when written) the unconfirmed boxes and the
     detector's boxes grow by whole lines, and the run record says after each window how far they are final. An
@@ -353,7 +354,7 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
 
     progress_record(False)
     ids: set[int] = set()
-    results = windowed(info, windows, config, detections, stitcher.done, workers, embedder, progress)
+    results = windowed(info, windows, config, detections, stitcher.done, workers, embedder, progress, submit)
     while True:
         try:
             k, result = next(results)
@@ -590,6 +591,12 @@ def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: Trac
     except (OSError, TimeoutError) as exc:
         raise ConfigError(f"cannot reach the Dask scheduler at {cluster} ({address}): {exc}") from exc
     try:
+        if len(seq_dirs) == 1 and config.windows.seconds > 0:  # one sequence: its windows spread over the workers
+            outcome = track_one(seq_dirs_abs[0], out_dir, config, resume, progress,
+                                window_submit=lambda fn, *args: client.submit(fn, *args, pure=False))
+            outcome = dataclasses.replace(outcome, seq_dir=seq_dirs[0])
+            report(outcome)
+            return [outcome]
         futures = {client.submit(_dask_job, seq, out_dir, config, resume, pure=False): orig
                    for seq, orig in zip(seq_dirs_abs, seq_dirs)}
         by_seq = _gather(futures, dask_completed(list(futures)), "on the cluster", progress, report)

@@ -240,9 +240,16 @@ class Stitcher:
 
 
 def windowed(info: SeqInfo, windows: list[Window], config: TrackerConfig, detections: Detections | None,
-             start: int = 0, workers: int = 1, embedder=None, progress=False) -> Iterator[tuple[int, WindowResult]]:
-    """``(k, result)`` for windows ``start, start + 1, ...`` in order, tracked here (``workers`` 1) or in that
-    many processes (each window is independent: the results are the same)."""
+             start: int = 0, workers: int = 1, embedder=None, progress=False,
+             submit=None) -> Iterator[tuple[int, WindowResult]]:
+    """``(k, result)`` for windows ``start, start + 1, ...`` in order, tracked here (``workers`` 1), in that many
+    processes, or by ``submit(function, *args) -> future`` (a Dask client's); each window is independent, so the
+    results are the same."""
+    if submit is not None:
+        futures = {k: submit(_window_job, info, windows, k, config, detections) for k in range(start, len(windows))}
+        for k in range(start, len(windows)):
+            yield k, futures.pop(k).result()
+        return
     if workers <= 1:
         from sotmot.appearance import embedder_for
 

@@ -132,3 +132,18 @@ def test_a_worker_killed_mid_sequence_loses_nothing(tmp_path, cluster, model_028
     assert not run.is_alive() and codes == [0]
     assert _outputs(out, CLIPS) == _outputs(tmp_path / "serial", CLIPS)
     assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == []  # no half-written file
+
+
+def test_the_windows_of_one_sequence_spread_over_the_cluster_equal_the_serial_run(cluster, tmp_path):
+    from conftest import write_sequence
+
+    address, _ = cluster
+    lines = [f"{f},-1,{10 + 3 * f},20,30,60,0.9" for f in range(1, 121) if not 50 <= f <= 56]
+    seq = write_sequence(tmp_path, lines, length=120, frame_rate=5, width=800, height=240, images=False)
+    common = ["--appearance", "none", "--unconfirmed", "keep", "--window", "8", "-q"]
+    assert main(["track", str(seq), "--out", str(tmp_path / "serial"), *common]) == 0
+    url = "dask://" + address.removeprefix("tcp://")
+    assert main(["track", str(seq), "--out", str(tmp_path / "dask"), "--cluster", url, *common]) == 0
+    assert (tmp_path / "dask" / "SYN.txt").read_bytes() == (tmp_path / "serial" / "SYN.txt").read_bytes()
+    record = (tmp_path / "dask" / "SYN.run.json").read_text()
+    assert '"complete": true' in record
