@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from sotmot.config import MAX_FRAME_RATE, TrackerConfig, config_from_dict, load_config
+from sotmot.config import TrackerConfig, config_from_dict, load_config
 from sotmot.errors import ConfigError, InputError
 from sotmot.io import (
     SeqInfo, detections_from_array, format_results, is_plain_name, read_results, read_seqinfo, refuse_overwriting,
@@ -119,9 +119,7 @@ def _in_memory(frames: Any, frame_rate: float | None, name: str, stack: contextl
     """The sequence of frames held by the caller (spooled to a temporary folder when they come one pass only)."""
     if frame_rate is None:
         raise ConfigError("frame_rate is needed for frames held in memory (a video or a folder says its own)")
-    if isinstance(frame_rate, bool) or not isinstance(frame_rate, (int, float)) or \
-            not 0 < frame_rate <= MAX_FRAME_RATE:
-        raise ConfigError(f"frame_rate must be a number above 0 and at most {MAX_FRAME_RATE:g}; got {frame_rate!r}")
+    frame_rate = TrackerConfig().replace("input", fps=frame_rate).input.fps  # checked as --fps is
     if not is_plain_name(name):
         raise ConfigError(f"name must be a plain file name (no path separators); got {name!r}")
     if isinstance(frames, np.ndarray) and frames.ndim == 3:
@@ -184,10 +182,8 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         What the command line prints for the same input, e.g. a bad detection
         row named by its number.
     """
-    from sotmot.detection import detection_source
-    from sotmot.io import read_detections
     from sotmot.pipeline import track_sequence
-    from sotmot.windows import plan, track_in_windows
+    from sotmot.windows import plan, sequence_detections, track_in_windows
 
     cfg = _config(config)
     given = None
@@ -213,9 +209,8 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
             cfg = cfg.replace("detection", source="file", file=None)
         windows = plan(info.length, info.frame_rate, cfg)
         if len(windows) > 1:  # [windows] on: tracked window by window, joined (sotmot.windows)
-            if given is None and detection_source(cfg.detection, info)[0] == "file":
-                path = detection_source(cfg.detection, info)[1]
-                given = read_detections(path, info.length, (info.width, info.height))
+            if given is None:
+                given = sequence_detections(info, cfg)
             tracks, dropped = track_in_windows(info, windows, cfg, given, progress=progress)
             return Result(tracks, dropped, info, cfg)
         result = track_sequence(info, cfg, progress=progress, detections=given)

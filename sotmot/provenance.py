@@ -120,23 +120,37 @@ def differences(old: dict[str, Any], new: dict[str, Any], prefix: str = "") -> l
     return out
 
 
+def read_record(results: str | Path) -> dict[str, Any] | None:
+    """The run record beside ``results``; None when there is none or it cannot be read as a JSON object."""
+    try:
+        record = json.loads(record_path(results).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) else None
+
+
+def _side_state(side: Path, digest: str) -> str | None:
+    """``"missing"`` or ``"changed"`` when the side file ``side`` is not the one whose SHA-256 a record holds."""
+    if not side.is_file():
+        return "missing"
+    return "changed" if file_sha256(side) != digest else None
+
+
 def side_file_doubt(results: str | Path, side: str | Path) -> str | None:
     """Why the side file ``side`` of ``results`` cannot be trusted, when the run record beside ``results``
     says: it is missing though the run wrote it, or it is not the file the run wrote. None: it is the run's, or
     there is no record that lists side files (results from elsewhere)."""
     results, side = Path(results), Path(side)
-    try:
-        sides = json.loads(record_path(results).read_text(encoding="utf-8")).get("side_files")
-    except (OSError, ValueError, AttributeError):
-        return None
+    sides = (read_record(results) or {}).get("side_files")
     if not isinstance(sides, dict):
         return None
     if side.name not in sides:
         return (f"{side.name} is not one of the files the run of {results.name} wrote (from an earlier run?)"
                 if side.is_file() else None)
-    if not side.is_file():
+    state = _side_state(side, sides[side.name])
+    if state == "missing":
         return f"{side.name}, written with {results.name}, is missing"
-    if file_sha256(side) != sides[side.name]:
+    if state == "changed":
         return f"{side.name} is not the file written with {results.name} (changed since)"
     return None
 
@@ -148,11 +162,7 @@ def results_doubts(results: str | Path) -> list[str]:
     doubts = []
     if results.is_file() and not results.read_text(encoding="utf-8-sig", errors="replace").strip():
         doubts.append(f"{results} is empty: every ground-truth box counts as missed")
-    try:
-        old = json.loads(record_path(results).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return doubts
-    made = old.get("results_sha256") if isinstance(old, dict) else None
+    made = (read_record(results) or {}).get("results_sha256")
     if made is not None and made != file_sha256(results):
         doubts.append(f"{results} is not the file its run record {record_path(results).name} describes (changed, "
                       f"cut or emptied since sotmot track wrote it): the scores are of the file as it is now")
@@ -178,9 +188,9 @@ def why_rerun(results: str | Path, record: dict[str, Any]) -> str | None:
         if old["results_sha256"] != file_sha256(results):
             return f"{results.name} changed since it was written (emptied or cut?): its SHA-256 is not the record's"
         for name, digest in (old.get("side_files") or {}).items():
-            side = results.with_name(name)
-            if file_sha256(side) != digest:
-                return f"its side file {name} is {'missing' if not side.is_file() else 'changed'}"
+            state = _side_state(results.with_name(name), digest)
+            if state is not None:
+                return f"its side file {name} is {state}"
         return None
     shown = ", ".join(changed[:4]) + (f" and {len(changed) - 4} more" if len(changed) > 4 else "")
     return f"made with a different {shown}"

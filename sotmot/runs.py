@@ -39,12 +39,11 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from sotmot.config import AppearanceConfig, TrackerConfig
+from sotmot.config import TrackerConfig
 from sotmot.errors import ConfigError, SotmotError
+from sotmot.workers import dask_worker_threads, process_threads, worker_embedder
 
 log = logging.getLogger(__name__)
-_EMBEDDERS: dict[AppearanceConfig, object] = {}  # per worker process (pool or Dask), shared by its threads
-_EMBEDDERS_LOCK = threading.Lock()
 _SLOTS = None  # free terminal lines for the per-sequence progress bars of pool workers
 DASK_HINT = "install Dask's scheduler client with: pip install -e '.[dask]' (distributed)"
 
@@ -101,7 +100,7 @@ def _init_worker(config: TrackerConfig, bar_lock=None, slots=None) -> None:
     and the free terminal lines."""
     global _SLOTS
     _die_with_parent()
-    _worker_embedder(config.appearance)
+    worker_embedder(config.appearance)
     if bar_lock is not None:
         from tqdm import tqdm
 
@@ -109,22 +108,12 @@ def _init_worker(config: TrackerConfig, bar_lock=None, slots=None) -> None:
     _SLOTS = slots
 
 
-def _worker_embedder(appearance: AppearanceConfig):
-    """This process's appearance model for ``appearance``, loaded on first use."""
-    with _EMBEDDERS_LOCK:
-        if appearance not in _EMBEDDERS:
-            from sotmot.appearance import make_embedder
-
-            _EMBEDDERS[appearance] = make_embedder(appearance)
-        return _EMBEDDERS[appearance]
-
-
 def _pooled_job(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
                 progress: bool) -> Outcome:
     """One sequence in a pool worker; with progress, its bars drawn on a free line under the overall bar."""
     from sotmot.progress import bars
 
-    embedder = _worker_embedder(config.appearance)
+    embedder = worker_embedder(config.appearance)
     if not (progress and _SLOTS is not None):
         return track_one(seq_dir, out_dir, config, resume, embedder=embedder)
     slot = _SLOTS.get()
@@ -277,21 +266,20 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
         return Outcome(seq_dir, "failed", None, f"{seq_dir}: unexpected {type(exc).__name__}: {detail}")
 
 
-def _resumable_windows(out: Path, record: dict, windows: list) -> dict | None:
+def _resumable_windows(out: Path, record: dict, windows: list, files: list[Path]) -> dict | None:
     """The progress of an interrupted windowed run of the same settings into ``out`` (from its run record), when
-    every file it appended to still holds what it committed; else None."""
-    from sotmot.provenance import differences, record_path
+    it appended to exactly ``files`` (those this run writes) and each still holds what it committed; else None."""
+    from sotmot.provenance import differences, read_record
 
-    try:
-        old = json.loads(record_path(out).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    done = old.get("windows") if isinstance(old, dict) else None
+    old = read_record(out) or {}
+    done = old.get("windows")
     if not isinstance(done, dict) or done.get("complete") is not False or done.get("plan") != windows:
         return None
     if differences(old, json.loads(json.dumps(record, default=str))):
         return None
     sizes = done.get("bytes", {})
+    if not isinstance(sizes, dict) or set(sizes) != {path.name for path in files}:
+        return None  # only this run's own files are ever cut back to what was committed
     if any(not out.with_name(name).is_file() or out.with_name(name).stat().st_size < size
            for name, size in sizes.items()):
         return None
@@ -319,24 +307,23 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
     detector's boxes grow by whole lines, and the run record says after each window how far they are final. An
     interrupted run of the same settings resumes (``--resume``) after its last committed window, with the same
     results as an uninterrupted one."""
-    from sotmot.detection import detection_source, detections_header, detections_path, format_detections
+    from sotmot.detection import detections_header, detections_path, format_detections
     from sotmot.hashing import file_sha256
-    from sotmot.io import format_results, read_detections, write_text_atomic
+    from sotmot.io import format_results, write_text_atomic
     from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
     from sotmot.models import model_in_use
     from sotmot.provenance import write_record
-    from sotmot.windows import Stitcher, cut, windowed
+    from sotmot.windows import Stitcher, cut, sequence_detections, windowed
 
     start = time.perf_counter()
     out = outputs[-1]
-    source, det_file = detection_source(config.detection, info)
-    detections = read_detections(det_file, info.length, (info.width, info.height)) if source == "file" else None
+    detections = sequence_detections(info, config)
     files = {out: "", flags_path(out): FLAGS_HEADER}
     if low_confidence_path(out) in outputs:
         files[low_confidence_path(out)] = ""
-    if source == "model":
+    if detections is None:  # the detector runs: its boxes are written beside the results
         files[detections_path(out)] = detections_header(model_in_use(config.detection.model, "detector"))
-    state = _resumable_windows(out, record, [list(w) for w in windows]) if resume else None
+    state = _resumable_windows(out, record, [list(w) for w in windows], list(files)) if resume else None
     if state is not None:
         stitcher = Stitcher.from_state(windows, config.windows.join_iou, state)
         for name, size in state["bytes"].items():
@@ -354,6 +341,7 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
 
     progress_record(False)
     ids: set[int] = set()
+    workers = usable_workers(workers, len(windows) - stitcher.done)
     results = windowed(info, windows, config, detections, stitcher.done, workers, embedder, progress, submit)
     while True:
         try:
@@ -425,7 +413,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
             raise ConfigError("use --workers (this machine) or --cluster (Dask), not both")
         return _track_on_dask(cluster, seq_dirs, out_dir, config, resume, progress, report)
     # one sequence and several workers: its windows (when [windows] is on) are what is spread over them
-    window_workers = max(1, min(workers, os.cpu_count() or 1)) if len(seq_dirs) == 1 else 1
+    window_workers = workers if len(seq_dirs) == 1 else 1
     workers = usable_workers(workers, len(seq_dirs))
     from sotmot.appearance import make_embedder
 
@@ -439,8 +427,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
             report(outcome)
             outcomes.append(outcome)
         return outcomes
-    if config.appearance.threads == 0:
-        config = config.replace("appearance", threads=max(1, (os.cpu_count() or 1) // workers))
+    config = process_threads(config, workers)
     make_embedder(config.appearance)  # fail here, once, on a bad model path rather than in every worker
     initargs: tuple = (config,)
     if progress:  # line 0: the overall bar; lines 1..workers: one per running sequence
@@ -474,8 +461,9 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
 
 
 def usable_workers(asked: int, sequences: int) -> int:
-    """How many worker processes a run of ``sequences`` starts when ``asked`` for: never more than there are
-    sequences to track or CPUs to run them (each worker loads the re-ID model, a few hundred MB)."""
+    """How many worker processes a run of ``sequences`` (or of one sequence's windows) starts when ``asked`` for:
+    never more than there are of them to track or CPUs to run them (each worker loads the re-ID model, a few
+    hundred MB)."""
     cpus = os.cpu_count() or 1
     usable = max(1, min(asked, sequences, cpus))
     if usable < asked:
@@ -541,10 +529,10 @@ def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool) -
     """
     embedder = None
     outcome = None
-    config = _worker_threads(config)
+    config = dask_worker_threads(config)
     if not (resume and _resumable(seq_dir, out_dir, config)):
         try:
-            embedder = _worker_embedder(config.appearance)
+            embedder = worker_embedder(config.appearance)
         except SotmotError as exc:
             outcome = Outcome(seq_dir, "failed", None, f"{seq_dir}: {exc}")
     outcome = outcome or track_one(seq_dir, out_dir, config, resume, embedder=embedder)
@@ -557,23 +545,6 @@ def _dask_job(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool) -
     except (ImportError, ValueError):
         where = "unknown"
     return dataclasses.replace(outcome, message=f"{outcome.message} (on Dask worker {where})")
-
-
-def _worker_threads(config: TrackerConfig) -> TrackerConfig:
-    """``config`` with the models' threads (where the config leaves them to the runtime, 0) set to this Dask
-    worker's thread count: a worker started with ``--nthreads 1`` beside others on one machine must not run
-    a model on every core, as ``--workers N`` gives each process ``cpu_count // N``. Threads change no result."""
-    try:
-        from distributed import get_worker
-
-        share = max(1, int(get_worker().state.nthreads))
-    except (ImportError, ValueError, AttributeError):
-        return config
-    if config.appearance.threads == 0:
-        config = config.replace("appearance", threads=share)
-    if config.detection.threads == 0:
-        config = config.replace("detection", threads=share)
-    return config
 
 
 def _track_on_dask(cluster: str, seq_dirs: list[str], out_dir: str, config: TrackerConfig,

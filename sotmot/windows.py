@@ -30,6 +30,7 @@ from sotmot.config import TrackerConfig
 from sotmot.errors import ConfigError
 from sotmot.io import FrameReader, SeqInfo
 from sotmot.types import Detections, Tracks
+from sotmot.workers import dask_worker_threads, process_threads, worker_embedder
 
 Window = tuple[int, int]
 
@@ -120,6 +121,16 @@ class WindowResult:
     tracks: Tracks
     dropped: Tracks
     detected: Detections | None
+
+
+def sequence_detections(info: SeqInfo, config: TrackerConfig) -> Detections | None:
+    """The detections every window slices, read once from the sequence's detections file; None when the
+    detector runs on each window's frames (``[detection] source``)."""
+    from sotmot.detection import detection_source
+    from sotmot.io import read_detections
+
+    source, path = detection_source(config.detection, info)
+    return read_detections(path, info.length, (info.width, info.height)) if source == "file" else None
 
 
 def track_window(info: SeqInfo, windows: list[Window], k: int, config: TrackerConfig,
@@ -246,9 +257,7 @@ def windowed(info: SeqInfo, windows: list[Window], config: TrackerConfig, detect
     processes, or by ``submit(function, *args) -> future`` (a Dask client's); each window is independent, so the
     results are the same."""
     if submit is not None:
-        futures = {k: submit(_window_job, info, windows, k, config, detections) for k in range(start, len(windows))}
-        for k in range(start, len(windows)):
-            yield k, futures.pop(k).result()
+        yield from _in_order(submit, info, windows, config, detections, start)
         return
     if workers <= 1:
         from sotmot.appearance import embedder_for
@@ -260,15 +269,18 @@ def windowed(info: SeqInfo, windows: list[Window], config: TrackerConfig, detect
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    threads = max(1, (multiprocessing.cpu_count() or 1) // workers)
-    if config.appearance.threads == 0:
-        config = config.replace("appearance", threads=threads)
     context = multiprocessing.get_context("spawn")  # no forked OpenVINO or onnxruntime state
     with ProcessPoolExecutor(workers, mp_context=context) as pool:
-        futures = {k: pool.submit(_window_job, info, windows, k, config, detections)
-                   for k in range(start, len(windows))}
-        for k in range(start, len(windows)):
-            yield k, futures.pop(k).result()
+        yield from _in_order(pool.submit, info, windows, process_threads(config, workers), detections, start)
+
+
+def _in_order(submit, info: SeqInfo, windows: list[Window], config: TrackerConfig, detections: Detections | None,
+              start: int) -> Iterator[tuple[int, WindowResult]]:
+    """Every window from ``start`` submitted at once (``submit(function, *args) -> future``), the results
+    yielded in window order as they are needed."""
+    futures = {k: submit(_window_job, info, windows, k, config, detections) for k in range(start, len(windows))}
+    for k in range(start, len(windows)):
+        yield k, futures.pop(k).result()
 
 
 def concatenated(parts: list[Tracks]) -> Tracks:
@@ -292,19 +304,13 @@ def track_in_windows(info: SeqInfo, windows: list[Window], config: TrackerConfig
     return concatenated(kept), concatenated(dropped)
 
 
-_EMBEDDER: dict = {}
-
-
 def _window_job(info: SeqInfo, windows: list[Window], k: int, config: TrackerConfig,
                 detections: Detections | None) -> WindowResult:
-    """One window in a worker process (its re-ID model built once per process)."""
-    from sotmot.appearance import make_embedder
-
-    key = repr(config.appearance)
-    if key not in _EMBEDDER:
-        _EMBEDDER[key] = make_embedder(config.appearance)
-    return track_window(info, windows, k, config, detections, _EMBEDDER[key])
+    """One window in a worker process, a local pool's or a Dask worker (its re-ID model built once per process,
+    its models' threads the Dask worker's own there)."""
+    config = dask_worker_threads(config)
+    return track_window(info, windows, k, config, detections, worker_embedder(config.appearance))
 
 
 __all__ = ["Stitcher", "WindowFrames", "WindowResult", "concatenated", "cut", "join", "overlap_frames", "plan",
-           "track_in_windows", "track_window", "window_sequence", "windowed"]
+           "sequence_detections", "track_in_windows", "track_window", "window_sequence", "windowed"]

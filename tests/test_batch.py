@@ -105,7 +105,7 @@ def test_a_worker_that_dies_fails_its_own_sequence_only(tmp_path, monkeypatch, m
         return real(seq_dir, *args, **kwargs)
 
     monkeypatch.setattr(batch, "track_one", crashing)
-    monkeypatch.setattr(batch, "_worker_embedder", lambda appearance: GeometryEmbedder())
+    monkeypatch.setattr(batch, "worker_embedder", lambda appearance: GeometryEmbedder())
     config = TrackerConfig().replace("confirm", enabled=False).replace("appearance", model=str(model_0288))
     outcomes = batch.track_many(seqs, tmp_path / "out", config, workers=2)
     by_name = {Path(o.seq_dir).name: o for o in outcomes}

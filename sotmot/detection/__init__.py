@@ -99,11 +99,15 @@ KNOWN_FAMILIES = {"person-detection-0202": "pd0202"}
 HEADER = "# sotmot detections:"
 
 
+def _family_of(model: str | Path) -> str | None:
+    """The confidence family of a detector model known by its file name (:data:`KNOWN_FAMILIES`), else None."""
+    name = Path(model).name
+    return next((family for start, family in KNOWN_FAMILIES.items() if name.startswith(start)), None)
+
+
 def detections_header(model: str | Path) -> str:
     """The header line (:data:`HEADER`) of the detections that ``model`` found."""
-    name = Path(model).name
-    family = next((family for start, family in KNOWN_FAMILIES.items() if name.startswith(start)), "unknown")
-    return f"{HEADER} detector={name} sha256={file_sha256(model)} family={family}\n"
+    return f"{HEADER} detector={Path(model).name} sha256={file_sha256(model)} family={_family_of(model) or 'unknown'}\n"
 
 
 def read_header(path: str | Path) -> dict[str, str]:
@@ -125,8 +129,7 @@ def known_family(config: DetectionConfig, info) -> str | None:
     (:func:`read_header`), its family in :data:`KNOWN_FAMILIES`. None: the family is guessed from the scores."""
     source, path = detection_source(config, info)
     if source == "model":
-        name = Path(model_in_use(config.model, "detector")).name
-        return next((family for start, family in KNOWN_FAMILIES.items() if name.startswith(start)), None)
+        return _family_of(model_in_use(config.model, "detector"))
     family = read_header(path).get("family")
     return family if family in KNOWN_FAMILIES.values() else None
 
