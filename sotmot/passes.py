@@ -44,40 +44,51 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
     ``boxes_of(frame, image)`` gives the frame's boxes: an ``(N, 4)`` array,
     or ``(boxes, scores)`` from a detector (whose call is timed as
     ``"detect"``); ``embedder`` None skips the embedding (features
-    ``(N, 0)``). The next frames (:data:`PREFETCH_FRAMES`) are decoded,
-    searched and (for the crop-based backends, onnx and openvino) cropped in a
-    background thread while the re-ID model embeds earlier ones (each
-    releases the GIL), so reading overlaps inference. The crop-based backends
-    get the crops of several frames in one call that fills about one forward
-    pass (``batch_size`` rows; with the flip a crop is two rows): a frame
-    holds a few boxes, and small batches waste the runtime's time
-    (docs/benchmarks.md); other embedders are called once per frame.
-    ``timings``, when given, receives ``"decode"``: the seconds spent reading
-    (and cropping) frames, overlapped with the embedding, so part of, not
-    added to, the stage's wall time.
+    ``(N, 0)``). Three threads share the work, each releasing the GIL in its
+    native code: one decodes frames (one frame ahead of the search), one
+    searches them (the detector) and, for the crop-based backends (onnx and
+    openvino), crops the boxes, :data:`PREFETCH_FRAMES` frames ahead of the
+    caller's thread, which embeds. So on two cores decoding, detection and
+    re-ID overlap (docs/benchmarks.md, "Speed"). The crop-based backends get the crops of
+    several frames in one call that fills about one forward pass
+    (``batch_size`` rows; with the flip a crop is two rows): a frame holds a
+    few boxes, and small batches waste the runtime's time; other embedders
+    are called once per frame. ``timings``, when given, receives ``"decode"``
+    (the seconds spent reading and cropping frames) and ``"detect"``, both
+    overlapped with the embedding, so part of, not added to, the stage's wall
+    time.
     """
     from concurrent.futures import ThreadPoolExecutor
 
     from sotmot.appearance.base import CropEmbedder, crop_boxes
 
-    frame_reader = FrameReader(info, cache_size=1)  # called from the one decoding thread only
-    spent = {"decode": 0.0, "detect": 0.0}
+    frame_reader = FrameReader(info, cache_size=1)  # called from the decoding thread only
+    spent = {"decode": 0.0, "detect": 0.0, "crop": 0.0}  # each key written by one thread
     batched = isinstance(embedder, CropEmbedder)
     per_call = max(1, embedder.batch_size // (2 if embedder.flip else 1)) if batched else 1  # crops: one forward pass
     out: list[tuple[int, object, np.ndarray]] = []
 
-    def reader(frame: int) -> tuple[np.ndarray, object, np.ndarray]:
+    def decode(frame: int) -> np.ndarray:
         start = time.perf_counter()
         image = frame_reader(frame)
         spent["decode"] += time.perf_counter() - start
+        return image
+
+    decoded: dict[int, object] = {}  # index into frames -> future of its image; touched by the finding thread only
+
+    def find(k: int) -> tuple[np.ndarray, object, np.ndarray]:
+        for ahead in (k, k + 1):  # the next frame decodes while this one is searched: two frames held, not eight
+            if ahead < len(frames) and ahead not in decoded:
+                decoded[ahead] = decoding.submit(decode, frames[ahead])
+        frame, image = frames[k], decoded.pop(k).result()
         start = time.perf_counter()
         found = boxes_of(frame, image)
         boxes = found[0] if isinstance(found, tuple) else found
-        spent["detect" if isinstance(found, tuple) else "decode"] += time.perf_counter() - start
+        spent["detect" if isinstance(found, tuple) else "crop"] += time.perf_counter() - start
         start = time.perf_counter()
         if batched:
             image = crop_boxes(image, boxes)
-        spent["decode"] += time.perf_counter() - start
+        spent["crop"] += time.perf_counter() - start
         return boxes, found, image
 
     pending: list[tuple[int, np.ndarray]] = []  # (index into out, crops) not embedded yet
@@ -90,13 +101,15 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
                 out[k] = (out[k][0], out[k][1], part)
         pending.clear()
 
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-decode") as pool:
-        # a few frames ahead: one call of the model consumes several frames' crops at once
-        upcoming = deque(pool.submit(reader, f) for f in frames[:PREFETCH_FRAMES])
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-decode") as decoding, \
+            ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-find") as finding:
+        # a few frames ahead: one call of the model consumes several frames' crops at once; each frame is decoded
+        # in one thread, then searched (detected) and cropped in the next
+        upcoming = deque(finding.submit(find, k) for k in range(min(PREFETCH_FRAMES, len(frames))))
         for k, frame in enumerate(as_progress(progress)(frames, desc, len(frames))):
             boxes, found, item = upcoming.popleft().result()
             if k + PREFETCH_FRAMES < len(frames):
-                upcoming.append(pool.submit(reader, frames[k + PREFETCH_FRAMES]))
+                upcoming.append(finding.submit(find, k + PREFETCH_FRAMES))
             out.append((frame, found, np.zeros((len(boxes), embedder.dim if embedder else 0), np.float32)))
             if embedder is None:
                 continue
@@ -107,6 +120,7 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
             if sum(len(c) for _, c in pending) >= per_call or k + 1 == len(frames):
                 flush()
     if timings is not None:
+        spent["decode"] += spent.pop("crop")
         for stage, seconds in spent.items():
             if seconds:
                 timings[stage] = timings.get(stage, 0.0) + seconds

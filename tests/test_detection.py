@@ -191,6 +191,55 @@ def test_detect_sequence_gathers_every_frame_in_canonical_order_with_or_without_
     assert np.allclose(features, GeometryEmbedder().embed(None, found.boxes))
 
 
+def test_decoding_detection_and_re_id_run_in_three_threads_with_two_frames_held(tmp_path, monkeypatch):
+    # issue #42: the detector searches one frame while the next decodes and the caller embeds earlier ones; a
+    # decoded frame waits for the detector at most one frame ahead (memory), and the result is the serial one's
+    import threading
+
+    import sotmot.passes as passes
+    from conftest import GeometryEmbedder, write_sequence
+    from sotmot.io import FrameReader, read_seqinfo
+
+    seq = write_sequence(tmp_path, [], length=12, images=True)
+    info = read_seqinfo(seq)
+    decoded, searched, threads = [], [], {}
+
+    class Reader(FrameReader):
+        def __call__(self, frame):
+            threads.setdefault("decode", set()).add(threading.current_thread().name)
+            decoded.append(frame)
+            assert len(decoded) - len(searched) <= 2, "the decoder ran more than one frame ahead of the detector"
+            return super().__call__(frame)
+
+    class Detector(_CornerDetector):
+        def detect(self, frame):
+            threads.setdefault("detect", set()).add(threading.current_thread().name)
+            searched.append(len(searched) + 1)
+            return super().detect(frame)
+
+    class Embedder(GeometryEmbedder):
+        def embed(self, image, boxes):
+            threads.setdefault("embed", set()).add(threading.current_thread().name)
+            return super().embed(image, boxes)
+
+    monkeypatch.setattr(passes, "FrameReader", Reader)
+    found, features = passes.detect_sequence(info, Detector(), Embedder())
+    assert decoded == list(range(1, 13)) and len(searched) == 12
+    assert len(set.union(*threads.values())) == 3 and all(len(names) == 1 for names in threads.values())
+    assert threads["embed"] == {threading.current_thread().name}
+    assert np.allclose(features, GeometryEmbedder().embed(None, found.boxes))
+
+
+def test_openvino_models_are_compiled_unpinned_with_the_threads_asked():
+    # pinned, OpenVINO put the detector's and the re-ID model's threads on the same cores (issue #42)
+    from sotmot.appearance.openvino import OpenVinoReidEmbedder
+    from sotmot.config import AppearanceConfig
+
+    embedder = OpenVinoReidEmbedder(AppearanceConfig(threads=1))
+    compiled = embedder._request.get_compiled_model()
+    assert compiled.get_property("ENABLE_CPU_PINNING") is False
+    assert compiled.get_property("INFERENCE_NUM_THREADS") == 1
+
 def test_the_built_in_detectors_family_is_known_from_the_run_not_guessed(tmp_path):
     import json
 

@@ -26,6 +26,7 @@ from sotmot.boxes import clip_xyxy, xyxy_to_xywh
 from sotmot.config import DetectionConfig
 from sotmot.detection import resolve_detector_path, rounded
 from sotmot.errors import ModelError, runtime_message
+from sotmot.models import openvino_cpu_options
 
 log = logging.getLogger(__name__)
 
@@ -81,9 +82,7 @@ class OpenVinoDetector:
             raise ModelError(f"{self.path}: not a detector of the expected kind: expected one output 1 x 1 x K x 7 "
                              f"(image_id, label, conf, x1, y1, x2, y2), got "
                              f"{[(p.any_name, str(p.get_partial_shape())) for p in outputs]}")
-        self._options = {"PERFORMANCE_HINT": "LATENCY", "INFERENCE_PRECISION_HINT": "f32"}
-        if config.threads:
-            self._options["INFERENCE_NUM_THREADS"] = config.threads
+        self._options = openvino_cpu_options(config.threads, INFERENCE_PRECISION_HINT="f32")
         self._compiled: dict[tuple[int, int], tuple] = {}  # input size -> (request, output port)
         log.info("person detector %s (OpenVINO %s)", self.path, ov.__version__)
 

@@ -171,5 +171,17 @@ def describe() -> list[dict]:
     return rows
 
 
+def openvino_cpu_options(threads: int = 0, **extra) -> dict:
+    """OpenVINO CPU compile options of sotmot's models: latency-first, ``threads`` inference threads (0: the
+    runtime's choice), and no pinning of threads to cores. The detector, the re-ID model and frame decoding run
+    at once in one pass (:func:`sotmot.passes.frame_pass`); pinned, OpenVINO put both models' threads on the same
+    cores, and on two cores the two models side by side ran 20-40 % slower (docs/benchmarks.md, "Speed").
+    Pinning changes no result."""
+    options = {"PERFORMANCE_HINT": "LATENCY", "ENABLE_CPU_PINNING": False, **extra}
+    if threads:
+        options["INFERENCE_NUM_THREADS"] = threads
+    return options
+
+
 __all__ = ["HERE", "LICENCE_FILE", "MODELS", "BundledModel", "bundled_path", "describe", "model_given",
-           "model_in_use", "resolve_model_file"]
+           "model_in_use", "openvino_cpu_options", "resolve_model_file"]
