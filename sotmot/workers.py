@@ -22,27 +22,31 @@ def worker_embedder(appearance: AppearanceConfig):
         return _EMBEDDERS[appearance]
 
 
-def process_threads(config: TrackerConfig, workers: int) -> TrackerConfig:
-    """``config`` with the re-ID model's threads, where the config leaves them to the runtime (0), set to this
-    machine's share of one of ``workers`` processes (``cpu_count // workers``), so they do not oversubscribe it."""
+def models_share(config: TrackerConfig, share: int) -> TrackerConfig:
+    """``config`` with the threads of the re-ID model and the detector, where the config leaves them to the runtime
+    (0), set to ``share``: processes side by side on one machine must not each run a model on every core.
+    Threads change no result."""
     if config.appearance.threads == 0:
-        config = config.replace("appearance", threads=max(1, (os.cpu_count() or 1) // workers))
+        config = config.replace("appearance", threads=share)
+    if config.detection.threads == 0:
+        config = config.replace("detection", threads=share)
     return config
 
 
+def process_threads(config: TrackerConfig, workers: int) -> TrackerConfig:
+    """``config`` with the models' threads (:func:`models_share`) set to this machine's share of one of
+    ``workers`` processes (``cpu_count // workers``)."""
+    return models_share(config, max(1, (os.cpu_count() or 1) // workers))
+
+
 def dask_worker_threads(config: TrackerConfig) -> TrackerConfig:
-    """``config`` with the models' threads (where the config leaves them to the runtime, 0) set to this Dask
-    worker's thread count: a worker started with ``--nthreads 1`` beside others on one machine must not run
-    a model on every core, as ``--workers N`` gives each process ``cpu_count // N``. Threads change no result.
-    Unchanged outside a Dask worker."""
+    """``config`` with the models' threads (:func:`models_share`) set to this Dask worker's thread count: a worker
+    started with ``--nthreads 1`` beside others on one machine must not run a model on every core, as
+    ``--workers N`` gives each process ``cpu_count // N``. Unchanged outside a Dask worker."""
     try:
         from distributed import get_worker
 
         share = max(1, int(get_worker().state.nthreads))
     except (ImportError, ValueError, AttributeError):
         return config
-    if config.appearance.threads == 0:
-        config = config.replace("appearance", threads=share)
-    if config.detection.threads == 0:
-        config = config.replace("detection", threads=share)
-    return config
+    return models_share(config, share)
