@@ -109,7 +109,8 @@ def _add_tracker_options(p: argparse.ArgumentParser) -> None:
                         "appearance")
     p.add_argument("--no-flip", action="store_true",
                    help="embed each box's crop once instead of averaging it with its mirror image ([appearance] "
-                        "flip = false): half the re-ID work, pair AUC within 0.001 on PETS09-S2L1 and MOT16-09")
+                        "flip = false): half the re-ID work, at a cost in accuracy on some sequences (the gates "
+                        "were chosen with the flip; docs/benchmarks.md, 'Speed')")
     p.add_argument("--device", choices=["cpu", "cuda"], help="where the re-ID model runs (default: cpu)")
     p.add_argument("--weights", metavar="FILE.pt", help="fine-tuned weights from train-appearance (torch backend)")
     p.add_argument("--detections", choices=["auto", "file", "model"],

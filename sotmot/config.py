@@ -95,7 +95,8 @@ class DetectionConfig:
         frame's aspect ratio at the area of 512 x 672 (448 x 768 for 16:9,
         512 x 672 for 4:3).
     threads
-        CPU threads of the detector (0: the runtime's choice).
+        CPU threads of the detector (0: the runtime's choice; with
+        ``--workers N``: each process's share of the cores).
     """
 
     source: Literal["auto", "file", "model"] = "auto"
@@ -209,10 +210,15 @@ class AppearanceConfig:
         person-reidentification-retail-0288 (``sotmot models``).
     flip
         Average the features of the crop and its mirror image (paper eq. 1).
+        Off halves the re-ID work, but the association gates and the
+        confirmation were chosen with flip-averaged features: without it some
+        sequences lose HOTA and MOTA (docs/benchmarks.md, "Speed").
     batch_size
         Crops per forward pass (a flipped crop counts as one).
     threads
-        Intra-op threads of onnxruntime or torch; 0 lets the runtime choose.
+        Inference threads of the re-ID runtime (OpenVINO, onnxruntime or
+        torch); 0 lets the runtime choose (with ``--workers N``: each
+        process's share of the cores).
     device
         ``"cpu"`` or ``"cuda"`` (onnxruntime's CUDA provider, or torch on the GPU);
         asking for ``"cuda"`` where there is none is an error, never a silent fallback.
