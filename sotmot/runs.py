@@ -394,7 +394,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     """
     from sotmot.appearance import resolve_backend
     from sotmot.io import check_output_dir
-    from sotmot.io.mot import refuse_inside
+    from sotmot.io.files import refuse_inside
 
     config = resolve_paths(config)
     # the backend "auto" picks, decided here once: the run record and every worker see the one that runs

@@ -276,7 +276,8 @@ def test_graph_out_that_is_a_file_fails_before_tracking(tmp_path, monkeypatch, c
 
 
 def test_graph_files_are_written_all_or_none(tmp_path, monkeypatch):
-    from sotmot.io import mot, write_files_atomic
+    import sotmot.io.files as io_files
+    from sotmot.io import write_files_atomic
 
     (tmp_path / "out").mkdir()
     (tmp_path / "out" / "graph.json").write_text("old")
@@ -289,7 +290,7 @@ def test_graph_files_are_written_all_or_none(tmp_path, monkeypatch):
             raise OSError(28, "No space left on device")
         real(fd)
 
-    monkeypatch.setattr(mot.os, "fsync", full_disk)
+    monkeypatch.setattr(io_files.os, "fsync", full_disk)
     files = {tmp_path / "out" / name: b"new" for name in ("graph.graphml", "graph.json", "graph.png", "graph.html")}
     with pytest.raises(OSError):
         write_files_atomic(files)

@@ -323,18 +323,18 @@ def test_video_detections_are_checked_against_the_user_file(tmp_path, capsys, mo
 
 
 def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):
+    import sotmot.io.files as io_files
     from sotmot import runs as batch
-    from sotmot.io import mot
 
     seq = _walker_sequence(tmp_path)
-    real = mot.write_bytes_atomic
+    real = io_files.write_bytes_atomic
 
     def full_disk(path, data):
         if str(path).endswith("SYN.txt"):
             raise OSError(28, "No space left on device")
         real(path, data)
 
-    monkeypatch.setattr(mot, "write_bytes_atomic", full_disk)
+    monkeypatch.setattr(io_files, "write_bytes_atomic", full_disk)
     outcome = batch.track_one(str(seq), str(tmp_path / "out"), TrackerConfig(), False,
                               embedder=GeometryEmbedder())
     assert outcome.status == "failed"

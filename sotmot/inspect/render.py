@@ -23,7 +23,7 @@ import numpy as np
 
 from sotmot.errors import InputError
 from sotmot.io import FrameReader, SeqInfo, check_output_dir, refuse_overwriting, write_bytes_atomic
-from sotmot.io.mot import refuse_inside
+from sotmot.io.files import refuse_inside
 from sotmot.types import Tracks
 
 TRAIL = 12

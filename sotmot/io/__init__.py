@@ -1,10 +1,17 @@
-"""MOTChallenge input and output: sequence info, detections, ground truth, results, frames."""
+"""MOTChallenge input and output: sequence info, detections, ground truth, results, frames; safe file writes."""
 
 from sotmot.io.frames import FrameReader
 from sotmot.io.sequence import read_seqinfo
-from sotmot.io.mot import (
+from sotmot.io.files import (
     atomic_path,
     check_output_dir,
+    refuse_overwriting,
+    same_file,
+    write_bytes_atomic,
+    write_files_atomic,
+    write_text_atomic,
+)
+from sotmot.io.mot import (
     detections_from_array,
     GroundTruth,
     SeqInfo,
@@ -14,13 +21,8 @@ from sotmot.io.mot import (
     read_detections,
     read_ground_truth,
     read_results,
-    refuse_overwriting,
     results_path,
-    same_file,
     write_results,
-    write_bytes_atomic,
-    write_files_atomic,
-    write_text_atomic,
 )
 
 __all__ = [

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.errors import InputError
-from sotmot.io.mot import write_text_atomic
+from sotmot.io.files import write_text_atomic
 from sotmot.types import Tracks
 
 
