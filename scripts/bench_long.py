@@ -18,7 +18,9 @@ With ``--windows 30,60`` it measures committed windows instead (issue #45): for 
 ``NAME:K`` the video of each ``--factors`` length (ground truth repeated, each copy's
 people under new ids), tracked whole, then in windows of each length serially, and
 the first window length also on ``--window-workers`` processes: wall time, peak
-RSS, HOTA / IDF1 / MOTA / IDSW, and whether the parallel results equal the serial.
+RSS, HOTA / IDF1 / MOTA / IDSW, the ID switches at window joins (in an overlap or
+the frame after it), and whether the parallel results
+equal the serial.
 
     .venv/bin/python scripts/bench_long.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --sequences MOT16-09:16 --factors 8,16 --windows 30,60 --json docs/results/windows.json
@@ -132,6 +134,19 @@ def repeated_gt(seq: Path, factor: int, cache: Path) -> Path:
     return gt
 
 
+def join_switches(results: Path, gt: Path, length: int, name: str, windows: list) -> int:
+    """ID switches (TrackEval's CLEAR matching, :func:`sotmot.scoring.frame_errors`) at window joins: in a frame
+    of an overlap of two consecutive ``windows`` (``[(first, last), ...]``) or the frame after it, where one
+    window's identities hand over to the next's. A person unseen across the whole overlap and matched later
+    under a new id is not counted here."""
+    from sotmot.scoring import frame_errors
+
+    spans = [(after[0], before[1] + 1) for before, after in zip(windows, windows[1:])]
+    matched = frame_errors(results, gt, length, name).matched
+    return sum(any(first <= frame <= last for first, last in spans) and switch
+               for frame, rows in matched.items() for *_, switch in rows)
+
+
 def windows_experiment(args, factors: list[int]) -> int:
     """Whole-sequence against windowed tracking of long videos (``--windows``): time, memory, accuracy."""
     from sotmot.api import evaluate
@@ -161,23 +176,25 @@ def windows_experiment(args, factors: list[int]) -> int:
                     texts[mode] = results.read_bytes()
                     scores = evaluate(results, gt, length=info.length * factor, name=f"{name}-x{factor}")
                     record = json.loads((out / f"{video.stem}.run.json").read_text())
+                    windows = record.get("windows", {}).get("plan", [[1, info.length * factor]])
+                    at_joins = join_switches(results, gt, info.length * factor, f"{name}-x{factor}", windows)
                 joins = record.get("windows", {}).get("joins", [])
                 row = {"sequence": name, "factor": factor, "frames": info.length * factor, "mode": mode, **got,
-                       "fps": info.length * factor / got["seconds"], "windows": len(record.get("windows", {}).get(
-                           "plan", [[1, 1]])), "joined": sum(j["joined"] for j in joins),
-                       **{k: scores[k] for k in ("HOTA", "IDF1", "MOTA", "IDSW")}}
+                       "fps": info.length * factor / got["seconds"], "windows": len(windows),
+                       "joined": sum(j["joined"] for j in joins),
+                       **{k: scores[k] for k in ("HOTA", "IDF1", "MOTA", "IDSW")}, "IDSW_joins": at_joins}
                 rows.append(row)
                 print(f"{name} x{factor} {mode}: {got['seconds']:.0f} s ({row['fps']:.1f} frames/s), peak RSS "
                       f"{got['peak_rss_mb']:.0f} MB, HOTA {row['HOTA']:.2f} IDF1 {row['IDF1']:.2f} MOTA "
                       f"{row['MOTA']:.2f} IDSW {row['IDSW']:.0f}", flush=True)
             parallel = modes[-1][0]
             rows[-1]["equals_serial"] = texts[parallel] == texts[f"W={seconds[0]:g}s"]
-    print("\n| video | mode | wall s | frames/s | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | windows |\n"
-          "|---|---|---|---|---|---|---|---|---|---|")
+    print("\n| video | mode | wall s | frames/s | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | at joins | windows |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['sequence']} x{r['factor']} | {r['mode']} | {r['seconds']:.0f} | {r['fps']:.1f} | "
               f"{r['peak_rss_mb']:.0f} | {r['HOTA']:.2f} | {r['IDF1']:.2f} | {r['MOTA']:.2f} | {r['IDSW']:.0f} | "
-              f"{r['windows']} |")
+              f"{r['IDSW_joins']} | {r['windows']} |")
     print(f"machine: {machine()}")
     if args.json:
         write_text_atomic(args.json, json.dumps({"script": "scripts/bench_long.py --windows", "machine": machine(),
@@ -203,11 +220,13 @@ def full_length_windows(args) -> int:
                 info = read_seqinfo(seq)
                 scores = evaluate(out / f"{info.name}.txt", seq)
                 record = json.loads((out / f"{info.name}.run.json").read_text())
-            rows.append({"sequence": name, "mode": mode, "windows": len(record.get("windows", {}).get("plan", [0])),
-                         **{k: scores[k] for k in ("HOTA", "IDF1", "MOTA", "IDSW")}})
+                windows = record.get("windows", {}).get("plan", [[1, info.length]])
+                at_joins = join_switches(out / f"{info.name}.txt", info.gt_path, info.length, info.name, windows)
+            rows.append({"sequence": name, "mode": mode, "windows": len(windows),
+                         **{k: scores[k] for k in ("HOTA", "IDF1", "MOTA", "IDSW")}, "IDSW_joins": at_joins})
             r = rows[-1]
             print(f"{name} {mode}: {r['windows']} windows, HOTA {r['HOTA']:.2f} IDF1 {r['IDF1']:.2f} MOTA "
-                  f"{r['MOTA']:.2f} IDSW {r['IDSW']:.0f}", flush=True)
+                  f"{r['MOTA']:.2f} IDSW {r['IDSW']:.0f} ({at_joins} at joins)", flush=True)
     if args.json:
         write_text_atomic(args.json, json.dumps({"script": "scripts/bench_long.py --full-length", "machine": machine(),
                                                  "full_length": rows}, indent=2) + "\n")

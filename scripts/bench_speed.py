@@ -31,13 +31,22 @@ detection inside it.
 ``det/s`` is detections embedded per second of the appearance stage (MOT
 only, frame decoding included: it overlaps the embedding in a background
 thread; with ``--sot`` the stage also embeds candidates and it is not shown).
+``busy``: the process's CPU seconds (every thread) over the wall seconds times
+the machine's cores, in the one-process run; ``1 - busy`` is the idle share of
+the cores. With ``--whole`` each sequence is also tracked by ``sotmot track``
+in a child process with the same flags (imports, model loading and the
+results file included, no scoring): the fps a user sees, and its peak
+resident memory (``/usr/bin/time``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -74,6 +83,27 @@ def time_peers(peers: list[str], seq: Path, result, config: TrackerConfig) -> di
     return out
 
 
+def whole_process(seq: Path, args: argparse.Namespace) -> dict[str, float]:
+    """``sotmot track`` on ``seq`` in a child process with this run's flags, under ``/usr/bin/time`` (its own small
+    parent, so the peak is the tracker's alone, not this process's pages shared at fork): wall seconds, CPU
+    seconds (user + system) and peak resident memory (MB)."""
+    with tempfile.TemporaryDirectory(prefix="sotmot-speed-") as out:
+        command = [sys.executable, "-m", "sotmot", "track", str(seq), "--out", out, "-q", "--reid-model", args.model,
+                   "--solver", args.solver, "--sot", args.sot, "--appearance", args.appearance,
+                   "--device", args.device]
+        command += ["--no-flip"] if args.no_flip else []
+        command += ["--detections", "model", "--detector-model", args.detector_model] if args.detector_model else []
+        usage = Path(out) / "time.txt"
+        start = time.perf_counter()
+        done = subprocess.run(["/usr/bin/time", "-o", str(usage), "-f", "%U %S %M", *command],
+                              stdout=subprocess.DEVNULL)
+        seconds = time.perf_counter() - start
+        if done.returncode:
+            raise SystemExit(f"{' '.join(command)} failed with exit status {done.returncode}")
+        user, system, peak_kb = usage.read_text().split()[-3:]
+    return {"seconds": seconds, "cpu_seconds": float(user) + float(system), "peak_rss_mb": int(peak_kb) / 1024}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
@@ -93,6 +123,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--detector-model", metavar="PATH.xml",
                         help="end to end with detection: the built-in detector runs on every frame (private "
                              "detections) instead of reading det/det.txt")
+    parser.add_argument("--whole", action="store_true",
+                        help="also time each sequence tracked by 'sotmot track' in a child process (whole process)")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
     peers = [p.strip() for p in args.peers.split(",") if p.strip()] if args.sot == "none" else []
@@ -109,22 +141,27 @@ def main(argv: list[str] | None = None) -> int:
     rows = {}
     seqs = sequences(args.data, args.sequences)
     for seq in seqs:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         result = track_sequence(seq, config.replace("association", solver=args.solver), embedder=embedder,
                                 detector=detector)
-        total = time.perf_counter() - start
+        total, cpu = time.perf_counter() - start, time.process_time() - cpu
         n_dets = int((~result.detections.from_sot).sum())
         rows[result.info.name] = {"frames": result.info.length, "seconds": total, "detections": n_dets,
                                   "fps": result.info.length / total, "stages": result.timings,
+                                  "busy": cpu / (total * (os.cpu_count() or 1)),
                                   "reid_per_s": n_dets / max(result.timings.get("appearance", 0.0), 1e-9),
                                   "peers": time_peers(peers, seq, result, config)}
-    head = f"{'sequence':<17}{'fps':>7}{'det/s':>7}" + "".join(f"{s:>13}" for s in STAGES)
+        if args.whole:
+            whole = whole_process(seq, args)
+            rows[result.info.name]["whole"] = {**whole, "fps": result.info.length / whole["seconds"]}
+    head = f"{'sequence':<17}{'whole':>7}{'fps':>7}{'busy':>6}{'det/s':>7}" + "".join(f"{s:>13}" for s in STAGES)
     lines = [head, "-" * len(head)]
     for name, r in rows.items():
         cells = "".join(f"{r['stages'].get(s, 0.0):7.2f}s{100 * r['stages'].get(s, 0.0) / r['seconds']:4.0f}%"
                         for s in STAGES)
         per_s = f"{r['reid_per_s']:7.0f}" if args.sot == "none" else f"{'–':>7}"  # with SOT: candidates too
-        lines.append(f"{name:<17}{r['fps']:7.1f}{per_s}{cells}")
+        whole = f"{r['whole']['fps']:7.1f}" if "whole" in r else f"{'–':>7}"
+        lines.append(f"{name:<17}{whole}{r['fps']:7.1f}{100 * r['busy']:5.0f}%{per_s}{cells}")
     print("\n".join(lines))
     timed = [p for p in peers if all(p in r["peers"] for r in rows.values())]
     if timed:

@@ -9,6 +9,8 @@ Files it reads, each optional (a missing one leaves its section out):
 
 * ``accuracy_public.json``, ``accuracy_private.json``: ``scripts/bench_accuracy.py`` (without and with
   ``--detector-model``);
+* ``accuracy_public_noflip.json``, ``accuracy_private_noflip.json``: the same with ``--config
+  docs/validation/noflip.toml`` (``[appearance] flip = false``);
 * ``peers_public.json``, ``peers_private.json``: ``peers.json`` of ``scripts/bench_peers.py``;
 * ``speed_public.json``, ``speed_public_noflip.json`` (``--no-flip``), ``speed_private.json``:
   ``scripts/bench_speed.py``;
@@ -120,23 +122,52 @@ def speed_section(*runs: tuple[str, dict | None]) -> list[str]:
     runs = tuple((label, data) for label, data in runs if data is not None)
     if not runs:
         return []
-    lines = ["## Speed", "", "Frames per second end to end in one process (reading or detecting, re-ID, "
-             "tracklets, association, post-processing, confirmation, end extension; models loaded before the "
-             "clock starts), and re-ID detections per second of the appearance stage. `flip`: each crop is "
+    lines = ["## Speed", "", "`whole`: frames per second of `sotmot track` in a child process, as a user runs it "
+             "(imports, model loading, every stage and the results file; no scoring), and its peak resident memory. "
+             "`in-process`: the same tracking in one process with the models loaded before the clock starts, and "
+             "`busy`: the CPU seconds of all its threads over its wall seconds times the cores (1 - busy is the "
+             "cores' idle share). Re-ID detections per second of the appearance stage. `flip`: each crop is "
              "embedded with its mirror image and the two averaged (the paper's eq. 1, the default); `--no-flip` "
-             "embeds it once, the documented speed option.", "",
-             "| sequence | detections | re-ID | frames | fps | re-ID det/s |", "|---|---|---|---|---|---|"]
+             "embeds it once (its accuracy: \"The flip\" below).", "",
+             "| sequence | detections | re-ID | frames | whole fps | peak RSS MB | in-process fps | busy | "
+             "re-ID det/s |", "|---|---|---|---|---|---|---|---|---|"]
     for label, data in runs:
         features = "flip" if data["flip"] else "`--no-flip`"
         for name, row in data["rows"].items():
             if row["frames"] <= FULL_LENGTH:
                 continue
             reid = f"{row['reid_per_s']:.0f}" if label == "public" else "–"
-            lines.append(f"| {name} | {label} | {features} | {row['frames']} | {row['fps']:.1f} | {reid} |")
+            whole = row.get("whole")
+            cells = f"{whole['fps']:.1f} | {whole['peak_rss_mb']:.0f}" if whole else "– | –"
+            busy = f"{100 * row['busy']:.0f} %" if "busy" in row else "–"
+            lines.append(f"| {name} | {label} | {features} | {row['frames']} | {cells} | {row['fps']:.1f} | {busy} | "
+                         f"{reid} |")
     for label, data in runs:
         lines.append(f"\n{label}, flip {'on' if data['flip'] else 'off'}: {data['detections']}; re-ID "
                      f"{data['appearance']} on {data['device']}; machine: {data['machine']}.")
     return [*lines, ""]
+
+
+def flip_section(*runs: tuple[str, dict | None, dict | None]) -> list[str]:
+    """The flip against ``--no-flip``: ``runs`` are (protocol, ``bench_accuracy.py`` JSON of the defaults, of
+    ``[appearance] flip = false``), each full-length sequence's HOTA / IDF1 / MOTA with and without."""
+    runs = tuple(run for run in runs if run[1] is not None and run[2] is not None)
+    if not runs:
+        return []
+    lines = ["### The flip", "", "`bench_accuracy.py` with the defaults (each crop embedded with its mirror image, "
+             "the two averaged: the paper's eq. 1) and with `[appearance] flip = false` (`--no-flip`, half the "
+             "re-ID work), everything else the default's, confirmation as packaged (fitted with the flip).", "",
+             "| sequence | detections | HOTA flip / no flip | IDF1 flip / no flip | MOTA flip / no flip | "
+             "MOTA before confirmation |", "|---|---|---|---|---|---|"]
+    for label, flip, noflip in runs:
+        for name in full_length(flip):
+            a, b = flip["after"]["all"]["sequences"][name], noflip["after"]["all"]["sequences"][name]
+            before = [data["before"]["all"]["sequences"][name]["MOTA"] for data in (flip, noflip)]
+            lines.append(f"| {name} | {label} | " + " | ".join(f"{a[m]:.1f} / {b[m]:.1f} ({b[m] - a[m]:+.1f})"
+                                                            for m in ("HOTA", "IDF1", "MOTA"))
+                         + f" | {before[0]:.1f} / {before[1]:.1f} |")
+    machines = sorted({data["machine"] for _, flip, noflip in runs for data in (flip, noflip)})
+    return [*lines, "", f"Machine: {'; '.join(machines)}.", ""]
 
 
 def long_section(data: dict | None) -> list[str]:
@@ -163,18 +194,20 @@ def windows_section(data: dict | None) -> list[str]:
              "boxes agree in the overlap; against the whole video at once. Long videos: MOT16-09 played k times "
              "as one MPEG-4 video, its ground truth repeated with new ids for each copy; peak resident memory "
              "from `/usr/bin/time -v` (with workers: the largest process).", "",
-             "| video | mode | windows | wall s | fps | peak RSS MB | HOTA | IDF1 | MOTA | IDSW |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "`at joins`: ID switches in an overlap of two windows or the frame after it (TrackEval's CLEAR "
+             "matching, frame by frame).", "",
+             "| video | mode | windows | wall s | fps | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | at joins |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
         same = {True: " (= serial)", False: " (differs from serial)"}.get(r.get("equals_serial"), "")
         lines.append(f"| {r['sequence']} x{r['factor']} | {r['mode']}{same} | {r['windows']} | {r['seconds']:.0f} | "
                      f"{r['fps']:.1f} | {r['peak_rss_mb']:.0f} | {r['HOTA']:.2f} | {r['IDF1']:.2f} | "
-                     f"{r['MOTA']:.2f} | {r['IDSW']:.0f} |")
+                     f"{r['MOTA']:.2f} | {r['IDSW']:.0f} | {r.get('IDSW_joins', '–')} |")
     rows = data.get("full_length", [])
     if rows:
         lines += ["", "Each full-length sequence from its own folder (public detections), whole and in windows:", "",
-                  "| sequence | windows | whole HOTA / IDF1 / MOTA | windowed HOTA / IDF1 / MOTA | HOTA | IDF1 |",
-                  "|---|---|---|---|---|---|"]
+                  "| sequence | windows | whole HOTA / IDF1 / MOTA | windowed HOTA / IDF1 / MOTA | HOTA | IDF1 | "
+                  "IDSW (at joins) |", "|---|---|---|---|---|---|---|"]
         whole = {r["sequence"]: r for r in rows if r["mode"] == "whole"}
         for r in rows:
             if r["mode"] == "whole":
@@ -182,7 +215,8 @@ def windows_section(data: dict | None) -> list[str]:
             w = whole[r["sequence"]]
             lines.append(f"| {r['sequence']} ({r['mode']}) | {r['windows']} | {w['HOTA']:.2f} / {w['IDF1']:.2f} / "
                          f"{w['MOTA']:.2f} | {r['HOTA']:.2f} / {r['IDF1']:.2f} / {r['MOTA']:.2f} | "
-                         f"{r['HOTA'] - w['HOTA']:+.2f} | {r['IDF1'] - w['IDF1']:+.2f} |")
+                         f"{r['HOTA'] - w['HOTA']:+.2f} | {r['IDF1'] - w['IDF1']:+.2f} | "
+                         f"{w['IDSW']:.0f} -> {r['IDSW']:.0f} ({r.get('IDSW_joins', '–')}) |")
     return [*lines, "", f"Machine: {data['machine']}.", ""]
 
 
@@ -512,6 +546,8 @@ def page() -> str:
                               "row.")
     lines += speed_section(("public", load("speed_public.json")), ("public", load("speed_public_noflip.json")),
                            ("private", load("speed_private.json")))
+    lines += flip_section(("public", load("accuracy_public.json"), load("accuracy_public_noflip.json")),
+                          ("private", load("accuracy_private.json"), load("accuracy_private_noflip.json")))
     lines += ablation_section(load("ablation_public.json"), load("ablation_private.json"))
     lines += loo_section(load("ablation_loo_public.json"))
     lines += gaps_section(load("gaps_public.json"), load("gaps_private.json"))

@@ -148,3 +148,18 @@ def test_a_window_that_fails_keeps_what_was_committed_and_says_so(tmp_path, monk
     assert (out / "SYN.txt").read_text().strip()
     monkeypatch.setattr(windows, "track_window", real)
     assert _track(seq, out, "--window", "8", "--resume") == _track(seq, tmp_path / "ref", "--window", "8")
+
+
+def test_switches_at_joins_are_those_in_an_overlap_or_the_frame_after(tmp_path):
+    # scripts/bench_long.py reports how many ID switches the joins made (issue #45)
+    from helpers import load_script
+
+    script = load_script("bench_long")
+    gt, results = tmp_path / "gt.txt", tmp_path / "res.txt"
+    gt.write_text("".join(f"{f},1,10,10,40,80,1,1,1\n" for f in range(1, 21)))
+    # the person's track changes id at frame 11
+    results.write_text("".join(f"{f},{1 if f <= 10 else 2},10,10,40,80,1,-1,-1,-1\n" for f in range(1, 21)))
+    assert script.join_switches(results, gt, 20, "SYN", [(1, 12), (8, 20)]) == 1  # overlap 8-12
+    assert script.join_switches(results, gt, 20, "SYN", [(1, 10), (7, 20)]) == 1  # the frame after the overlap
+    assert script.join_switches(results, gt, 20, "SYN", [(1, 6), (4, 16), (14, 20)]) == 0  # away from both joins
+    assert script.join_switches(results, gt, 20, "SYN", [(1, 20)]) == 0  # one window: no join
