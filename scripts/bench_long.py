@@ -19,8 +19,7 @@ With ``--windows 30,60`` it measures committed windows instead (issue #45): for 
 people under new ids), tracked whole, then in windows of each length serially, and
 the first window length also on ``--window-workers`` processes: wall time, peak
 RSS, HOTA / IDF1 / MOTA / IDSW, the ID switches at window joins (in an overlap or
-the frame after it), and whether the parallel results
-equal the serial.
+the frame after it), and whether the parallel results equal the serial.
 
     .venv/bin/python scripts/bench_long.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --sequences MOT16-09:16 --factors 8,16 --windows 30,60 --json docs/results/windows.json

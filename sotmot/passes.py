@@ -17,7 +17,8 @@ from sotmot.progress import Progress, as_progress
 from sotmot.types import Detections
 
 
-#: Frames the appearance stage decodes (and crops) ahead of the one the model embeds.
+#: Frames the appearance stage searches (detects) and crops ahead of the one the model embeds; decoding runs one
+#: frame ahead of the search.
 PREFETCH_FRAMES = 8
 
 
