@@ -6,7 +6,8 @@ top-left origin; frame numbers are 1-based, as in MOTChallenge files.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, fields
 from functools import cached_property
 
 import numpy as np
@@ -218,6 +219,13 @@ class Tracks:
         """The rows selected by an integer or boolean ``index``."""
         return Tracks(self.frames[index], self.ids[index], self.boxes[index], self.scores[index],
                       self.interpolated[index], self.from_sot[index], self.confidence[index])
+
+    @classmethod
+    def concatenate(cls, parts: "Sequence[Tracks]") -> "Tracks":
+        """The rows of ``parts`` one after another (in the order given); no parts: :meth:`empty`."""
+        if not parts:
+            return cls.empty()
+        return cls(**{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(cls)})
 
     def with_boxes(self, boxes: np.ndarray) -> "Tracks":
         """The same rows with other ``(N, 4)`` boxes (e.g. mapped to another frame of reference)."""

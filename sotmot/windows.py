@@ -101,13 +101,11 @@ def window_sequence(info: SeqInfo, window: Window, reader: FrameReader) -> SeqIn
 
 
 def _shift(tracks: Tracks, by: int) -> Tracks:
-    return Tracks(tracks.frames + by, tracks.ids, tracks.boxes, tracks.scores, tracks.interpolated, tracks.from_sot,
-                  tracks.confidence)
+    return dataclasses.replace(tracks, frames=tracks.frames + by)
 
 
 def _relabel(tracks: Tracks, ids: dict[int, int]) -> Tracks:
-    return Tracks(tracks.frames, [ids[int(i)] for i in tracks.ids], tracks.boxes, tracks.scores,
-                  tracks.interpolated, tracks.from_sot, tracks.confidence)
+    return dataclasses.replace(tracks, ids=[ids[int(i)] for i in tracks.ids])
 
 
 def _between(tracks: Tracks, first: int, last: int) -> Tracks:
@@ -283,14 +281,6 @@ def _in_order(submit, info: SeqInfo, windows: list[Window], config: TrackerConfi
         yield k, futures.pop(k).result()
 
 
-def concatenated(parts: list[Tracks]) -> Tracks:
-    """One :class:`Tracks` of the committed ``parts`` (in frame order already: each window owns later frames)."""
-    if not parts:
-        return Tracks.empty()
-    return Tracks(*(np.concatenate([getattr(p, name) for p in parts])
-                    for name in ("frames", "ids", "boxes", "scores", "interpolated", "from_sot", "confidence")))
-
-
 def track_in_windows(info: SeqInfo, windows: list[Window], config: TrackerConfig, detections: Detections | None,
                      workers: int = 1, embedder=None, progress=False) -> tuple[Tracks, Tracks]:
     """The tracks and the unconfirmed boxes of ``info`` tracked in ``windows``, all in memory (the API's way;
@@ -301,7 +291,7 @@ def track_in_windows(info: SeqInfo, windows: list[Window], config: TrackerConfig
         tracks, low, _ = stitcher.add(k, result)
         kept.append(tracks)
         dropped.append(low)
-    return concatenated(kept), concatenated(dropped)
+    return Tracks.concatenate(kept), Tracks.concatenate(dropped)
 
 
 def _window_job(info: SeqInfo, windows: list[Window], k: int, config: TrackerConfig,
@@ -312,5 +302,5 @@ def _window_job(info: SeqInfo, windows: list[Window], k: int, config: TrackerCon
     return track_window(info, windows, k, config, detections, worker_embedder(config.appearance))
 
 
-__all__ = ["Stitcher", "WindowFrames", "WindowResult", "concatenated", "cut", "join", "overlap_frames", "plan",
+__all__ = ["Stitcher", "WindowFrames", "WindowResult", "cut", "join", "overlap_frames", "plan",
            "sequence_detections", "track_in_windows", "track_window", "window_sequence", "windowed"]

@@ -316,10 +316,8 @@ def with_added(tracks: Tracks, added: list[tuple[int, int, np.ndarray]]) -> Trac
     extra = Tracks(np.array([a[0] for a in added]), np.array([a[1] for a in added]),
                    np.stack([a[2] for a in added]), np.full(n, float(tracks.scores.min())),
                    np.zeros(n, bool), np.ones(n, bool), np.full(n, np.nan))
-    both = [np.concatenate([getattr(tracks, c), getattr(extra, c)])
-            for c in ("frames", "ids", "boxes", "scores", "interpolated", "from_sot", "confidence")]
-    order = np.lexsort((both[0], both[1]))
-    return Tracks(*both).subset(order)
+    both = Tracks.concatenate([tracks, extra])
+    return both.subset(np.lexsort((both.frames, both.ids)))
 
 
 def refine_gaps(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Callable[[int], np.ndarray],
