@@ -6,7 +6,7 @@ MOT16-09 up to 8 times) the shared sequence is played ``k`` times in a row
 for each ``k`` of ``--factors`` up to ``K``, written once as an MPEG-4 video
 (cached under ``--cache``) with its public detections shifted to match, and
 tracked end to end by ``sotmot track VIDEO --det DET`` in a child process under
-``/usr/bin/time -v`` (peak resident memory). The child's ``TMPDIR`` is a fresh
+``/usr/bin/time`` (peak resident memory). The child's ``TMPDIR`` is a fresh
 folder whose size is sampled every 0.1 s (peak temporary disk; the results
 folder is not counted). The growth exponent is the least-squares slope of
 log(time) and log(peak memory) against log(frames): 1 is linear.
@@ -30,17 +30,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 import subprocess
 import sys
 import tempfile
 import threading
-import time
 from pathlib import Path
 
 import numpy as np
 
-from common import DEFAULT_DATA, ROOT
+from common import DEFAULT_DATA, ROOT, run_timed
 from sotmot.benchmarks import machine
 from sotmot.io import read_seqinfo, write_text_atomic
 
@@ -91,7 +89,8 @@ def folder_bytes(folder: Path) -> int:
 
 
 def measure(command: list[str], tmpdir: Path) -> dict[str, float]:
-    """Wall seconds, peak RSS (MB, ``/usr/bin/time -v``) and peak size of ``tmpdir`` (MB) of one run."""
+    """Wall seconds, peak RSS (MB, :func:`common.run_timed`) and peak size of ``tmpdir`` (MB, the child's
+    ``TMPDIR``) of one run."""
     peak = [0]
     done = threading.Event()
 
@@ -102,18 +101,12 @@ def measure(command: list[str], tmpdir: Path) -> dict[str, float]:
 
     watcher = threading.Thread(target=watch, daemon=True)
     watcher.start()
-    start = time.perf_counter()
-    proc = subprocess.run(["/usr/bin/time", "-v", *command], capture_output=True, text=True,
-                          env={**os.environ, "TMPDIR": str(tmpdir)})
-    seconds = time.perf_counter() - start
-    done.set()
-    watcher.join()
-    if proc.returncode != 0:
-        raise SystemExit(f"{' '.join(command)} failed:\n{proc.stderr[-3000:]}")
-    match = re.search(r"Maximum resident set size \(kbytes\): (\d+)", proc.stderr)
-    if not match:
-        raise SystemExit("no 'Maximum resident set size' in /usr/bin/time -v output")
-    return {"seconds": seconds, "peak_rss_mb": int(match.group(1)) / 1024, "peak_tmp_mb": peak[0] / 2**20}
+    try:
+        got = run_timed(command, env={**os.environ, "TMPDIR": str(tmpdir)})
+    finally:
+        done.set()
+        watcher.join()
+    return {"seconds": got["seconds"], "peak_rss_mb": got["peak_rss_mb"], "peak_tmp_mb": peak[0] / 2**20}
 
 
 def repeated_gt(seq: Path, factor: int, cache: Path) -> Path:

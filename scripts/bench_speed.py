@@ -44,7 +44,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -52,7 +51,7 @@ from pathlib import Path
 
 from sotmot.appearance import make_embedder, resolve_backend
 from sotmot.plugins import BACKENDS
-from common import DEFAULT_DATA
+from common import DEFAULT_DATA, run_timed
 from sotmot.benchmarks import machine, sequences
 from sotmot.config import TrackerConfig
 from sotmot.io import write_text_atomic
@@ -84,24 +83,15 @@ def time_peers(peers: list[str], seq: Path, result, config: TrackerConfig) -> di
 
 
 def whole_process(seq: Path, args: argparse.Namespace) -> dict[str, float]:
-    """``sotmot track`` on ``seq`` in a child process with this run's flags, under ``/usr/bin/time`` (its own small
-    parent, so the peak is the tracker's alone, not this process's pages shared at fork): wall seconds, CPU
-    seconds (user + system) and peak resident memory (MB)."""
+    """``sotmot track`` on ``seq`` in a child process with this run's flags (:func:`common.run_timed`): wall
+    seconds, CPU seconds and peak resident memory (MB)."""
     with tempfile.TemporaryDirectory(prefix="sotmot-speed-") as out:
         command = [sys.executable, "-m", "sotmot", "track", str(seq), "--out", out, "-q", "--reid-model", args.model,
                    "--solver", args.solver, "--sot", args.sot, "--appearance", args.appearance,
                    "--device", args.device]
         command += ["--no-flip"] if args.no_flip else []
         command += ["--detections", "model", "--detector-model", args.detector_model] if args.detector_model else []
-        usage = Path(out) / "time.txt"
-        start = time.perf_counter()
-        done = subprocess.run(["/usr/bin/time", "-o", str(usage), "-f", "%U %S %M", *command],
-                              stdout=subprocess.DEVNULL)
-        seconds = time.perf_counter() - start
-        if done.returncode:
-            raise SystemExit(f"{' '.join(command)} failed with exit status {done.returncode}")
-        user, system, peak_kb = usage.read_text().split()[-3:]
-    return {"seconds": seconds, "cpu_seconds": float(user) + float(system), "peak_rss_mb": int(peak_kb) / 1024}
+        return run_timed(command)
 
 
 def main(argv: list[str] | None = None) -> int:

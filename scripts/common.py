@@ -12,7 +12,10 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import subprocess
 import sys
+import tempfile
+import time
 from pathlib import Path
 
 from sotmot.benchmarks import fit_sequences
@@ -72,3 +75,19 @@ def fit_setup(args: argparse.Namespace) -> tuple[TrackerConfig, list[Path]]:
         return config, fit_sequences(args.data, args.min_length, args.sequences)
     except SotmotError as exc:
         sys.exit(f"{Path(sys.argv[0]).name}: error: {exc}")
+
+
+def run_timed(command: list[str], env: dict[str, str] | None = None) -> dict[str, float]:
+    """Run ``command`` in a child process under ``/usr/bin/time`` (its own small parent, so the peak memory is the
+    command's alone, not this process's pages shared at fork): wall seconds, CPU seconds (user + system) and peak
+    resident memory (MB). Exits with the command's last error output when it fails."""
+    with tempfile.TemporaryDirectory(prefix="sotmot-time-") as tmp:
+        usage = Path(tmp) / "time.txt"
+        start = time.perf_counter()
+        done = subprocess.run(["/usr/bin/time", "-o", str(usage), "-f", "%U %S %M", *command],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+        seconds = time.perf_counter() - start
+        if done.returncode:
+            raise SystemExit(f"{' '.join(command)} failed with exit status {done.returncode}:\n{done.stderr[-3000:]}")
+        user, system, peak_kb = usage.read_text().split()[-3:]
+    return {"seconds": seconds, "cpu_seconds": float(user) + float(system), "peak_rss_mb": int(peak_kb) / 1024}

@@ -175,7 +175,7 @@ def long_section(data: dict | None) -> list[str]:
         return []
     lines = ["## Long videos", "", "Each sequence played k times in a row as one MPEG-4 video, its public "
              "detections shifted to match, tracked by `sotmot track VIDEO --det DET` in a child process (peak "
-             "resident memory from `/usr/bin/time -v`; temporary disk sampled every 0.1 s).", "",
+             "resident memory from `/usr/bin/time`; temporary disk sampled every 0.1 s).", "",
              "| video | frames | size | wall s | fps | peak RSS MB | peak temp disk MB |",
              "|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
@@ -193,7 +193,7 @@ def windows_section(data: dict | None) -> list[str]:
              "tracked window by window, windows overlapping by the 4-s association gap, tracks joined where their "
              "boxes agree in the overlap; against the whole video at once. Long videos: MOT16-09 played k times "
              "as one MPEG-4 video, its ground truth repeated with new ids for each copy; peak resident memory "
-             "from `/usr/bin/time -v` (with workers: the largest process).", "",
+             "from `/usr/bin/time` (with workers: the largest process).", "",
              "`at joins`: ID switches in an overlap of two windows or the frame after it (TrackEval's CLEAR "
              "matching, frame by frame).", "",
              "| video | mode | windows | wall s | fps | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | at joins |",
