@@ -24,6 +24,16 @@ and two changes, so these counts can exceed the totals above):
   linked two people), ``a merge`` (boxes of two tracklets that association
   joined), or ``interpolation`` (one of the two boxes is interpolated).
 
+**The ceiling of association** on the same tracklets: each sequence is also
+finished (interpolation, confirmation, end extension as configured) with the
+solver replaced by the ground truth: every tracklet joined with the others whose
+boxes are mostly the same person (:func:`sotmot.fitting.lifted.tracklet_identities`;
+a tracklet with no majority person stays alone), the rules of A(t1, t2) not
+asked. Its HOTA / IDF1 / MOTA, beside sotmot's and the peer's, say about how
+much association of these tracklets can still gain, and what is left to the
+stages before it (detection, tracklets). Not a strict bound: interpolation,
+confirmation and the end extension judge the joined trajectories again.
+
     python scripts/identity_analysis.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --peer peers/results/StrongSORT_+GSI_4s --json identities.json
 """
@@ -42,12 +52,33 @@ import numpy as np
 from common import DEFAULT_DATA
 from sotmot.association.checks import check_pair
 from sotmot.benchmarks import cached_features, machine, sequences
+from sotmot.association import Association
 from sotmot.config import TrackerConfig, load_config
-from sotmot.scoring import FrameErrors, frame_errors
+from sotmot.fitting.lifted import tracklet_identities
+from sotmot.plugins import SOLVERS
+from sotmot.scoring import FrameErrors, evaluate_files, frame_errors
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.pipeline import TrackResult, finish_sequence, prepare_sequence
 
 FULL_LENGTH = 100
+SCORES = ("HOTA", "IDF1", "MOTA")
+#: The ground-truth "solver" of the ceiling: tracklet id -> person, set for the sequence being finished.
+_PERSON: dict[int, int] = {}
+
+
+def ground_truth_solve(tracklets, config) -> Association:
+    """Join every tracklet with the others of its person (:data:`_PERSON`); the rules are not asked."""
+    groups: dict[int, list[int]] = {}
+    for t in tracklets:
+        person = _PERSON.get(t.id, -1)
+        groups.setdefault(person if person >= 0 else -1 - t.id, []).append(t.id)
+    return Association(groups=tuple(sorted(tuple(sorted(g)) for g in groups.values())))
+
+
+def scores(path: Path, info) -> dict[str, float]:
+    """HOTA, IDF1, MOTA of one results file."""
+    report = evaluate_files([(path, info.gt_path, info.length, info.name)])
+    return {k: round(float(report.sequences[info.name][k]), 2) for k in SCORES}
 
 
 def lives(errors: FrameErrors) -> tuple[dict[int, list[tuple[int, int]]], dict[int, list[tuple[int, int]]]]:
@@ -113,6 +144,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
+    SOLVERS["ground-truth"] = f"{__name__}:ground_truth_solve"
+    ceiling_config = config.replace("association", solver="ground-truth")
     seqs = [p for p in sequences(args.data) if read_seqinfo(p).length > FULL_LENGTH]
     report: dict[str, dict] = {}
     embedder: list = []
@@ -125,10 +158,18 @@ def main(argv: list[str] | None = None) -> int:
             write_results(path, result.tracks)
             errors = frame_errors(path, info.gt_path, info.length, info.name)
             row = {"sotmot": counts(errors), "sotmot_by_stage": {k: dict(v) for k, v in
-                                                                explain(result, errors, config).items()}}
+                                                                explain(result, errors, config).items()},
+                   "sotmot_scores": scores(path, info)}
+            persons = tracklet_identities(prepared.tracklets, info, Path(tmp) / "persons" / info.name)
+            _PERSON.clear()
+            _PERSON.update({t.id: int(p) for t, p in zip(prepared.tracklets, persons)})
+            ceiling = results_path(Path(tmp) / "ceiling", info.name)
+            write_results(ceiling, finish_sequence(prepared, ceiling_config).tracks)
+            row["ceiling_scores"] = scores(ceiling, info)
             peer_file = args.peer / f"{info.name}.txt" if args.peer else None
             if peer_file is not None and peer_file.is_file():
                 row["peer"] = counts(frame_errors(peer_file, info.gt_path, info.length, info.name))
+                row["peer_scores"] = scores(peer_file, info)
             report[info.name] = row
             print(f"{info.name}: done", file=sys.stderr)
     peer = args.peer.name.replace("_", " ") if args.peer else None
@@ -141,6 +182,11 @@ def main(argv: list[str] | None = None) -> int:
         lines.append(f"{name:<16}{row['sotmot']['fragmentations']:>12}{row['sotmot']['switches']:>8}"
                      + (f"{p['fragmentations']:>11}{p['switches']:>8}" if p else f"{'-':>11}{'-':>8}" if peer else "")
                      + "   " + stages)
+    lines += ["", f"{'sequence':<16}" + "".join(f"{w + ' ' + k:>16}" for w in ("sotmot", "ceiling", "peer")
+                                              for k in SCORES)]
+    for name, row in report.items():
+        lines.append(f"{name:<16}" + "".join(f"{row.get(w + '_scores', {}).get(k, float('nan')):>16.2f}"
+                                             for w in ("sotmot", "ceiling", "peer") for k in SCORES))
     print("\n".join(lines))
     print(f"peer: {peer or 'none'}; public detections; machine: {machine()}")
     if args.json:
