@@ -20,6 +20,7 @@ Unknown tables and keys are errors (a typo must not be silently ignored).
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import json
 import math
 import tomllib
@@ -826,6 +827,22 @@ SECTIONS: dict[str, type] = {
     "motion": MotionConfig,
     "windows": WindowConfig,
 }
+
+
+def field_docs(cls: type) -> dict[str, str]:
+    """Field name -> its description, from the numpy-style ``Attributes`` section of a section's docstring: what
+    docs/configuration.md and the command line's help both say of it."""
+    lines = inspect.getdoc(cls).splitlines()
+    docs: dict[str, str] = {}
+    names: list[str] = []
+    for line in lines[lines.index("Attributes") + 2:]:
+        if line and not line.startswith(" "):
+            names = [n.strip() for n in line.split(",")]
+            docs.update((n, "") for n in names)
+        elif line.strip():
+            for n in names:
+                docs[n] = (docs[n] + " " + line.strip()).strip()
+    return docs
 
 
 def _coerce(section: str, name: str, hint: Any, value: Any) -> Any:

@@ -75,12 +75,13 @@ def test_compare_runs_every_solver_on_the_same_tracklets(tmp_path, model_0288, c
 
 
 def test_appearance_backend_and_flip_come_from_the_command_line():
-    from sotmot.cli import _build_config, build_parser
+    from sotmot.cli import build_parser
+    from sotmot.cli.flags import build_config
 
-    config = _build_config(build_parser().parse_args(["track", "x", "--out", "y"]))
+    config = build_config(build_parser().parse_args(["track", "x", "--out", "y"]))
     assert config.appearance.backend == "auto" and config.appearance.flip
     args = build_parser().parse_args(["track", "x", "--out", "y", "--appearance", "onnx", "--no-flip"])
-    config = _build_config(args)
+    config = build_config(args)
     assert config.appearance.backend == "onnx" and not config.appearance.flip
 
 

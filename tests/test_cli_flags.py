@@ -4,10 +4,12 @@ configuration the run would use, or is one of the run's own options (where, how 
 from __future__ import annotations
 
 import argparse
+import re
 
 import pytest
 
-from sotmot.cli import _build_config, build_parser
+from sotmot.cli import build_parser
+from sotmot.cli.flags import build_config
 
 #: Flags that choose how the run goes, not how it tracks: they never reach the configuration.
 RUN_OPTIONS = {"--out", "--eval", "--workers", "--cluster", "--resume", "--det", "--config", "--quiet", "--verbose",
@@ -28,7 +30,7 @@ def _tracker_flags(command: str) -> list[argparse.Action]:
 def _config(command: str, extra: list[str]):
     argv = [command, "SEQ"] + (["--out", "o"] if command in ("track", "graph") else []) + \
         (["--ids", "1,2"] if command == "explain" else []) + extra
-    return _build_config(build_parser().parse_args(argv))
+    return build_config(build_parser().parse_args(argv))
 
 
 @pytest.mark.parametrize("command", ["track", "compare", "graph", "explain"])
@@ -48,3 +50,35 @@ def test_every_tracker_flag_changes_the_configuration(command):
             tried = [[flag, VALUES[flag]]]
         changed = [t for t in tried if _config(command, base + t).to_dict() != reference]
         assert changed, f"{command} {flag}: no value of it changes the configuration"
+
+
+def test_the_flag_table_names_real_fields_and_says_where_each_lives():
+    import dataclasses
+    import typing
+
+    from sotmot.cli.flags import FLAGS, help_text
+    from sotmot.config import SECTIONS
+
+    for flag in FLAGS:
+        names = {f.name for f in dataclasses.fields(SECTIONS[flag.section])}
+        assert flag.field in names, f"{flag.names[0]}: [{flag.section}] has no field {flag.field}"
+        assert f"([{flag.section}] {flag.field}, default" in help_text(flag)
+    # choices come from the field's type: a Literal's values are the flag's choices
+    nms = next(a for a in _tracker_flags("track") if "--nms" in a.option_strings)
+    hint = typing.get_type_hints(SECTIONS["preprocess"])["nms"]
+    assert list(nms.choices) == list(typing.get_args(hint))
+
+
+def test_a_value_the_configuration_refuses_is_an_error_that_names_the_flag():
+    from sotmot.errors import ConfigError
+
+    for argv, shown in ((["--fps", "0"], "--fps 0: [input] fps"), (["--window", "-1"], "--window -1: [windows]"),
+                        (["--extend-ends", "-2"], "--extend-ends -2: [sot]")):
+        with pytest.raises(ConfigError, match="^" + re.escape(shown)):
+            _config("track", argv)
+
+
+def test_a_value_that_is_no_number_is_refused_by_the_parser(capsys):
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["track", "SEQ", "--out", "o", "--fps", "fast"])
+    assert "invalid float value: 'fast'" in capsys.readouterr().err

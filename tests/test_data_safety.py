@@ -202,7 +202,7 @@ def _alive(pid: int) -> bool:
 def test_sigterm_cleans_the_temporary_frames_of_a_video(tmp_path, monkeypatch, capsys):
     import tempfile
 
-    from sotmot import cli
+    from sotmot.cli import commands as cli
 
     video = write_video(tmp_path / "street.avi")
     det = tmp_path / "d.txt"
@@ -251,9 +251,10 @@ def test_an_absurd_frame_rate_is_refused(tmp_path, capsys):
     video = write_video(tmp_path / "street.avi")
     det = tmp_path / "d.txt"
     det.write_text("1,-1,10,20,20,40,0.9\n")
-    with pytest.raises(SystemExit):
-        main(["track", str(video), "--det", str(det), "--out", str(tmp_path / "out"), "--fps", "10000"])
-    assert "at most 240" in capsys.readouterr().err
+    # the configuration's check, the one statement of the bound, named by the flag
+    assert main(["track", str(video), "--det", str(det), "--out", str(tmp_path / "out"), "--fps", "10000"]) == 2
+    assert "--fps 10000: [input] fps must be a frame rate above 0 and at most 240" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
     with pytest.raises(InputError, match="above 240"):
         read_seqinfo(write_video(tmp_path / "fast.avi", fps=10000.0))
     seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False, frame_rate=10000)
@@ -265,7 +266,7 @@ def test_an_absurd_frame_rate_is_refused(tmp_path, capsys):
 # 9. outputs checked after the work -----------------------------------------------------------------------------
 
 def test_graph_out_that_is_a_file_fails_before_tracking(tmp_path, monkeypatch, capsys):
-    from sotmot import cli
+    from sotmot.cli import commands as cli
 
     seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False)
     (tmp_path / "taken").write_text("x")
@@ -329,7 +330,7 @@ def test_compare_refuses_an_empty_or_repeated_solver_list(tmp_path, solvers, cap
 
 
 def test_explain_refuses_one_id_twice_and_graph_frames_past_the_end(tmp_path, capsys, monkeypatch):
-    from sotmot import cli
+    from sotmot.cli import commands as cli
 
     monkeypatch.setattr(cli, "_track_for_inspection", lambda args: pytest.fail("tracked with bad arguments"))
     seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], length=30, images=False)

@@ -84,7 +84,7 @@ def test_workers_must_be_positive(capsys):
 def test_progress_bars_only_on_a_terminal(monkeypatch):
     import sys
 
-    from sotmot.cli import _progress
+    from sotmot.cli.commands import _progress
 
     monkeypatch.setattr(sys.stderr, "isatty", lambda: False)
     assert not _progress(argparse.Namespace(quiet=False))
@@ -342,16 +342,17 @@ def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):
 
 
 def test_the_solver_is_configuration():
-    from sotmot.cli import _build_config, build_parser
+    from sotmot.cli import build_parser
+    from sotmot.cli.flags import build_config
 
     from sotmot.association import SOLVERS
 
     with pytest.raises(ConfigError, match="solver must be one of " + ", ".join(sorted(SOLVERS))):
         TrackerConfig().replace("association", solver="magic")
     args = build_parser().parse_args(["track", "x", "--out", "y", "--merger", "flow"])
-    assert _build_config(args).association.solver == "flow"
+    assert build_config(args).association.solver == "flow"
     args = build_parser().parse_args(["track", "x", "--out", "y"])
-    assert _build_config(args).association.solver == "greedy"
+    assert build_config(args).association.solver == "greedy"
 
 
 def test_resume_skips_a_copied_sequence_and_a_video_decoded_again(tmp_path, model_0288):

@@ -1,0 +1,234 @@
+"""The ``sotmot`` command line: the parser and ``main``. The tracker's flags come from one table
+(:mod:`sotmot.cli.flags`), each sub-command's work is in :mod:`sotmot.cli.commands`; the library does the rest."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+import threading
+from pathlib import Path
+
+from sotmot.cli.commands import (_positive_float, _positive_int, cmd_compare, cmd_eval, cmd_explain,
+                                 cmd_graph, cmd_models, cmd_render, cmd_track, cmd_train)
+from sotmot.cli.flags import add_tracker_flags
+from sotmot.errors import SotmotError
+
+EPILOG_TRACK = """\
+examples:
+  sotmot track ../shared/data/PETS09-S2L1 --out results --eval   # the bundled models
+  sotmot track ../shared/data/MOT16-*-clip30 --out results --eval
+  sotmot track SEQ --out results --config my.toml   # every threshold, see docs/configuration.md
+  sotmot track DATA/* --out results --workers 2 --resume   # 2 processes, skip finished sequences
+  sotmot track /shared/DATA/* --out /shared/results --cluster dask://scheduler:8786
+  sotmot track street.mp4 --out results   # a plain video: the bundled detector finds the people
+  sotmot track SEQ --out results --reid-model my-reid.onnx --detector-model my-detector.xml   # other models
+  sotmot track street.mp4 --det street_det.txt --out results   # a video and its detections
+  sotmot track ../shared/data/MOT16-09 --detections model --out results   # the detector, not det/det.txt
+
+The models are the two sotmot ships with (`sotmot models` lists them): Intel's
+person-reidentification-retail-0288 and person-detection-0202 (Apache-2.0). Another model comes
+from --reid-model / --detector-model, the config, or the environment variables SOTMOT_REID_MODEL
+and SOTMOT_DETECTOR_MODEL. A sequence folder with det/det.txt is tracked from that
+file; a plain video (or --detections model) from the detector's boxes, written beside the
+results as <name>.det.txt (MOTChallenge det format) so that the run can be repeated with --det.
+Results are written as DIR/<name>.txt (MOTChallenge format: frame, id, x, y, w, h,
+score, -1, -1, -1; boxes in pixels, frames 1-based), each file atomically; <name> is
+the name in seqinfo.ini and must be a plain file name (no path separators). Beside it:
+<name>.flags.csv (interpolated / SOT boxes, each box's confidence) and <name>.run.json
+(sotmot version, full configuration, solver, model and input hashes, time); --resume
+skips a sequence only when that record matches the current run.
+"""
+
+EPILOG_EVAL = """\
+Scores RESULTS_DIR/<name>.txt against SEQ_DIR/gt/gt.txt with TrackEval (HOTA, CLEAR,
+Identity). MOT16-layout ground truth (9 columns) is scored with the MOT16 rules
+(distractor classes removed); 2DMOT2015-layout ground truth with the plain rules.
+
+example:
+  sotmot eval results ../shared/data/PETS09-S2L1 --json scores.json
+"""
+
+
+EPILOG_COMPARE = """\
+Each sequence goes once through detection cleaning, appearance and tracklets; then every
+solver runs on those same tracklets. Columns: TrackEval HOTA, MOTA, IDF1, IDSW; tracks, the
+identities in the results the run writes (as 'sotmot track' writes them); lifted_obj, the one
+objective every solver is scored on (the sum over pairs of tracklets in one trajectory within the
+horizon of n_a * n_b times the learned log-likelihood ratio that they are one person, or
+(affinity - lifted_threshold) with lifted_costs = "threshold"; higher is better); window_gap,
+for the lifted solver, how far CP-SAT's proved bound lies above its solution in windows not
+proven optimal (0: every window optimal); flow_net_cost, the flow
+network's own cost (entry cost per trajectory + (1 - affinity) per link; lower is better for that
+network only); the solver's time in seconds.
+
+example:
+  sotmot compare ../shared/data/PETS09-S2L1 --solvers greedy,flow,lifted --json compare.json
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="sotmot",
+        description="Multi-object tracking of people by detection, after 'SOT for MOT' (He et al.): "
+                    "Hungarian tracklets in 1-second batches, long-term association under IoU, velocity "
+                    "and gap constraints, interpolation and smoothing. Input: MOTChallenge folders.")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
+    from sotmot.provenance import sotmot_version
+
+    parser.add_argument("--version", action="version", version=f"sotmot {sotmot_version()}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("track", help="track sequences and write MOTChallenge results",
+                       description="Track one or more MOTChallenge sequence folders.",
+                       epilog=EPILOG_TRACK, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR",
+                   help="folder with seqinfo.ini, img1/ and (usually) det/det.txt, or a video file (.mp4, .avi, ...)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="where <name>.txt results go")
+    add_tracker_flags(p, "track")
+    p.add_argument("--det", type=Path, metavar="DET.txt",
+                   help="the detections of the one video or sequence tracked (MOTChallenge layout: frame, id, x, y, "
+                        "w, h, score; frames counted from 1 at the video's first frame), instead of its det/det.txt "
+                        "or the detector; e.g. the <name>.det.txt a model run wrote")
+    p.add_argument("--eval", action="store_true", help="score the results with TrackEval afterwards")
+    p.add_argument("--workers", type=_positive_int, default=1, metavar="N",
+                   help="track N sequences at once in separate processes, or the windows of one sequence with "
+                        "--window (default: 1; never more than the sequences or the CPUs; the workers end with this "
+                        "process)")
+    p.add_argument("--cluster", metavar="dask://HOST:PORT",
+                   help="run the sequences on an existing Dask cluster (its scheduler's address), one task a "
+                        "sequence; the workers must see the same paths (shared filesystem) and have sotmot "
+                        "installed (pip install -e '.[dask]'). Every path, the models' from the environment "
+                        "too, is resolved here before the tasks are sent; a lost worker's sequence runs again "
+                        "on another")
+    p.add_argument("--resume", action="store_true",
+                   help="skip sequences whose results exist from the same run settings (model, config, inputs, "
+                        "all hashed in <name>.run.json) and are unchanged since (their hash is recorded too)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (drawn only when stderr is a terminal)")
+    p.set_defaults(func=cmd_track)
+
+    p = sub.add_parser("eval", help="score results with TrackEval", description="Score tracking results.",
+                       epilog=EPILOG_EVAL, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("results_dir", type=Path, metavar="RESULTS_DIR", help="folder with <name>.txt results")
+    p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequence folders with gt/gt.txt")
+    p.add_argument("--json", type=Path, metavar="FILE", help="also write the scores as JSON")
+    p.set_defaults(func=cmd_eval)
+
+    p = sub.add_parser("compare", help="compare association solvers on the same tracklets",
+                       description="Compare long-term association solvers on identical tracklets.",
+                       epilog=EPILOG_COMPARE, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequence folders with gt/gt.txt")
+    p.add_argument("--solvers", "--mergers", dest="solvers", default="greedy,flow", metavar="SOLVERS",
+                   help="comma-separated solver names (default: %(default)s; --mergers is the older name)")
+    add_tracker_flags(p, "compare")
+    p.add_argument("--json", type=Path, metavar="FILE", help="also write the table as JSON")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (drawn only when stderr is a terminal)")
+    p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("train-appearance", help="fine-tune the re-ID model with triplet loss on ground truth",
+                       description="Fine-tune the re-ID model (torch backend) with a batch-hard triplet loss on "
+                                   "ground-truth crops of the given sequences; a quarter of the identities is "
+                                   "held out for validation; early layers are frozen. Use the result with "
+                                   "--appearance torch --weights FILE.",
+                       epilog="example:\n  sotmot train-appearance ../shared/data/PETS09-S2L1 --out tuned.pt",
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequences with gt/gt.txt and img1/")
+    p.add_argument("--init", metavar="MODEL.onnx",
+                   help="the re-ID model to start from (default: the bundled person-reidentification-retail-0288, "
+                        "or SOTMOT_REID_MODEL)")
+    p.add_argument("--out", type=Path, required=True, metavar="FILE.pt", help="checkpoint (best validation AUC)")
+    p.add_argument("--epochs", type=_positive_int, default=3, help="passes over the crops (default: %(default)s)")
+    p.add_argument("--margin", type=_positive_float, default=0.3, help="triplet margin (default: %(default)s)")
+    p.add_argument("--lr", type=_positive_float, default=1e-4, help="Adam learning rate (default: %(default)s)")
+    p.add_argument("--train-last", type=int, default=12, metavar="K",
+                   help="train only the last K weight tensors (default: %(default)s; 0 = all)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the identity split and sampling (default: %(default)s)")
+    p.add_argument("--device", choices=["cpu", "cuda"], default="cpu", help="where to train (default: %(default)s)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar (drawn only when stderr is a terminal)")
+    p.set_defaults(func=cmd_train)
+
+    p = sub.add_parser("render", help="draw results on the frames (video or JPEG folder)",
+                       description="Draw tracking results on the frames: stable colour per id, id label, "
+                                   "short trail; SOT boxes dashed, interpolated boxes thin with an 'i' "
+                                   "(from the .flags.csv that 'sotmot track' writes beside the results). "
+                                   "With --gt, the ground truth is drawn beside them with the errors of "
+                                   "the CLEAR matching: FP red, FN dashed red, ID switches flagged.")
+    p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR",
+                   help="the sequence the results are of (frames from img1/), or the video file they were tracked on")
+    p.add_argument("results", type=Path, metavar="RESULTS.txt",
+                   help="MOTChallenge results, e.g. from sotmot track (its .flags.csv beside it marks SOT and "
+                        "interpolated boxes)")
+    p.add_argument("--out", type=Path, required=True, metavar="VIDEO.mp4|DIR",
+                   help="a .mp4 or .avi file, or a folder name without extension for one JPEG per frame; never "
+                        "inside the sequence folder, never over an input. A video or a new folder is written under "
+                        "a hidden .partial name and renamed when complete; an existing folder must be empty or hold "
+                        "an earlier render's NNNNNN.jpg frames only, and is written into frame by frame")
+    p.add_argument("--gt", action="store_true", help="draw SEQ_DIR/gt/gt.txt beside, with the errors marked")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar (drawn only when stderr is a terminal)")
+    p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("models", help="list the models a run uses: origin, licence, size, SHA-256",
+                       description="The two models sotmot ships with (Intel Open Model Zoo, Apache-2.0) and the ones "
+                                   "a run uses now: a model named by SOTMOT_REID_MODEL or SOTMOT_DETECTOR_MODEL "
+                                   "replaces the bundled one, as --reid-model / --detector-model or the config do "
+                                   "for one run. Each bundled file is checked against its SHA-256.")
+    p.add_argument("--json", action="store_true", help="print the table as JSON")
+    p.set_defaults(func=cmd_models)
+
+    for name, func, text in (("graph", cmd_graph, "export the association graph (GraphML, JSON, PNG, HTML)"),
+                             ("explain", cmd_explain, "say why two tracks (or two tracklets) were or were not merged")):
+        p = sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + ". The sequence is "
+                           "tracked first, with the same options as 'sotmot track'; track ids are those "
+                           "of the results file that run writes.")
+        p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR", help="folder with seqinfo.ini, det/det.txt and img1/")
+        if name == "graph":
+            p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                           help="folder for graph.graphml, graph.json, graph.png and graph.html")
+            p.add_argument("--frames", metavar="A:B", help="only tracklets that touch frames A..B")
+        else:
+            p.add_argument("--ids", metavar="ID[,ID]",
+                           help="two track ids of the results file (e.g. 3,17: why they were not merged), or one "
+                                "(e.g. 5: why its tracklets were merged into it)")
+            p.add_argument("--tracklets", metavar="ID,ID",
+                           help="two tracklet ids, as 'sotmot graph' draws them (e.g. 4,9: merged or not, and why)")
+        add_tracker_flags(p, name)
+        p.add_argument("-q", "--quiet", action="store_true",
+                       help="no progress bars (drawn only when stderr is a terminal)")
+        p.set_defaults(func=func)
+    for p in sub.choices.values():  # -v also after the command: sotmot track ... -v
+        p.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,
+                       help="more log output (-vv for debug)")
+    return parser
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that every ``with`` and ``finally`` cleans up as for Ctrl-C."""
+
+
+def _terminate(signum, frame) -> None:
+    raise Terminated
+
+
+def main(argv: list[str] | None = None) -> int:
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return args.func(args)
+    except SotmotError as exc:
+        print(f"sotmot: error: {exc}", file=sys.stderr)
+        return 2
+    except Terminated:
+        print("sotmot: terminated", file=sys.stderr)
+        return 143
+    except KeyboardInterrupt:
+        print("sotmot: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,334 @@
+"""The sub-commands' work: each ``cmd_<name>`` takes the parsed arguments, calls the library and prints."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from sotmot.cli.flags import build_config
+from sotmot.errors import SotmotError
+
+#: train-appearance warns when fewer people than this are held out: their validation AUC is then mostly chance.
+MIN_VALIDATION_IDENTITIES = 5
+
+def _positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"must be a finite number above 0, got {text}")
+    return value
+
+
+def _progress(args: argparse.Namespace) -> bool:
+    """Progress bars only for a person watching: not with -q, not when stderr is a file or a pipe."""
+    return not args.quiet and sys.stderr.isatty()
+
+
+def cmd_track(args: argparse.Namespace) -> int:
+    from sotmot.io.video import is_video
+
+    videos = [p for p in args.seq_dirs if is_video(p)]
+    if args.det is not None and len(args.seq_dirs) > 1:
+        raise SotmotError("--det belongs to one video or sequence; track several in separate runs")
+    if args.det is not None and args.detections == "model":
+        raise SotmotError("--det gives the detections, --detections model asks the detector for them: choose one")
+    if videos and args.eval:
+        raise SotmotError(f"{videos[0]}: --eval needs ground truth (a sequence folder with gt/gt.txt); a video has "
+                          f"none")
+    config = build_config(args)
+    if args.det is not None:  # read where it lies: its errors name it, its run record (if any) says its detector
+        if not args.det.is_file():
+            raise SotmotError(f"{args.det}: detections file not found (--det)")
+        config = config.replace("detection", file=str(args.det))
+    if videos and config.detection.source == "file" and config.detection.file is None:
+        raise SotmotError(f"{videos[0]}: a video has no det.txt: give its detections with --det FILE, or let the "
+                          f"detector find the people (--detections auto or model)")
+    return _track(args, config, args.seq_dirs)  # a video's frames are read from the file itself
+
+
+def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
+    from sotmot.runs import sequence_inputs, sequence_outputs, track_many
+    from sotmot.io import read_seqinfo, refuse_overwriting
+
+    infos = [read_seqinfo(s, config.input.fps) for s in seq_dirs]  # a bad folder or video fails before any work
+    names = [i.name for i in infos]
+    if len(set(names)) != len(names):
+        raise SotmotError(f"two sequences share a name: {names}")
+    for info in infos:
+        refuse_overwriting(sequence_outputs(args.out, info, config), sequence_inputs(info, config),
+                           "choose another --out")
+        if args.eval and not info.gt_path.is_file():
+            raise SotmotError(f"{info.gt_path}: --eval needs the ground truth of {info.name}, and there is none; "
+                              f"track without --eval")
+
+    def report(outcome) -> None:
+        from tqdm import tqdm
+
+        failed = outcome.status == "failed"
+        # tqdm.write keeps the lines clear of the progress bars
+        tqdm.write(f"sotmot: error: {outcome.message}" if failed else outcome.message,
+                   file=sys.stderr if failed else sys.stdout)
+
+    if config.appearance.backend == "auto" and not args.quiet:
+        from sotmot.appearance import resolve_backend
+
+        ran = resolve_backend(config.appearance).backend
+        other = ("--appearance onnx runs onnxruntime" if ran == "openvino"
+                 else "openvino, a dependency of sotmot, gives a backend about twice as fast: pip install openvino")
+        print(f"sotmot: re-ID by {ran} (--appearance auto; {other})", file=sys.stderr)
+    made = not args.out.exists()
+    outcomes = track_many(seq_dirs, args.out, config, workers=args.workers,
+                          resume=args.resume, progress=_progress(args), report=report, cluster=args.cluster)
+    failed = [o for o in outcomes if o.status == "failed"]
+    if failed:
+        if len(failed) < len(outcomes):
+            print(f"sotmot: {len(failed)} of {len(outcomes)} sequences failed; the others' results are in "
+                  f"{args.out}", file=sys.stderr)
+            return 2
+        if made and args.out.is_dir() and not any(args.out.iterdir()):
+            args.out.rmdir()  # this run made the folder and wrote nothing into it
+        what = "the sequence" if len(outcomes) == 1 else f"all {len(outcomes)} sequences"
+        kept = "; what was committed before the failure is kept" if any(o.results for o in failed) else \
+            "; no results written"
+        print(f"sotmot: {what} failed{kept}", file=sys.stderr)
+        return 2
+    if args.eval:
+        return cmd_eval(argparse.Namespace(results_dir=args.out, seq_dirs=seq_dirs, json=None))
+    return 0
+
+
+def _check_json(path: Path | None, seq_dirs: list[Path], results_dir: Path | None = None) -> None:
+    """Refuse, before the work, a ``--json`` that is a folder or one of the files the command reads."""
+    if not path:
+        return
+    from sotmot.io import read_seqinfo, refuse_overwriting, results_path
+
+    if path.is_dir():
+        raise SotmotError(f"{path}: --json must name a file, but this is a folder")
+    inputs = []
+    for seq in seq_dirs:
+        info = read_seqinfo(seq)
+        inputs += [info.source, info.det_path, info.gt_path]
+        if results_dir is not None:
+            inputs.append(results_path(results_dir, info.name))
+    refuse_overwriting([path], inputs, "choose another --json")
+
+
+def _json_ready(value):
+    """``value`` with every NaN or infinite float as None: JSON has no NaN (``JSON.parse`` refuses it)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_ready(v) for v in value]
+    return value
+
+
+def _write_json(path: Path | None, data: dict, what: str) -> None:
+    """Write ``data`` as JSON to ``path`` (atomically) when a path was given (checked by :func:`_check_json` before
+    the work), and say so."""
+    if path:
+        from sotmot.io import write_text_atomic
+
+        try:
+            write_text_atomic(path, json.dumps(_json_ready(data), indent=2, allow_nan=False) + "\n")
+        except OSError as exc:
+            raise SotmotError(f"{path}: cannot write the {what}: {exc.strerror}") from exc
+        print(f"{what} written to {path}")
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from sotmot.io import read_seqinfo, results_path
+    from sotmot.provenance import results_doubts
+    from sotmot.scoring import evaluate, format_table
+
+    _check_json(args.json, args.seq_dirs, args.results_dir)
+    report = evaluate(args.results_dir, args.seq_dirs)
+    for seq in args.seq_dirs:
+        for doubt in results_doubts(results_path(args.results_dir, read_seqinfo(seq).name)):
+            print(f"sotmot: warning: {doubt}", file=sys.stderr)
+    print(format_table(report))
+    print("TrackEval rules: " + ", ".join(f"{name} {rules}" for name, rules in report.benchmark.items())
+          + " (MOT16: distractor classes removed; MOT15: every ground-truth box counts)")
+    _write_json(args.json, report.to_dict(), "scores")
+    return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from sotmot.association import get_solver
+    from sotmot.inspect.compare import compare, format_comparison
+
+    solvers = [m.strip() for m in args.solvers.split(",")]
+    if not all(solvers):
+        raise SotmotError(f"--solvers {args.solvers!r}: give solver names separated by commas, none empty "
+                          f"(e.g. greedy,flow)")
+    if len(set(solvers)) != len(solvers):
+        raise SotmotError(f"--solvers {args.solvers!r} names a solver twice")
+    for m in solvers:
+        get_solver(m)  # unknown names fail here, listing the valid ones
+    from sotmot.io import read_seqinfo
+
+    for seq in args.seq_dirs:  # every solver is scored: the ground truth must be there, said before the work
+        info = read_seqinfo(seq)
+        if info.video is not None:
+            raise SotmotError(f"{seq}: compare scores each solver against ground truth (gt/gt.txt of a sequence "
+                              f"folder); a video has none")
+        if not info.gt_path.is_file():
+            raise SotmotError(f"{info.gt_path}: compare scores each solver against the ground truth of {info.name}, "
+                              f"and there is none")
+    config = build_config(args)
+    _check_json(args.json, args.seq_dirs)
+    result = compare(args.seq_dirs, solvers, config, progress=_progress(args))
+    print(format_comparison(result))
+    _write_json(args.json, result.to_dict(), "comparison")
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from sotmot.io import refuse_overwriting
+    from sotmot.io.video import is_video
+    from sotmot.io.flags import flags_path
+
+    inputs = [args.seq_dir, args.results, flags_path(args.results)]
+    refuse_overwriting([args.out], inputs, "choose another --out")  # before a video is read
+    if args.gt and is_video(args.seq_dir):
+        raise SotmotError("--gt needs a sequence folder with gt/gt.txt, not a video")
+    return _render(args, args.seq_dir, inputs)
+
+
+def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
+    from sotmot.io import read_results, read_seqinfo
+    from sotmot.progress import progress_bar
+    from sotmot.inspect.render import check_render_target, render
+    from sotmot.io.flags import flags_path, read_flags
+    from sotmot.provenance import side_file_doubt
+
+    info = read_seqinfo(seq_dir)
+    check_render_target(info, args.out, inputs)  # before reading and matching anything
+    tracks = read_results(args.results, info.length)
+    doubt = side_file_doubt(args.results, flags_path(args.results))
+    if doubt:
+        print(f"sotmot: warning: {doubt}: drawn without the SOT and interpolation markers", file=sys.stderr)
+    else:
+        tracks = read_flags(args.results, tracks)
+    errors = None
+    if args.gt:
+        from sotmot.scoring import frame_errors
+
+        errors = frame_errors(args.results, info.gt_path, info.length, info.name)
+        totals = errors.totals()
+        print(f"CLEAR matching (as TrackEval): FP {totals['FP']}, FN {totals['FN']}, IDSW {totals['IDSW']}")
+    out = render(info, tracks, args.out, errors=errors, inputs=inputs,
+                 progress=lambda it: progress_bar(it, f"{info.name}: render", _progress(args), info.length))
+    print(f"{info.length} frames, {tracks.n_tracks} tracks -> {out}")
+    return 0
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from sotmot.config import AppearanceConfig
+    from sotmot.progress import progress_bar
+    from sotmot.train import TrainConfig, train
+
+    from sotmot.io import refuse_overwriting
+
+    refuse_overwriting([args.out], [args.init, *(Path(s) / "gt" / "gt.txt" for s in args.seq_dirs)],
+                       "choose another --out")
+    config = TrainConfig(epochs=args.epochs, margin=args.margin, lr=args.lr, train_last=args.train_last,
+                         seed=args.seed)
+    appearance = AppearanceConfig(model=args.init, backend="torch", device=args.device)
+    summary = train(args.seq_dirs, appearance, args.out, config,
+                    progress=lambda it: progress_bar(it, "epochs", _progress(args), config.epochs))
+    for h in summary["history"]:
+        print(f"epoch {h['epoch']}: train loss {h['train_loss']:.4f}, validation AUC {h['val_auc']:.4f}")
+    if summary["identities_val"] < MIN_VALIDATION_IDENTITIES:
+        print(f"sotmot: warning: only {summary['identities_val']} validation identities: their AUC says little "
+              f"about other people (an AUC of 1.0 is easy with two); train on more sequences, at least "
+              f"{MIN_VALIDATION_IDENTITIES * 4} identities in all", file=sys.stderr)
+    print(f"{summary['identities_train']} training / {summary['identities_val']} validation identities, "
+          f"{summary['crops']} crops; validation AUC {summary['val_auc_before']:.4f} before, "
+          f"{summary['val_auc_best']:.4f} best (epoch {summary['best_epoch']}); {summary['seconds']:.0f} s "
+          f"-> {summary['out']}")
+    return 0
+
+
+def cmd_models(args: argparse.Namespace) -> int:
+    from sotmot.models import MODELS, bundled_path, describe
+
+    for kind in MODELS:
+        bundled_path(kind)  # a changed or cut bundled file: one clear error, not a table that hides it
+    rows = describe()
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    for row in rows:
+        print(f"{row['kind']}: {row['files'][0]} ({row['bytes'] / 1e6:.2f} MB, checked)")
+        print(f"  origin   {row['origin']}")
+        print(f"  licence  {row['licence']}")
+        for name, digest in row["sha256"].items():
+            print(f"  sha256   {digest}  {name}")
+        print(f"  in use   {row['in_use']}")
+        print(f"  change   {row['how_to_change']}")
+    return 0
+
+
+def _track_for_inspection(args: argparse.Namespace):
+    from sotmot.pipeline import track_sequence
+
+    config = build_config(args)
+    return config, track_sequence(args.seq_dir, config, progress=_progress(args))
+
+
+def cmd_graph(args: argparse.Namespace) -> int:
+    from sotmot.inspect.explain import graph_files, inspection_graph, parse_frames
+    from sotmot.inspect.graph_view import SHOWN, html_page, png_bytes, shown_edges, tracklet_crops
+    from sotmot.io import check_output_dir, read_seqinfo, write_files_atomic
+
+    frames = parse_frames(args.frames, read_seqinfo(args.seq_dir).length)
+    check_output_dir(args.out)  # a file, a read-only folder: said now, not after the tracking
+    config, result = _track_for_inspection(args)
+    graph = inspection_graph(result, config, frames)
+    title = f"{result.info.name}: association graph ({config.association.solver})"
+    files = {args.out / name: data for name, data in graph_files(graph).items()}
+    files[args.out / "graph.png"] = png_bytes(graph)
+    files[args.out / "graph.html"] = html_page(graph, tracklet_crops(result, graph), title).encode("utf-8")
+    write_files_atomic(files)  # all four or none: a full disk leaves no partial set
+    paths = list(files)
+    taken = sum(1 for *_, d in graph.edges(data=True) if d["taken"])
+    dropped = len({d["track"] for _, d in graph.nodes(data=True) if d["track"] >= 0 and not d["in_results"]})
+    kept = len({d["track"] for _, d in graph.nodes(data=True) if d["in_results"]})
+    print(f"{graph.number_of_nodes()} tracklets in {kept} tracks of the results"
+          + (f" (and {dropped} tracks confirmation dropped)" if dropped else "")
+          + f", {graph.number_of_edges()} candidate links ({taken} taken by {config.association.solver}); the "
+          f"picture and the page draw {len(shown_edges(graph))} of them ({SHOWN}) -> " + ", ".join(map(str, paths)))
+    return 0
+
+
+def cmd_explain(args: argparse.Namespace) -> int:
+    from sotmot.inspect.explain import explain, explain_tracklets, inspection_graph, parse_ids
+
+    if (args.ids is None) == (args.tracklets is None):
+        raise SotmotError("give --ids (one or two track ids of the results file) or --tracklets (two tracklet ids "
+                          "as 'sotmot graph' draws them)")
+    a, b = parse_ids(args.ids) if args.ids is not None else parse_ids(args.tracklets, "tracklet")
+    config, result = _track_for_inspection(args)
+    graph = inspection_graph(result, config)
+    print(explain(graph, a, b, config) if args.ids is not None else explain_tracklets(graph, a, b, config))
+    return 0
