@@ -33,7 +33,7 @@ from pathlib import Path
 from common import DEFAULT_DATA, add_confirmation_fit_arguments, label_only_sequences
 from sotmot.benchmarks import before_confirmation
 from sotmot.fitting.confidence import fit, held_out_tracks, labelled_data, score, unconfirmed_tracks
-from sotmot.confidence import OWN_MODELS, model_kind
+from sotmot.confidence.calibration import OWN_MODELS, model_kind
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import METRICS
 from sotmot.io import read_seqinfo, write_text_atomic

@@ -197,7 +197,7 @@ def main(argv: list[str] | None = None) -> int:
         gap = round(base.postprocess.interpolate_max_seconds * p.info.frame_rate)
         text += ["## 7. Confirmation: which boxes are real", "",
                  f"After association every output box gets a probability of being a true positive from what its "
-                 f"trajectory is made of (`sotmot/confidence.py`, fitted as `docs/calibration.md` says). On "
+                 f"trajectory is made of (`sotmot/confidence/box_model.py`, fitted as `docs/calibration.md` says). On "
                  f"PETS09-S2L1 the detector's scores became confidences by the `{p.confidence_method}` map; gaps "
                  f"longer than {base.postprocess.interpolate_max_seconds:g} s ({gap} frames at 7 fps) are never "
                  f"filled, {int(r.tracks.interpolated.sum())} of {int(old.tracks.interpolated.sum())} interpolated "

@@ -40,7 +40,8 @@ import numpy as np
 
 from common import DEFAULT_DATA, ROOT, add_confirmation_fit_arguments, label_only_sequences
 from sotmot.benchmarks import machine
-from sotmot.confidence import Calibration, detection_confidence, quantile_map
+from sotmot.confidence.calibration import Calibration
+from sotmot.confidence.maps import detection_confidence, quantile_map
 from sotmot.config import TrackerConfig
 from sotmot.fitting.confidence import (
     detection_labels,

@@ -166,7 +166,7 @@ def _every_nth_lines(text: str, step: int) -> str:
 def subsampled_name(name: str, step: int) -> str:
     """The name of ``name`` at every ``step``-th frame: ``MOT16-09`` -> ``MOT16-09-every2``; a MOTChallenge
     detector suffix stays last (``MOT17-09-SDP`` -> ``MOT17-09-every2-SDP``), so the family is still named."""
-    from sotmot.confidence import family_from_name
+    from sotmot.confidence.maps import family_from_name
 
     if family_from_name(name) is not None:
         stem, suffix = name.rsplit("-", 1)

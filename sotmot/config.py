@@ -124,7 +124,7 @@ class DetectionConfig:
         _check(0 <= self.threads <= 1024, "detection", "threads must be between 0 and 1024")
 
 
-#: The names ``[preprocess] confidence`` accepts: the one list (``sotmot.confidence.METHODS`` and the command
+#: The names ``[preprocess] confidence`` accepts: the one list (``sotmot.confidence.maps.METHODS`` and the command
 #: line's choices read it). After the four methods, the detector families with a stored calibration.
 ConfidenceMethod = Literal["auto", "raw", "quantile", "self", "dpm", "acf", "frcnn", "sdp", "pd0202"]
 

@@ -1,11 +1,12 @@
 """Confirmation: each output box scored by the calibrated box model, and the boxes more likely false than
-true dropped (the model and its features: :mod:`sotmot.confidence`)."""
+true dropped (the model and its features: :mod:`sotmot.confidence.box_model`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from sotmot.confidence import BoxModel, box_features, load_calibration, model_kind
+from sotmot.confidence.box_model import BoxModel, box_features
+from sotmot.confidence.calibration import load_calibration, model_kind
 from sotmot.config import TrackerConfig
 from sotmot.postprocess import BoxScorer, Expanded
 from sotmot.types import Detections, Tracklet, Tracks

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.boxes import xywh_to_xyxy, xyxy_to_xywh
-from sotmot.confidence import scores_are_probabilities
+from sotmot.confidence.maps import scores_are_probabilities
 from sotmot.config import TrackerConfig
 from sotmot.io import FrameReader, read_detections, read_seqinfo
 from sotmot.passes import embed_detections

@@ -26,13 +26,8 @@ from sotmot.appearance import Embedder, embedder_for
 from sotmot.boxes import inside_share
 from sotmot.association import Association, get_solver
 from sotmot.association.merge import merge_group
-from sotmot.confidence import (
-    confidence_knots,
-    detection_confidence,
-    load_calibration,
-    model_kind,
-    self_map,
-)
+from sotmot.confidence.calibration import load_calibration, model_kind
+from sotmot.confidence.maps import confidence_knots, detection_confidence, self_map
 from sotmot.config import TrackerConfig
 from sotmot.errors import ConfigError
 from sotmot.confirm import box_scorer, confirm
@@ -307,7 +302,7 @@ def prepare_sequence(seq_dir: "str | Path | SeqInfo", config: TrackerConfig = Tr
 
 
 def with_self_confidence(prepared: Prepared, trajectories: list[Tracklet]) -> Prepared:
-    """``prepared`` with the ``"self"`` confidence (:func:`~sotmot.confidence.self_map`) of its detections from
+    """``prepared`` with the ``"self"`` confidence (:func:`~sotmot.confidence.maps.self_map`) of its detections from
     ``trajectories``; the ranks stay (with the quantile model) when the sequence teaches too little."""
     dets = prepared.detections
     knots = self_map(dets, trajectories, prepared.info.frame_rate)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from sotmot.boxes import nms
-from sotmot.confidence import scores_are_probabilities
+from sotmot.confidence.maps import scores_are_probabilities
 from sotmot.config import PreprocessConfig
 from sotmot.types import Detections
 

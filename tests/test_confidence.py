@@ -13,17 +13,12 @@ from hypothesis import strategies as st
 
 from conftest import ROOT, GeometryEmbedder, write_sequence
 from helpers import tk
-from sotmot.confidence import (
-    FEATURES,
-    BoxModel,
-    confidence_knots,
-    detection_confidence,
-    detector_family,
-    isotonic,
-    load_calibration,
-)
+from sotmot.confidence.box_model import FEATURES, BoxModel
+from sotmot.confidence.calibration import load_calibration
+from sotmot.confidence.maps import confidence_knots, detection_confidence, detector_family, isotonic
 from sotmot.config import PostprocessConfig, TrackerConfig
 from sotmot.errors import ConfigError
+from sotmot.fitting.logistic import fit_box_model
 from sotmot.postprocess import expand, interpolate
 
 SCORES = st.lists(st.floats(-5.0, 200.0, allow_nan=False), min_size=1, max_size=60)
@@ -75,7 +70,7 @@ def test_logistic_fit_recovers_a_separable_direction():
     rng = np.random.default_rng(0)
     x = rng.normal(size=(400, len(FEATURES)))
     y = (x[:, 0] + 0.1 * rng.normal(size=400) > 0).astype(float)
-    model = BoxModel.fit(x, y, l2=1.0)
+    model = fit_box_model(x, y, l2=1.0)
     assert model.coef[0] > 5 * max(abs(c) for c in model.coef[1:])
     assert model.predict(np.eye(len(FEATURES))[:1] * 3)[0] > 0.9
 
@@ -186,7 +181,7 @@ def test_the_built_in_detector_has_its_own_map_model_and_threshold_and_needs_all
     import json
     from importlib import resources
 
-    from sotmot.confidence import Calibration, load_calibration, model_kind
+    from sotmot.confidence.calibration import Calibration, load_calibration, model_kind
 
     packaged = load_calibration()
     assert "pd0202" in packaged.families and model_kind("pd0202") == "pd0202"
@@ -201,7 +196,7 @@ def test_the_built_in_detector_has_its_own_map_model_and_threshold_and_needs_all
 
 
 def test_a_motchallenge_name_says_the_detector_before_the_scores_are_looked_at():
-    from sotmot.confidence import family_from_name
+    from sotmot.confidence.maps import family_from_name
 
     assert family_from_name("MOT17-04-SDP") == "sdp" and family_from_name("mot17-09-frcnn") == "frcnn"
     assert family_from_name("MOT17-05-DPM") == "dpm"
@@ -213,7 +208,7 @@ def test_a_motchallenge_name_says_the_detector_before_the_scores_are_looked_at()
 
 
 def test_self_labels_and_map_come_from_the_trajectories_alone():
-    from sotmot.confidence import SELF_MIN_SAMPLES, self_knots, self_labels
+    from sotmot.confidence.maps import SELF_MIN_SAMPLES, self_knots, self_labels
 
     # detections 0..29: one person walking for 3 s at 10 frames/s (strong scores); 30..59: lone boxes (weak scores)
     walking = np.c_[10.0 + 2.0 * np.arange(30), np.tile([10.0, 20, 40], (30, 1))]

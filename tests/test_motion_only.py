@@ -11,7 +11,7 @@ from conftest import DATA, require, write_sequence
 from sotmot.appearance import make_embedder
 from sotmot.association.affinity import link_affinities, motion_affinities
 from sotmot.config import AppearanceConfig, TrackerConfig
-from sotmot.confidence import FEATURES, BoxModel
+from sotmot.confidence.box_model import FEATURES, BoxModel
 from sotmot.errors import ConfigError
 from sotmot.pipeline import track_sequence
 from sotmot.tracklets import build_tracklets

@@ -22,17 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.confidence import (
+from sotmot.confidence.box_model import FEATURES, BoxModel, box_features
+from sotmot.confidence.calibration import Calibration, model_kind
+from sotmot.confidence.maps import (
     FAMILIES,
-    FEATURES,
-    BoxModel,
-    Calibration,
-    box_features,
     confidence_knots,
     detection_confidence,
     detector_family,
     isotonic,
-    model_kind,
     quantile_map,
     self_map,
 )
@@ -40,6 +37,7 @@ from sotmot.config import TrackerConfig
 from sotmot.scoring import EvalReport, FrameErrors, evaluate_files, frame_errors
 from sotmot.io import SeqInfo, read_detections, read_seqinfo, results_path, write_results
 from sotmot.confirm import box_scorer, confirm
+from sotmot.fitting.logistic import fit_box_model
 from sotmot.pipeline import Prepared, associate
 from sotmot.preprocess import preprocess
 from sotmot.postprocess import expand, output_ids, to_tracks
@@ -307,7 +305,7 @@ def fit(train: Sequence[Labelled], extra_families: dict[str, list[tuple[np.ndarr
             x, y = scored_boxes(seq, confidences[seq.name], config)
             xs.append(x)
             ys.append(y)
-        model = BoxModel.fit(np.vstack(xs), np.concatenate(ys), l2=l2)
+        model = fit_box_model(np.vstack(xs), np.concatenate(ys), l2=l2)
         results = {}
         for threshold in sorted({0.0, *map(float, thresholds)}):
             report = score(train, lambda s: confirmed_tracks(s, confidences[s.name], model, threshold, config))

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.association.objective import lifted_horizon, pair_features, pair_inputs
-from sotmot.confidence import fit_logistic
+from sotmot.fitting.logistic import fit_logistic
 from sotmot.config import AssociationConfig
 from sotmot.fitting.confidence import clear_matching
 from sotmot.io import SeqInfo
