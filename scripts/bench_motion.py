@@ -9,7 +9,15 @@ rounded to whole pixels) and the same window held still (cached under
 
 - ``still``: the still window (``[motion] compensation = "auto"``, which finds the camera still);
 - ``pan, off``: the moving window without compensation;
-- ``pan, auto``: the moving window with the default compensation.
+- ``pan, auto``: the moving window with the default compensation;
+- ``forward, off`` / ``forward, auto`` (issue #41, unless ``--forward ""``): the
+  panned window also zooming in steadily to ``Z`` by the last frame and turning
+  by up to ``DEG`` degrees (``--forward Z,DEG``), as a camera driving on;
+- ``turn, auto``: the same while the point the camera heads for moves sideways
+  by ``--turn`` of the frame's width over the sequence;
+- ``forward, auto, predict`` / ``turn, auto, predict``: with ``[tracklets] predict``
+  (each tracklet's constant velocity in the compensated frame predicts the box
+  its IoU gate compares with; off by default).
 
 Scores are TrackEval's (HOTA, MOTA, IDF1, IDSW, FP, FN), with the targets'
 differences to ``still``. The estimator's error is the distance between the
@@ -60,6 +68,23 @@ def moving_pair(seq: Path, period: float, cache: Path) -> tuple[Path, Path]:
     if not still.is_dir():
         make_moving.main([str(seq), str(still), "--still", "--quiet"])
     return pan, still
+
+
+def forward_variants(seq: Path, period: float, forward: str, turn: float, cache: Path) -> dict[str, Path]:
+    """The forward-moving windows of ``seq`` (``forward`` is ``"Z,DEG"``; made once, kept in ``cache``): ``forward``
+    (pan, zoom and rotation) and ``turn`` (the same, heading sideways by ``turn`` of the frame's width)."""
+    if not forward:
+        return {}
+    zoom, degrees = (float(v) for v in forward.split(","))
+    shift = turn * read_seqinfo(seq).width
+    out = {}
+    for kind, extra in (("forward", []), ("turn", ["--turn", f"{shift:g}"])):
+        folder = cache / (f"{seq.name}-{kind}{period:g}-z{zoom:g}-r{degrees:g}" + (f"-t{turn:g}" if extra else ""))
+        if not folder.is_dir():
+            make_moving.main([str(seq), str(folder), "--period", f"{period:g}", "--forward", f"{zoom:g}",
+                              "--rotate", f"{degrees:g}", *extra, "--quiet"])
+        out[kind] = folder
+    return out
 
 
 def true_pairs(seq: Path, length: int) -> np.ndarray:
@@ -120,6 +145,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sequences", default="PETS09-S2L1:8,MOT16-09:3",
                         help="NAME:PERIOD, comma-separated: still sequences panned once every PERIOD seconds "
                              "(default: %(default)s)")
+    parser.add_argument("--forward", default="1.6,3", metavar="Z,DEG",
+                        help="forward motion: zoom to Z by the last frame and turn by DEG degrees, beside the pan "
+                             "('' skips it; default: %(default)s)")
+    parser.add_argument("--turn", type=float, default=0.12, metavar="SHARE",
+                        help="the turn's sideways move of the heading, as a share of the frame's width "
+                             "(default: %(default)s)")
     parser.add_argument("--real", default="MOT16-05-clip30,MOT16-10-clip30,MOT16-13-clip30",
                         help="real moving-camera sequences, comma-separated (default: %(default)s)")
     parser.add_argument("--timing", default="MOT16-09", help="the 1080p sequence the estimate is timed on")
@@ -134,8 +165,9 @@ def main(argv: list[str] | None = None) -> int:
     rows: dict[str, dict[str, dict[str, float]]] = {}
     errors: dict[str, dict[str, float]] = {}
 
-    def track(seq: Path, label: str, compensation: str, out: Path) -> tuple[Path, Path, int, str]:
-        cfg = config.replace("motion", compensation=compensation)
+    def track(seq: Path, label: str, compensation: str, out: Path,
+              predict: bool = False) -> tuple[Path, Path, int, str]:
+        cfg = config.replace("motion", compensation=compensation).replace("tracklets", predict=predict)
         features = cached_features(seq, cfg, args.cache / "features", embedder_box)
         if not embedder_box:
             embedder_box.append(make_embedder(cfg.appearance))
@@ -152,8 +184,14 @@ def main(argv: list[str] | None = None) -> int:
             pan, still = moving_pair(args.data / name, float(period), args.cache)
             runs = {"still": track(still, "still", "auto", out), "pan, off": track(pan, "pan-off", "off", out),
                     "pan, auto": track(pan, "pan-auto", "auto", out)}
-            rows[name] = {label: evaluate_files([pair]).sequences[pair[3]] for label, pair in runs.items()}
             errors[name] = estimator_error(pan, config)
+            for kind, folder in forward_variants(args.data / name, float(period), args.forward, args.turn,
+                                                 args.cache).items():
+                for compensation in ("off", "auto") if kind == "forward" else ("auto",):
+                    runs[f"{kind}, {compensation}"] = track(folder, f"{kind}-{compensation}", compensation, out)
+                runs[f"{kind}, auto, predict"] = track(folder, f"{kind}-auto-predict", "auto", out, predict=True)
+                errors[f"{name} {kind}"] = estimator_error(folder, config)
+            rows[name] = {label: evaluate_files([pair]).sequences[pair[3]] for label, pair in runs.items()}
         real = {}
         for name in [n for n in args.real.split(",") if n]:
             seq = args.data / name
@@ -168,12 +206,15 @@ def main(argv: list[str] | None = None) -> int:
         for label, scores in by_label.items():
             print(f"{name:<14} {label:<10} " + " ".join(f"{scores[c]:>7.1f}" if c in ("HOTA", "MOTA", "IDF1")
                                                          else f"{scores[c]:>7.0f}" for c in COLUMNS))
-        still, auto = by_label["still"], by_label["pan, auto"]
-        e = errors[name]
-        print(f"{'':<14} pan, auto - still: HOTA {auto['HOTA'] - still['HOTA']:+.1f} (target >= "
-              f"-{TARGETS['hota_within']}), MOTA {auto['MOTA'] - still['MOTA']:+.1f} (target >= "
-              f"-{TARGETS['mota_within']}); estimate error per frame pair median {e['pair_median_px']:.3f} px, "
-              f"largest {e['pair_max_px']:.3f} px; over 1 s median {e['second_median_px']:.3f} px")
+        still = by_label["still"]
+        for kind in ("pan", "forward", "turn"):
+            auto, e = by_label.get(f"{kind}, auto"), errors.get(name if kind == "pan" else f"{name} {kind}")
+            if auto is None or e is None:
+                continue
+            print(f"{'':<14} {kind}, auto - still: HOTA {auto['HOTA'] - still['HOTA']:+.1f} (target >= "
+                  f"-{TARGETS['hota_within']}), MOTA {auto['MOTA'] - still['MOTA']:+.1f} (target >= "
+                  f"-{TARGETS['mota_within']}); estimate error per frame pair median {e['pair_median_px']:.3f} px, "
+                  f"largest {e['pair_max_px']:.3f} px; over 1 s median {e['second_median_px']:.3f} px")
     for name, by_label in real.items():
         for label, scores in by_label.items():
             print(f"{name:<14} {label:<10} " + " ".join(f"{scores[c]:>7.1f}" if c in ("HOTA", "MOTA", "IDF1")
@@ -186,7 +227,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"still check on {name}: {s['ms_per_frame']:.2f} ms a frame, camera {camera}")
     if args.json:
         write_text_atomic(args.json, json.dumps({
-            "machine": machine(), "model": args.model, "sequences": args.sequences, "targets": TARGETS,
+            "machine": machine(), "model": args.model, "sequences": args.sequences, "forward": args.forward,
+            "turn": args.turn, "targets": TARGETS,
             "synthetic": rows, "estimator": errors, "real": real, "timing": timing}, indent=1) + "\n")
     return 0
 

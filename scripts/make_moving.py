@@ -6,6 +6,16 @@ period every ``--period`` seconds), random jitter (``--jitter`` pixels,
 uniform, fixed by ``--seed``) and optionally a zoom (``--zoom``: 0.05 is +-5 %).
 Without zoom the path is rounded to whole pixels (``--subpixel`` keeps the
 fractions; frames are then resampled, and the blur alone changes re-ID).
+
+**Forward motion** (issue #41), a camera driving on: ``--forward 1.6`` zooms in
+steadily from 1.0 at the first frame to 1.6 at the last (everyone grows, people
+near the edges leave the window), ``--rotate 3`` turns the image steadily by up
+to 3 degrees, and ``--turn 200`` moves the point the camera heads for by 200
+source pixels sideways over the sequence (a turn). A zoom of the whole image is
+not parallax (every depth grows alike): it tests the compensation's scale and
+the gates measured in pixels, not a 3-D scene. Boxes are mapped by their
+centre and scaled by the zoom (a person stays upright in an image turned a few
+degrees).
 ``--still`` holds the window at the centre of the path: the same crop, size
 and box rule without motion, so the tracking cost of motion is the difference
 between the two. Detections and ground truth are mapped into the window; a
@@ -47,27 +57,33 @@ def window_path(length: int, frame_rate: float, width: int, height: int, args: a
     out_w, out_h = round(width * args.window), round(height * args.window)
     t = np.arange(length + 1) / frame_rate
     phase = 2 * np.pi * t / args.period
+    progress = np.clip((np.arange(length + 1) - 1) / max(1, length - 1), 0.0, 1.0)  # 0 at frame 1, 1 at the last
     if args.still:
-        dx = dy = zoom = np.zeros(length + 1)
+        dx = dy = zoom = angle = np.zeros(length + 1)
     else:
-        dx = args.pan_x * np.sin(phase) + rng.uniform(-args.jitter, args.jitter, length + 1)
+        dx = args.pan_x * np.sin(phase) + rng.uniform(-args.jitter, args.jitter, length + 1) + args.turn * progress
         dy = args.pan_y * np.sin(2 * phase + 1.0) + rng.uniform(-args.jitter, args.jitter, length + 1)
-        zoom = args.zoom * np.sin(phase / 2)
+        zoom = args.zoom * np.sin(phase / 2) + (args.forward - 1.0) * progress
+        angle = np.radians(args.rotate) * progress
     scale = 1.0 + zoom
-    # the window's centre follows the path; source point p maps to scale * (p - centre) + window centre
-    if not args.subpixel and not args.zoom:  # no resampling: every frame holds the source's own pixels
-        left, top = (width - out_w) / 2, (height - out_h) / 2
+    # the window's centre follows the path; source point p maps to scale * R(angle) (p - centre) + window centre
+    if not args.subpixel and not args.zoom and args.forward == 1.0 and not args.rotate:
+        left, top = (width - out_w) / 2, (height - out_h) / 2  # no resampling: frames hold the source's own pixels
         dx, dy = np.round(dx + left) - left, np.round(dy + top) - top
     cx, cy = width / 2 + dx, height / 2 + dy
+    cos, sin = scale * np.cos(angle), scale * np.sin(angle)
     path = np.zeros((length + 1, 2, 3))
-    path[:, 0, 0] = path[:, 1, 1] = scale
-    path[:, 0, 2] = out_w / 2 - scale * cx
-    path[:, 1, 2] = out_h / 2 - scale * cy
-    margin_x, margin_y = (width - out_w / scale.min()) / 2, (height - out_h / scale.min()) / 2
-    if np.abs(dx).max() > margin_x or np.abs(dy).max() > margin_y:
-        raise SystemExit(f"the path leaves the frame: pans of up to {np.abs(dx).max():.0f} x {np.abs(dy).max():.0f} "
-                         f"px but the window leaves {margin_x:.0f} x {margin_y:.0f} px; lower --pan-x/--pan-y/--zoom "
-                         f"or --window")
+    path[:, 0, 0], path[:, 0, 1], path[:, 1, 0], path[:, 1, 1] = cos, -sin, sin, cos
+    path[:, 0, 2] = out_w / 2 - (cos * cx - sin * cy)
+    path[:, 1, 2] = out_h / 2 - (sin * cx + cos * cy)
+    # every corner of every window must come from the frame: map the corners back and look
+    corners = np.array([[0, 0], [out_w, 0], [0, out_h], [out_w, out_h]], dtype=np.float64)
+    a, b = path[1:, :, :2], path[1:, :, 2]
+    back = np.einsum("fij,fkj->fki", np.linalg.inv(a), corners[None] - b[:, None, :])
+    over = max(0.0, -back[..., 0].min(), back[..., 0].max() - width, -back[..., 1].min(), back[..., 1].max() - height)
+    if over > 0.5:
+        raise SystemExit(f"the path leaves the frame by up to {over:.0f} px; lower --pan-x/--pan-y/--zoom/--turn/"
+                         f"--rotate, or --window, or zoom in more (--forward)")
     return path
 
 
@@ -77,11 +93,12 @@ def map_rows(rows: np.ndarray, path: np.ndarray, out_w: int, out_h: int, min_ins
     if not len(rows):
         return rows
     a = path[rows[:, 0].astype(np.int64)]
-    scale = a[:, 0, 0]
+    scale = np.hypot(a[:, 0, 0], a[:, 1, 0])
+    centre = rows[:, 2:4] + rows[:, 4:6] / 2
+    moved = np.einsum("nij,nj->ni", a[:, :, :2], centre) + a[:, :, 2]
     out = rows.copy()
-    out[:, 2] = scale * rows[:, 2] + a[:, 0, 2]
-    out[:, 3] = scale * rows[:, 3] + a[:, 1, 2]
     out[:, 4:6] = rows[:, 4:6] * scale[:, None]
+    out[:, 2:4] = moved - out[:, 4:6] / 2
     inside = inside_share(out[:, 2:6], out_w, out_h)
     return out[(inside >= min_inside) & (inside > 0)]
 
@@ -114,6 +131,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--period", type=float, default=8.0, help="seconds per horizontal pan period")
     parser.add_argument("--jitter", type=float, default=1.0, help="uniform jitter in pixels, each frame")
     parser.add_argument("--zoom", type=float, default=0.0, help="zoom amplitude (0.05: +-5%%)")
+    parser.add_argument("--forward", type=float, default=1.0, metavar="Z",
+                        help="forward motion: zoom in steadily from 1 at the first frame to Z at the last (1.6: "
+                             "everyone 60%% larger by the end)")
+    parser.add_argument("--rotate", type=float, default=0.0, metavar="DEG",
+                        help="turn the image steadily, up to DEG degrees at the last frame")
+    parser.add_argument("--turn", type=float, default=0.0, metavar="PX",
+                        help="move the point the camera heads for PX source pixels sideways over the sequence")
     parser.add_argument("--seed", type=int, default=0, help="seed of the jitter")
     parser.add_argument("--still", action="store_true", help="hold the window still (the comparison)")
     parser.add_argument("--subpixel", action="store_true",
@@ -157,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
                           format_rows(map_rows(det, path, out_w, out_h, DETECTION_INSIDE), 2))
         gt = read_rows(args.sequence / "gt" / "gt.txt")
         write_text_atomic(partial / "gt" / "gt.txt", format_rows(map_rows(gt, path, out_w, out_h, 0.0), 2))
-        kind = "still" if args.still else "pan"
+        kind = "still" if args.still else "forward" if args.forward != 1.0 else "pan"
         write_text_atomic(partial / "seqinfo.ini", "\n".join([
             "[Sequence]", f"name={args.out.name}", "imDir=img1", f"frameRate={info.frame_rate:g}",
             f"seqLength={info.length}", f"imWidth={out_w}", f"imHeight={out_h}", "imExt=.jpg", ""]))

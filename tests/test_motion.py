@@ -221,3 +221,30 @@ def test_make_moving_writes_a_panned_window_with_its_path_and_refuses_an_existin
     again = subprocess.run(script, capture_output=True, text=True)
     assert again.returncode != 0 and "exists" in again.stderr
     assert not (tmp_path / "moving.partial").exists()
+
+
+def test_make_moving_drives_forward_zooming_and_turning_and_refuses_a_path_out_of_the_frame(tmp_path):
+    import subprocess
+    import sys
+
+    from conftest import ROOT, write_sequence
+
+    seq = write_sequence(tmp_path, ["1,-1,40,30,12,24,0.9,-1,-1,-1", "6,-1,44,32,12,24,0.8,-1,-1,-1"], length=6,
+                         frame_rate=2, width=96, height=72, gt_lines=["1,1,40,30,12,24,1,1,1", "6,1,44,32,12,24,1,1,1"])
+    out = tmp_path / "forward"
+    script = [sys.executable, str(ROOT / "scripts" / "make_moving.py"), str(seq), str(out), "--quiet",
+              "--forward", "1.5", "--rotate", "2", "--turn", "4", "--pan-x", "0", "--pan-y", "0", "--jitter", "0"]
+    run = subprocess.run(script, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    path = np.loadtxt(out / "path.txt", delimiter=",")
+    a = path[:, 1:].reshape(-1, 2, 3)
+    np.testing.assert_allclose(np.hypot(a[:, 0, 0], a[:, 1, 0]), np.linspace(1.0, 1.5, 6), atol=1e-5)  # steady zoom
+    np.testing.assert_allclose(np.degrees(np.arctan2(a[:, 1, 0], a[:, 0, 0])), np.linspace(0.0, 2.0, 6), atol=1e-4)
+    dets = read_detections(out / "det" / "det.txt")
+    for frame, box in zip(dets.frames, dets.boxes):  # the centre moves with the image, the size with the zoom
+        x, y = {1: (40, 30), 6: (44, 32)}[int(frame)]
+        m = a[frame - 1]
+        np.testing.assert_allclose(box[:2] + box[2:] / 2, m[:, :2] @ (x + 6, y + 12) + m[:, 2], atol=1e-3)
+        np.testing.assert_allclose(box[2:], np.array([12, 24]) * np.hypot(m[0, 0], m[1, 0]), atol=1e-3)
+    far = subprocess.run(script[:3] + [str(tmp_path / "far"), "--turn", "60", "--quiet"], capture_output=True, text=True)
+    assert far.returncode != 0 and "leaves the frame" in far.stderr

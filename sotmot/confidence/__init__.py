@@ -4,7 +4,7 @@ Two stages, both without ground truth at run time:
 
 1. **Detection confidence.** Detector scores are not comparable across
    detectors (public DPM about -1..4, ACF about -0.3..127, Faster R-CNN
-   0..1). :func:`detection_confidence` maps them monotonically to [0, 1]:
+   0..1). :func:`~sotmot.confidence.maps.detection_confidence` maps them monotonically to [0, 1]:
 
    * ``"quantile"``: the score's rank among the sequence's own detections
      (an empirical CDF; needs no fitting, but says nothing of absolute quality);
@@ -14,11 +14,11 @@ Two stages, both without ground truth at run time:
      ``sotmot/data/confidence.json`` (``scripts/fit_confidence.py`` makes it);
    * ``"raw"``: the scores clipped to [0, 1] (for scores that are already
      probabilities);
-   * ``"auto"``: the family from the score range (:func:`detector_family`).
+   * ``"auto"``: the family from the score range (:func:`~sotmot.confidence.maps.detector_family`).
 
 2. **Box confirmation.** After long-term association and interpolation each
    output box gets a probability of being a true positive from a logistic
-   model (:class:`BoxModel`) of what its trajectory is made of: its detector
+   model (:class:`~sotmot.confidence.box_model.BoxModel`) of what its trajectory is made of: its detector
    boxes' confidences (mean and top-k), the share of the trajectory that is
    interpolated, its appearance consistency and its duration, plus the box's
    own confidence (for an interpolated box the higher of its gap's two ends)

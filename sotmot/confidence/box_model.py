@@ -88,7 +88,7 @@ def box_features(trajectory: Tracklet, expanded: Expanded, confidence: np.ndarra
     trajectory
         The merged trajectory (before interpolation).
     expanded
-        The same trajectory as written (see :class:`Expanded`).
+        The same trajectory as written (see :class:`~sotmot.postprocess.Expanded`).
     confidence
         ``(N,)`` confidence of every detection of the sequence.
     from_sot
