@@ -246,5 +246,6 @@ def test_make_moving_drives_forward_zooming_and_turning_and_refuses_a_path_out_o
         m = a[frame - 1]
         np.testing.assert_allclose(box[:2] + box[2:] / 2, m[:, :2] @ (x + 6, y + 12) + m[:, 2], atol=1e-3)
         np.testing.assert_allclose(box[2:], np.array([12, 24]) * np.hypot(m[0, 0], m[1, 0]), atol=1e-3)
-    far = subprocess.run(script[:3] + [str(tmp_path / "far"), "--turn", "60", "--quiet"], capture_output=True, text=True)
+    far = subprocess.run(script[:3] + [str(tmp_path / "far"), "--turn", "60", "--quiet"], capture_output=True,
+                         text=True)
     assert far.returncode != 0 and "leaves the frame" in far.stderr
