@@ -104,8 +104,8 @@ def main(argv: list[str] | None = None) -> int:
         sot_fig = save(fig, "sot.jpg")
         text += ["## 2. The SOT step (optional, `--sot template`)", "",
                  f"Algorithm 1 extends every box forward and backward. Under the `{sot_cfg.sot.rules}` rules (the "
-                 f"default when SOT is on: an extension is kept only if it reaches another box, and none may "
-                 f"overlap a box at IoU > {sot_cfg.sot.stop_iou:g}) the template variant made "
+                 f"paper's, the default: every extension is kept, a candidate refused only where it overlaps a box "
+                 f"at IoU above {sot_cfg.sot.tau_I:g}) the template variant made "
                  f"{prepared_sot.sot_steps} extension attempts and kept {len(added)} new boxes (after NMS). "
                  f"Frame {f_sot}, new boxes dashed:", "", f"![SOT]({sot_fig})", "",
                  "On our data this step, before association, does not raise MOTA over the confirmed output, so "

@@ -257,10 +257,12 @@ class SotConfig:
         cross-correlation, the paper's naive variant) or ``"deep"`` (template
         proposals re-ranked by the re-ID model).
     rules
-        ``"paper"``: Algorithm 1 as published (every extension is kept, a
-        candidate is refused only when it overlaps a box at IoU above
-        ``tau_I``, the search is centred on the last box). ``"confident"``
-        (issue #12): a candidate that overlaps any box at IoU above
+        ``"paper"`` (default): Algorithm 1 as published (every extension is
+        kept, a candidate is refused only when it overlaps a box at IoU above
+        ``tau_I``, the search is centred on the last box), so ``--sot
+        template`` alone runs the paper's method. ``"confident"`` (issue #12,
+        an experiment kept for the ablation table's rows; it gained nothing
+        held out): a candidate that overlaps any box at IoU above
         ``stop_iou`` stops the extension, the search is centred on a
         constant-velocity prior (the extension's own last step), and an
         extension is kept only if it reaches another box (meets an opposite end
@@ -370,7 +372,7 @@ class SotConfig:
     """
 
     variant: Literal["none", "template", "deep"] = "none"
-    rules: Literal["paper", "confident"] = "confident"
+    rules: Literal["paper", "confident"] = "paper"
     tau: float = 0.5
     tau_a: float = 0.75
     tau_I: float = 0.5
