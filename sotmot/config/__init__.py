@@ -1,0 +1,211 @@
+"""Configuration: one frozen dataclass per stage, the paper's values as defaults.
+
+Every threshold of the tracker is a field here, documented with its meaning
+and where it comes from (He et al., *SOT for MOT*, section numbers below).
+Where our re-ID model needs another value than the paper's, the default says
+so and points at ``docs/calibration.md``, which derives it from data.
+
+A configuration file (TOML or JSON) holds one table per stage
+(``detection``, ``preprocess``, ``appearance``, ``sot``, ``tracklets``, ``association``,
+``postprocess``, ``confirm``)::
+
+    [preprocess]
+    nms = "iou"
+    [association]
+    l_max = 45
+
+Unknown tables and keys are errors (a typo must not be silently ignored).
+"""
+
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import json
+import math
+import tomllib
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from sotmot.config.association import AssociationConfig, TrackletConfig
+from sotmot.config.common import MAX_FRAME_RATE
+from sotmot.config.output import ConfirmConfig, MotionConfig, PostprocessConfig, WindowConfig
+from sotmot.config.sot import SotConfig
+from sotmot.config.sources import AppearanceConfig, ConfidenceMethod, DetectionConfig, InputConfig, PreprocessConfig
+from sotmot.errors import ConfigError
+
+__all__ = ["AppearanceConfig", "AssociationConfig", "ConfidenceMethod", "ConfirmConfig", "DetectionConfig",
+           "InputConfig", "MAX_FRAME_RATE", "MotionConfig", "PostprocessConfig", "SECTIONS", "SotConfig",
+           "TrackerConfig", "TrackletConfig", "WindowConfig", "config_from_dict", "field_docs", "load_config"]
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """The whole tracker: one section per stage."""
+
+    input: InputConfig = field(default_factory=InputConfig)
+    detection: DetectionConfig = field(default_factory=DetectionConfig)
+    preprocess: PreprocessConfig = field(default_factory=PreprocessConfig)
+    appearance: AppearanceConfig = field(default_factory=AppearanceConfig)
+    sot: SotConfig = field(default_factory=SotConfig)
+    tracklets: TrackletConfig = field(default_factory=TrackletConfig)
+    association: AssociationConfig = field(default_factory=AssociationConfig)
+    postprocess: PostprocessConfig = field(default_factory=PostprocessConfig)
+    confirm: ConfirmConfig = field(default_factory=ConfirmConfig)
+    motion: MotionConfig = field(default_factory=MotionConfig)
+    windows: WindowConfig = field(default_factory=WindowConfig)
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """Plain nested dict, the same layout a config file uses."""
+        return dataclasses.asdict(self)
+
+    def replace(self, section: str, **changes: Any) -> "TrackerConfig":
+        """A copy with some fields of one section changed (validated)."""
+        if section not in SECTIONS:
+            raise ConfigError(f"unknown section {section!r}; valid: {', '.join(SECTIONS)}")
+        current = dataclasses.asdict(getattr(self, section))
+        return dataclasses.replace(self, **{section: _build(section, {**current, **_in_frames(section, changes),
+                                                                      **changes})})
+
+
+SECTIONS: dict[str, type] = {
+    "input": InputConfig,
+    "detection": DetectionConfig,
+    "preprocess": PreprocessConfig,
+    "appearance": AppearanceConfig,
+    "sot": SotConfig,
+    "tracklets": TrackletConfig,
+    "association": AssociationConfig,
+    "postprocess": PostprocessConfig,
+    "confirm": ConfirmConfig,
+    "motion": MotionConfig,
+    "windows": WindowConfig,
+}
+
+
+def field_docs(cls: type) -> dict[str, str]:
+    """Field name -> its description, from the numpy-style ``Attributes`` section of a section's docstring: what
+    docs/configuration.md and the command line's help both say of it."""
+    lines = inspect.getdoc(cls).splitlines()
+    docs: dict[str, str] = {}
+    names: list[str] = []
+    for line in lines[lines.index("Attributes") + 2:]:
+        if line and not line.startswith(" "):
+            names = [n.strip() for n in line.split(",")]
+            docs.update((n, "") for n in names)
+        elif line.strip():
+            for n in names:
+                docs[n] = (docs[n] + " " + line.strip()).strip()
+    return docs
+
+
+def _coerce(section: str, name: str, hint: Any, value: Any) -> Any:
+    """Check ``value`` against the field's type hint; ints are accepted for floats."""
+    args = typing.get_args(hint)
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        inner = [a for a in args if a is not type(None)]
+        return _coerce(section, name, inner[0], value)
+    if origin is Literal:
+        if value not in args:
+            raise ConfigError(f"[{section}] {name} must be one of {', '.join(map(repr, args))}; got {value!r}")
+        return value
+    if origin is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"[{section}] {name} must be a list; got {value!r}")
+        return tuple(_coerce(section, name, args[0], v) for v in value)
+    if hint is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ConfigError(f"[{section}] {name} must be a finite number; got {value!r}")
+        return float(value)
+    if hint is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"[{section}] {name} must be an integer; got {value!r}")
+        return value
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"[{section}] {name} must be true or false; got {value!r}")
+        return value
+    if hint is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"[{section}] {name} must be a string; got {value!r}")
+        return value
+    return value
+
+
+def _in_frames(section: str, given: dict[str, Any]) -> dict[str, Any]:
+    """What ``given`` (the fields a file or a caller sets) implies beyond itself: a gap limit given as ``l_max``
+    alone is counted in frames, so ``l_max_seconds`` (set by default) is cleared."""
+    if section == "association" and "l_max" in given and "l_max_seconds" not in given:
+        return {"l_max_seconds": None}
+    return {}
+
+
+def _build(section: str, values: dict[str, Any]) -> Any:
+    cls = SECTIONS[section]
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    unknown = sorted(set(values) - set(names))
+    if unknown:
+        raise ConfigError(f"[{section}] unknown key(s) {', '.join(unknown)}; valid keys: {', '.join(names)}")
+    values = {**values, **_in_frames(section, values)}
+    return cls(**{k: _coerce(section, k, hints[k], v) for k, v in values.items()})
+
+
+def config_from_dict(data: dict[str, Any]) -> TrackerConfig:
+    """Build a :class:`TrackerConfig` from nested dicts, rejecting unknown sections and keys."""
+    if not isinstance(data, dict):
+        raise ConfigError("a configuration must be a table of sections")
+    loose = sorted(key for key, value in data.items() if not isinstance(value, dict))
+    if loose:  # `l_max = 30` above every [table] of a TOML file
+        raise ConfigError(f"key(s) {', '.join(loose)} outside any [section]: every key belongs to the table of its "
+                          f"stage, e.g. [association] l_max_seconds = 3; sections: {', '.join(SECTIONS)}")
+    unknown = sorted(set(data) - set(SECTIONS))
+    if unknown:
+        raise ConfigError(f"unknown section(s) {', '.join(unknown)}; valid sections: {', '.join(SECTIONS)}")
+    parts = {}
+    for section, values in data.items():
+        if not isinstance(values, dict):
+            raise ConfigError(f"[{section}] must be a table of keys")
+        parts[section] = _build(section, values)
+    return TrackerConfig(**parts)
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object as a dict; a key given twice is an error (TOML refuses it too), never last-wins."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise ConfigError(f"key {key!r} is given twice")
+        out[key] = value
+    return out
+
+
+def load_config(path: str | Path) -> TrackerConfig:
+    """Read a TOML (``.toml``) or JSON (``.json``) configuration file."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: configuration file not found")
+    try:
+        if path.suffix == ".json":
+            data = json.loads(path.read_text(encoding="utf-8-sig"), object_pairs_hook=_unique_keys)
+        elif path.suffix == ".toml":
+            data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
+        else:
+            raise ConfigError("configuration must be a .toml or .json file")
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot be parsed: {exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start}); save it as UTF-8") from exc
+    try:
+        return config_from_dict(data)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None

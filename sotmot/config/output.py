@@ -1,0 +1,168 @@
+"""Configuration of what happens after association: post-processing, confirmation, camera motion, windows."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from sotmot.config.common import _check
+
+
+@dataclass(frozen=True)
+class PostprocessConfig:
+    """Interpolation and smoothing of the final trajectories (paper Sec. 3.5).
+
+    Attributes
+    ----------
+    interpolate
+        Fill every gap inside a trajectory by linear interpolation.
+    smooth_window
+        Each box becomes the mean of the trajectory's boxes within
+        ``+- smooth_window`` frames (paper: 3); 0 turns smoothing off.
+    min_length
+        Output trajectories with fewer boxes (after interpolation) are dropped;
+        1 keeps everything (the paper drops only tracklets, see ``l_min``).
+    interpolate_max_seconds
+        Gaps longer than this (in seconds, from the frame rate) are left
+        unfilled; ``None`` fills every gap. 4.0 fills every gap the default
+        association bridges (``[association] l_max_seconds``) and no longer
+        one, should ``l_max`` be given in frames (60 frames are 8.6 s at
+        7 fps, where boxes interpolated over more than 2 s were 30 % correct
+        before confirmation: docs/calibration.md). Chosen leave one sequence
+        out from 2, 3 and 4 s with confirmation refitted each time: 4 s
+        had the best HOTA on every full-length sequence (docs/calibration.md).
+    check_seconds, min_agreement
+        Interpolation that checks its line: a gap longer than
+        ``check_seconds`` (and at most ``interpolate_max_seconds``) is filled
+        only where the straight line agrees with how the person moved on both
+        sides of it, a motion agreement
+        (:func:`sotmot.boxes.motion_agreement`, up to 10 boxes
+        each side) of at least ``min_agreement``; shorter gaps are filled on
+        trust. ``None`` (default): every gap up to the bound is filled.
+    """
+
+    interpolate: bool = True
+    smooth_window: int = 3
+    min_length: int = 1
+    interpolate_max_seconds: float | None = 4.0
+    check_seconds: float | None = None
+    min_agreement: float = 0.5
+
+    def __post_init__(self) -> None:
+        _check(0 <= self.smooth_window <= 1000, "postprocess", "smooth_window must be between 0 and 1000")
+        _check(1 <= self.min_length <= 1_000_000, "postprocess", "min_length must be between 1 and 1,000,000")
+        _check(self.interpolate_max_seconds is None or 0 < self.interpolate_max_seconds <= 3600, "postprocess",
+               "interpolate_max_seconds must be in (0, 3600] (or absent to fill every gap)")
+        _check(self.check_seconds is None or 0 <= self.check_seconds <= 3600, "postprocess",
+               "check_seconds must be in [0, 3600] (or absent to fill every gap on trust)")
+        _check(0.0 <= self.min_agreement <= 1.0, "postprocess", "min_agreement must be in [0, 1]")
+
+
+@dataclass(frozen=True)
+class ConfirmConfig:
+    """Confirmation after association: drop the boxes that are more likely false than true.
+
+    Each output box (detector, SOT or interpolated) gets a probability of being
+    a true positive from what its trajectory is made of (``sotmot.confidence``);
+    boxes below ``threshold`` are not written to the results. Interpolation is
+    bounded the same way: an interpolated box in a long gap of a weak
+    trajectory scores low and is dropped.
+
+    Attributes
+    ----------
+    enabled
+        Run the confirmation stage (False writes every box, as before).
+    threshold
+        Boxes with a lower probability are dropped. ``None``: the value fitted
+        with the calibration (leave-one-sequence-out, ``docs/calibration.md``).
+        Dropping a box of probability p changes MOTA's numerator by 1 - 2p, so
+        0.5 is MOTA's break-even; HOTA and IDF1 favour lower values.
+    calibration
+        JSON from ``scripts/fit_confidence.py`` with the detector-family maps and
+        the box model; ``None``: the one packaged with sotmot
+        (``sotmot/data/confidence.json``). ``[preprocess] confidence`` reads its
+        family maps from here too.
+    low_confidence
+        ``"drop"``: dropped boxes are gone; ``"file"``: they are written to
+        ``<name>.low.txt`` beside the results (same ids, MOTChallenge format).
+    """
+
+    enabled: bool = True
+    threshold: float | None = None
+    calibration: str | None = None
+    low_confidence: Literal["drop", "file"] = "drop"
+
+    def __post_init__(self) -> None:
+        _check(self.threshold is None or 0.0 <= self.threshold <= 1.0, "confirm", "threshold must be in [0, 1]")
+        _check(self.low_confidence in ("drop", "file"), "confirm",
+               f"low_confidence must be 'drop' or 'file'; got {self.low_confidence!r}")
+
+
+@dataclass(frozen=True)
+class MotionConfig:
+    """Camera motion compensation (``sotmot.motion``): positions compared in one reference frame.
+
+    Attributes
+    ----------
+    compensation
+        ``"auto"``: estimate the camera's motion when frames half a second
+        apart moved (a still camera changes nothing: results are identical to
+        ``"off"``); ``"on"``: always estimate and compensate; ``"off"``: never.
+    still_pixels
+        ``auto`` calls the camera still when no corner of any frame moved
+        farther than this (pixels) between frames half a second apart (the
+        still cameras of the shared data: at most 1.4 px, MOT16-09; a camera
+        drifting 3 px a half second moves a box 12 px over the longest
+        interpolated gap of 2 s).
+    min_confidence
+        A frame pair's estimate is used when at least this share of the tracked
+        corners agreed with it; below, the pair counts as no motion.
+    """
+
+    compensation: Literal["auto", "on", "off"] = "auto"
+    still_pixels: float = 3.0
+    min_confidence: float = 0.2
+
+    def __post_init__(self) -> None:
+        _check(self.compensation in ("auto", "on", "off"), "motion",
+               f"compensation must be 'auto', 'on' or 'off'; got {self.compensation!r}")
+        _check(0.0 < self.still_pixels <= 1000.0, "motion", "still_pixels must be in (0, 1000]")
+        _check(0.0 <= self.min_confidence <= 1.0, "motion", "min_confidence must be in [0, 1]")
+
+
+@dataclass(frozen=True)
+class WindowConfig:
+    """Committed time windows (``sotmot.windows``): a long sequence tracked window by window, so that memory holds
+    one window and results are written while the video plays. Off by default.
+
+    Each window is tracked as a sequence of its own; consecutive windows
+    overlap by at least the association's gap (``[association]
+    l_max_seconds``), so every link the gap rule allows lies wholly inside one
+    window, and the tracks of two windows are joined where their boxes agree
+    in the overlap (mean IoU at least ``join_iou``, one to one). Each frame's
+    boxes come from one window: the earlier one up to the middle of the
+    overlap, the later one after it. A sequence no longer than one window is
+    tracked exactly as without windows.
+
+    Attributes
+    ----------
+    seconds
+        Window length in seconds (0: off, the whole sequence at once). At least
+        twice the overlap.
+    overlap_seconds
+        Overlap of consecutive windows; ``None``: the association's gap limit
+        (``l_max_seconds``, or ``l_max`` frames). Never less than that gap.
+    join_iou
+        Two tracks of consecutive windows are one person when their boxes in
+        the overlap's shared frames have at least this mean IoU.
+    """
+
+    seconds: float = 0.0
+    overlap_seconds: float | None = None
+    join_iou: float = 0.5
+
+    def __post_init__(self) -> None:
+        _check(0.0 <= self.seconds <= 86400.0, "windows", "seconds must be in [0, 86400] (0: off)")
+        _check(self.overlap_seconds is None or 0.0 < self.overlap_seconds <= 3600.0, "windows",
+               "overlap_seconds must be in (0, 3600] (or absent: the association's gap limit)")
+        _check(0.0 < self.join_iou <= 1.0, "windows", "join_iou must be in (0, 1]")

@@ -1,0 +1,212 @@
+"""Configuration of where the boxes and their appearance come from: the video, the detector, cleaning, re-ID."""
+
+from __future__ import annotations
+
+import typing
+from dataclasses import dataclass
+from typing import Literal
+
+from sotmot.config.common import MAX_FRAME_RATE, _check
+from sotmot.plugins import BACKENDS, DETECTORS
+
+
+@dataclass(frozen=True)
+class InputConfig:
+    """How a video file is read (a MOTChallenge folder's ``seqinfo.ini`` says all of it).
+
+    Attributes
+    ----------
+    fps
+        Frame rate of a video input (``--fps``): every stage counts time in
+        frames from it; None takes the container's.
+    """
+
+    fps: float | None = None
+
+    def __post_init__(self) -> None:
+        _check(self.fps is None or 0 < self.fps <= MAX_FRAME_RATE, "input",
+               f"fps must be a frame rate above 0 and at most {MAX_FRAME_RATE:g} per second")
+
+
+@dataclass(frozen=True)
+class DetectionConfig:
+    """Where the detections come from: a detector's file, or the built-in person detector run on the frames.
+
+    Attributes
+    ----------
+    source
+        ``"file"``: the sequence's ``det/det.txt`` (or ``file``); ``"model"``:
+        the person detector ``model`` run on every frame; ``"auto"``: the file
+        when the sequence has one, the model otherwise (a plain video).
+    file
+        A detections file (MOTChallenge ``det.txt`` layout) used instead of
+        the sequence's ``det/det.txt``, e.g. the ``<name>.det.txt`` an earlier
+        model run wrote; for a run of one sequence.
+    model
+        The detector: an OpenVINO IR ``.xml`` (its ``.bin`` beside it) of an
+        SSD-style person detector such as Intel's person-detection-0202.
+        ``None`` reads the environment variable ``SOTMOT_DETECTOR_MODEL``, else
+        runs the bundled person-detection-0202 FP16-INT8 (``sotmot models``).
+    backend
+        The runtime that runs ``model`` (``sotmot.plugins.DETECTORS``).
+    min_score
+        Boxes the detector scores below this never leave it. Low on purpose:
+        confirmation (``[confirm]``) decides which boxes are kept. 0.4 for
+        person-detection-0202, fitted leave-one-video-out with its confirmation
+        model (``scripts/fit_detector_confidence.py``): 0.4 in two folds of
+        three; on all three videos mean HOTA 68.20 / 68.19 / 67.60 at 0.3 /
+        0.4 / 0.5, a tie with 0.3, kept at 0.4 (fewer boxes to embed, and the
+        end extension's weak boxes, those below it, were fitted with 0.4).
+    input_height, input_width
+        The network's input size in pixels (multiples of 32); 0 keeps the
+        frame's aspect ratio at the area of 512 x 672 (448 x 768 for 16:9,
+        512 x 672 for 4:3).
+    threads
+        CPU threads of the detector (0: the runtime's choice; with
+        ``--workers N``: each process's share of the cores).
+    """
+
+    source: Literal["auto", "file", "model"] = "auto"
+    file: str | None = None
+    model: str | None = None
+    backend: str = "openvino"
+    min_score: float = 0.4
+    input_height: int = 0
+    input_width: int = 0
+    threads: int = 0
+
+    def __post_init__(self) -> None:
+        _check(self.source in ("auto", "file", "model"), "detection",
+               f"source must be one of auto, file, model; got {self.source!r}")
+        _check(self.backend in DETECTORS, "detection",
+               f"backend must be one of {', '.join(sorted(DETECTORS))}; got {self.backend!r}")
+        _check(0.0 <= self.min_score <= 1.0, "detection", "min_score must be in [0, 1]")
+        for name in ("input_height", "input_width"):
+            value = getattr(self, name)
+            _check(value == 0 or (32 <= value <= 4096 and value % 32 == 0), "detection",
+                   f"{name} must be 0 (automatic) or a multiple of 32 from 32 to 4096")
+        _check((self.input_height == 0) == (self.input_width == 0), "detection",
+               "input_height and input_width are given together, or both 0")
+        _check(0 <= self.threads <= 1024, "detection", "threads must be between 0 and 1024")
+
+
+#: The names ``[preprocess] confidence`` accepts: the one list (``sotmot.confidence.maps.METHODS`` and the command
+#: line's choices read it). After the four methods, the detector families with a stored calibration.
+ConfidenceMethod = Literal["auto", "raw", "quantile", "self", "dpm", "acf", "frcnn", "sdp", "pd0202"]
+
+
+@dataclass(frozen=True)
+class PreprocessConfig:
+    """Detection cleaning before tracking (paper Sec. 6.1).
+
+    Attributes
+    ----------
+    score_threshold
+        Boxes with a score below this are dropped; ``None`` keeps all. Scores
+        keep the detector's own range (public DPM scores run from about -1 to 2).
+    nms
+        ``"iou"``, ``"iom"`` (intersection over the smaller box), ``"none"``, or
+        ``"auto"``: IoM for detections whose scores are not probabilities (any
+        score outside [0, 1], as with the public DPM detections; the paper uses
+        NMS-IoM 0.6 there), IoU otherwise.
+    nms_threshold
+        Overlap above which the lower-scoring box is suppressed (paper: 0.6).
+    confidence
+        How detector scores become confidences in [0, 1] (``sotmot.confidence``):
+        ``"dpm"``, ``"acf"``, ``"frcnn"``, ``"sdp"`` (a monotone map per detector
+        family, fitted once on training sequences and stored with the package),
+        ``"pd0202"`` (the built-in detector, person-detection-0202),
+        ``"quantile"`` (the score's rank within the sequence), ``"raw"`` (scores
+        clipped to [0, 1]), ``"self"`` (a map fitted on the sequence itself from
+        what association made of it: detections of long trajectories against
+        lone ones; for a detector none of the families fits) or ``"auto"``: pd0202 for the built-in detector's
+        boxes (run now, or a detections file whose first line names it, as the
+        ``<name>.det.txt`` of a model run does), else the family the sequence's name ends with (MOTChallenge's
+        ``-DPM``, ``-FRCNN``, ``-SDP``), else the family guessed from the score
+        range (all in [0, 1] frcnn, any above 10 acf, else dpm).
+    """
+
+    score_threshold: float | None = None
+    nms: Literal["auto", "iou", "iom", "none"] = "auto"
+    nms_threshold: float = 0.6
+    confidence: ConfidenceMethod = "auto"
+
+    def __post_init__(self) -> None:
+        _check(self.nms in ("auto", "iou", "iom", "none"), "preprocess",
+               f"nms must be one of auto, iou, iom, none; got {self.nms!r}")
+        _check(0.0 < self.nms_threshold <= 1.0, "preprocess", "nms_threshold must be in (0, 1]")
+        methods = typing.get_args(typing.get_type_hints(PreprocessConfig)["confidence"])
+        _check(self.confidence in methods, "preprocess",
+               f"confidence must be one of {', '.join(methods)}; got {self.confidence!r}")
+
+
+@dataclass(frozen=True)
+class AppearanceConfig:
+    """The appearance model (paper Sec. 4 and eq. 1).
+
+    Attributes
+    ----------
+    backend
+        ``"auto"`` (default): ``"openvino"`` where the OpenVINO runtime is
+        installed and the device is the CPU, else ``"onnx"``
+        (:func:`sotmot.appearance.resolve_backend`; the run record holds the
+        one that ran). Or a name in ``sotmot.plugins.BACKENDS``: ``"onnx"``, a
+        person re-ID network run with onnxruntime; ``"torch"``:
+        the same network executed by torch, weights read from the ONNX file
+        (needs the ``torch`` extra: ``torch==2.13.0`` and ``onnx``);
+        ``"openvino"``: the same ONNX file (or an OpenVINO IR ``.xml``) run by
+        the OpenVINO runtime on the CPU, about twice as fast as onnxruntime here
+        with the same tracking scores (within 0.1 HOTA and IDF1 on each
+        full-length sequence; needs the ``openvino`` extra); ``"none"``: no
+        re-ID at all, the **motion-only mode** (``sotmot.appearance.none``): no
+        model and no frame read for appearance (a folder of detections and
+        ground truth without ``img1/`` is tracked), tracklets matched by IoU,
+        long-term links ranked and gated by how well the two trajectories'
+        motion agrees (``sotmot.association.affinity``), confirmation without
+        its appearance feature; no SOT step, no end extension. Several times
+        faster, and what ``scripts/bench_validation.py`` tracks label-only
+        sequences with. On the five full-length sequences with frames it
+        trails re-ID by 18 HOTA combined (45.1 against 63.4; docs/benchmarks.md).
+        Its gaps: the label sets prefer ``l_max_seconds = 2`` with
+        ``interpolate_max_seconds = 2`` (``docs/validation/gap2s.toml``: HOTA
+        +1.0, MOTA +3.3 combined), a recommendation, not a default.
+    model
+        Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
+        person-reidentification-retail-0288). ``None`` reads the environment
+        variable ``SOTMOT_REID_MODEL``, else runs the bundled
+        person-reidentification-retail-0288 (``sotmot models``).
+    flip
+        Average the features of the crop and its mirror image (paper eq. 1).
+        Off halves the re-ID work, but the association gates and the
+        confirmation were chosen with flip-averaged features: without it some
+        sequences lose HOTA and MOTA (docs/benchmarks.md, "Speed").
+    batch_size
+        Crops per forward pass (a flipped crop counts as one).
+    threads
+        Inference threads of the re-ID runtime (OpenVINO, onnxruntime or
+        torch); 0 lets the runtime choose (with ``--workers N``: each
+        process's share of the cores).
+    device
+        ``"cpu"`` or ``"cuda"`` (onnxruntime's CUDA provider, or torch on the GPU);
+        asking for ``"cuda"`` where there is none is an error, never a silent fallback.
+    weights
+        ``torch`` backend: a checkpoint from ``sotmot train-appearance`` whose
+        weights replace the ONNX file's (the file still gives the network).
+    """
+
+    backend: str = "auto"
+    model: str | None = None
+    flip: bool = True
+    batch_size: int = 64
+    threads: int = 0
+    device: Literal["cpu", "cuda"] = "cpu"
+    weights: str | None = None
+
+    def __post_init__(self) -> None:
+        _check(self.weights is None or self.backend == "torch", "appearance",
+               "weights (a fine-tuned checkpoint) need backend = 'torch'")
+        _check(self.backend in BACKENDS or self.backend == "auto", "appearance",
+               f"backend must be 'auto' or one of {', '.join(sorted(BACKENDS))}; got {self.backend!r}")
+        _check(self.device in ("cpu", "cuda"), "appearance", f"device must be 'cpu' or 'cuda'; got {self.device!r}")
+        _check(1 <= self.batch_size <= 4096, "appearance", "batch_size must be between 1 and 4096 crops")
+        _check(0 <= self.threads <= 1024, "appearance", "threads must be between 0 and 1024")
