@@ -7,6 +7,7 @@ import pytest
 
 from conftest import write_sequence
 from helpers import load_script
+from sotmot.io import read_seqinfo
 
 
 def test_recall_is_counted_per_height_band_and_a_box_on_an_uncounted_person_is_no_false_one(tmp_path):
@@ -20,11 +21,12 @@ def test_recall_is_counted_per_height_band_and_a_box_on_an_uncounted_person_is_n
         (np.array([[30.0, 10, 10, 20], [50, 10, 20, 40], [0, 80, 10, 10]]), np.array([0.9, 0.3, 0.9])),
         (np.array([[70.0, 10, 10, 20]]), np.array([0.8])),  # on the distractor
     ]
-    high = script.score(seq, detections, 0.4)  # the near person's box scores 0.3: not entered
+    info = read_seqinfo(seq)
+    high, people = script.score(info, detections, 0.4, tmp_path / "work")  # the near person's box scores 0.3
     assert (high["recall_far"], high["recall_mid"], high["recall_near"]) == (0.0, 100.0, 0.0)
-    assert high["people_far"] == 2 and high["people_mid"] == 1 and high["people_near"] == 1
+    assert people["far"] == 2 and people["mid"] == 1 and people["near"] == 1
     assert high["precision"] == pytest.approx(100 * 2 / 3)  # the box on no one is false, the distractor's is not
-    low = script.score(seq, detections, 0.1)
+    low, _ = script.score(info, detections, 0.1, tmp_path / "work")
     assert low["recall_near"] == 100.0 and low["recall"] == pytest.approx(50.0)
 
 
