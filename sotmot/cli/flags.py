@@ -153,7 +153,7 @@ def _short(text: str, limit: int = HELP_CHARS) -> str:
 def help_text(flag: Flag) -> str:
     """The flag's help: its note, the field's description, where it lives and its default."""
     doc = _short(_plain(field_docs(SECTIONS[flag.section])[flag.field]))
-    default = getattr(getattr(TrackerConfig(), flag.section), flag.field)
+    default = getattr(SECTIONS[flag.section](), flag.field)
     shown = "none" if default is None else str(default).lower() if isinstance(default, bool) else default
     return " ".join(p for p in (flag.note, doc, f"([{flag.section}] {flag.field}, default {shown})") if p) \
         .replace("%", "%%")

@@ -21,6 +21,7 @@ Unknown tables and keys are errors (a typo must not be silently ignored).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import json
 import math
@@ -87,9 +88,11 @@ SECTIONS: dict[str, type] = {
 }
 
 
+@functools.lru_cache(maxsize=None)
 def field_docs(cls: type) -> dict[str, str]:
     """Field name -> its description, from the numpy-style ``Attributes`` section of a section's docstring: what
-    docs/configuration.md and the command line's help both say of it."""
+    docs/configuration.md and the command line's help both say of it (parsed once per section; do not change the
+    dict returned)."""
     lines = inspect.getdoc(cls).splitlines()
     docs: dict[str, str] = {}
     names: list[str] = []
