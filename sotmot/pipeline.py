@@ -35,7 +35,7 @@ from sotmot.detection import Detector, detection_source, detector_detections, kn
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
 from sotmot.motion import CameraMotion, estimate_motion
 from sotmot.passes import detect_sequence, embed_detections
-from sotmot.postprocess import output_ids, to_tracks
+from sotmot.postprocess import Occluders, output_ids, to_tracks
 from sotmot.preprocess import nms_per_frame, preprocess_indices, resolve_nms
 from sotmot.progress import Progress, as_progress
 from sotmot.tracklets import build_tracklets
@@ -193,6 +193,12 @@ class Prepared:
     # resolved [sot] verify to the detector (so finishing with an "auto" configuration keeps the check)
     support: object | None = None
 
+    def occluders(self) -> Occluders:
+        """The detections as what could hide a person in a long gap, in the trajectories' coordinates (the
+        reference frame when the camera moves)."""
+        detections = self.detections if self.motion is None else self.motion.to_ref_detections(self.detections)
+        return Occluders(detections)
+
 
 class _Clock:
     def __init__(self, timings: dict[str, float]) -> None:
@@ -330,8 +336,10 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
         model = load_calibration(config.confirm.calibration).box_models[model_kind(prepared.confidence_method)]
         scorer = box_scorer(model, prepared.detections, prepared.features, prepared.confidence,
                             prepared.info.frame_rate)
-    ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate)
-    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, scorer, prepared.info.frame_rate, ids)
+    occluders = prepared.occluders()
+    ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate, occluders)
+    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, scorer, prepared.info.frame_rate, ids,
+                       occluders)
     motion = prepared.motion
     if motion is not None and motion.moving:  # interpolated and smoothed in the reference frame; written in each own
         tracks = tracks.with_boxes(motion.from_ref(tracks.frames, tracks.boxes))

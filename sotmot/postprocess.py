@@ -14,6 +14,10 @@ from sotmot.boxes import VELOCITY_BOXES, end_velocity, motion_agreement
 from sotmot.config import PostprocessConfig
 from sotmot.types import Detections, Tracklet, Tracks
 
+#: A detection stands in front of a box when its bottom edge is no higher than the box's by more than this share
+#: of the box's height (nearer the camera, so it can hide the person).
+FRONT_MARGIN = 0.05
+
 
 def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_gap: int | None = None,
                 skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -71,19 +75,19 @@ def smooth(frames: np.ndarray, boxes: np.ndarray, window: int) -> np.ndarray:
 
 
 def output_ids(trajectories: Sequence[Tracklet], config: PostprocessConfig = PostprocessConfig(),
-               frame_rate: float | None = None) -> list[int | None]:
+               frame_rate: float | None = None, occluders: "Occluders | None" = None) -> list[int | None]:
     """The track id each trajectory gets in the output (None if it is dropped as too short).
 
     Trajectories are numbered 1, 2, ... by first frame, then by first
     detection index; one shorter than ``config.min_length`` boxes after
-    interpolation (as :func:`expand` does it at ``frame_rate``) gets no id.
+    interpolation (as :func:`expand` does it at ``frame_rate`` with ``occluders``) gets no id.
     """
     order = sorted(range(len(trajectories)), key=lambda k: (trajectories[k].start, int(trajectories[k].det_index[0])))
     ids: list[int | None] = [None] * len(trajectories)
     next_id = 1
     for k in order:
         t = trajectories[k]
-        length = len(expand(t, config, frame_rate).frames) if config.min_length > 1 else len(t)
+        length = len(expand(t, config, frame_rate, occluders).frames) if config.min_length > 1 else len(t)
         if length >= config.min_length:
             ids[k] = next_id
             next_id += 1
@@ -140,17 +144,63 @@ def unchecked_gaps(frames: np.ndarray, boxes: np.ndarray, config: PostprocessCon
     return skip
 
 
+class Occluders:
+    """What could hide a person the detector missed: one sequence's detections by frame, in the coordinates of the
+    trajectories they are checked against (the reference frame when the camera moves).
+
+    Boxes are ``x, y, w, h`` pixels, frames 1-based.
+    """
+
+    def __init__(self, detections: Detections) -> None:
+        self.boxes = detections.boxes
+        self._by_frame = detections.by_frame()
+
+    def hide(self, frames: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        """``(K,)`` True where a detection of the same 1-based frame overlaps the ``(K, 4)`` box and stands in front
+        of it (its bottom edge as low as the box's, within :data:`FRONT_MARGIN` of the box's height)."""
+        out = np.zeros(len(frames), dtype=bool)
+        for k, (frame, box) in enumerate(zip(np.asarray(frames).tolist(), np.asarray(boxes))):
+            near = self._by_frame.get(int(frame))
+            if near is None:
+                continue
+            other = self.boxes[near]
+            front = other[:, 1] + other[:, 3] >= box[1] + box[3] * (1.0 - FRONT_MARGIN)
+            ix = np.minimum(other[:, 0] + other[:, 2], box[0] + box[2]) - np.maximum(other[:, 0], box[0])
+            iy = np.minimum(other[:, 1] + other[:, 3], box[1] + box[3]) - np.maximum(other[:, 1], box[1])
+            out[k] = bool(np.any(front & (ix > 0) & (iy > 0)))
+        return out
+
+
+def unhidden(frames: np.ndarray, boxes: np.ndarray, filled: np.ndarray, config: PostprocessConfig,
+             frame_rate: float | None, occluders: Occluders | None) -> np.ndarray:
+    """``(L,)`` True for each interpolated box that ``[postprocess] occlusion_seconds`` takes out: in a gap longer
+    than it, and with nothing in front that could hide the person (:meth:`Occluders.hide`). All False when there is
+    no check, no frame rate or no ``occluders``."""
+    out = np.zeros(len(frames), dtype=bool)
+    if config.occlusion_seconds is None or frame_rate is None or occluders is None or not filled.any():
+        return out
+    real = frames[~filled]
+    k = np.searchsorted(real, frames[filled])  # the box after each interpolated one
+    long = real[k] - real[k - 1] > max(1, int(round(config.occlusion_seconds * frame_rate)))
+    candidates = np.flatnonzero(filled)[long]
+    out[candidates] = ~occluders.hide(frames[candidates], boxes[candidates])
+    return out
+
+
 def expand(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(),
-           frame_rate: float | None = None) -> Expanded:
+           frame_rate: float | None = None, occluders: Occluders | None = None) -> Expanded:
     """The boxes of ``trajectory`` as post-processing writes them, interpolated if enabled (not smoothed).
 
-    Gaps longer than ``interpolate_max_seconds`` at ``frame_rate`` stay gaps.
+    Gaps longer than ``interpolate_max_seconds`` at ``frame_rate`` stay gaps; in gaps longer than
+    ``occlusion_seconds``, boxes nothing in ``occluders`` could hide are left out.
     """
     t = trajectory
     if not (config.interpolate and len(t) > 1):
         return Expanded(t.frames, t.boxes, t.scores, np.zeros(len(t), dtype=bool), t.det_index)
     frames, boxes, scores, filled = interpolate(t.frames, t.boxes, t.scores, max_interpolated_gap(config, frame_rate),
                                                 unchecked_gaps(t.frames, t.boxes, config, frame_rate))
+    keep = ~unhidden(frames, boxes, filled, config, frame_rate, occluders)
+    frames, boxes, scores, filled = frames[keep], boxes[keep], scores[keep], filled[keep]
     det_index = np.full(len(frames), -1, dtype=np.int64)
     det_index[~filled] = t.det_index
     return Expanded(frames, boxes, scores, filled, det_index)
@@ -162,7 +212,8 @@ BoxScorer = Callable[[Tracklet, Expanded], np.ndarray]
 
 def to_tracks(trajectories: Sequence[Tracklet], detections: Detections,
               config: PostprocessConfig = PostprocessConfig(), scorer: BoxScorer | None = None,
-              frame_rate: float | None = None, ids: Sequence[int | None] | None = None) -> Tracks:
+              frame_rate: float | None = None, ids: Sequence[int | None] | None = None,
+              occluders: Occluders | None = None) -> Tracks:
     """Post-process trajectories into the final :class:`Tracks`.
 
     Each trajectory is interpolated (if enabled; gaps up to
@@ -170,14 +221,15 @@ def to_tracks(trajectories: Sequence[Tracklet], detections: Detections,
     written under the id :func:`output_ids` gives it (or dropped). With a
     ``scorer`` every box gets its probability of being a true positive in
     ``Tracks.confidence`` (the confirmation stage then chooses which to keep).
-    ``ids``: :func:`output_ids` of the same trajectories, when the caller has them.
+    ``ids``: :func:`output_ids` of the same trajectories, when the caller has them; ``occluders``: what can hide
+    a person in long gaps (``[postprocess] occlusion_seconds``; in the trajectories' coordinates).
     """
     parts = []
-    ids = output_ids(trajectories, config, frame_rate) if ids is None else ids
+    ids = output_ids(trajectories, config, frame_rate, occluders) if ids is None else ids
     for t, track_id in zip(trajectories, ids):
         if track_id is None:
             continue
-        e = expand(t, config, frame_rate)
+        e = expand(t, config, frame_rate, occluders)
         sot = np.zeros(len(e.frames), dtype=bool)
         sot[~e.filled] = detections.from_sot[t.det_index]
         confidence = np.full(len(e.frames), np.nan) if scorer is None else scorer(t, e)

@@ -46,6 +46,18 @@ def test_json_and_toml_files_load(tmp_path):
         load_config(tmp_path / "c.yaml")
 
 
+def test_an_optional_number_is_turned_off_by_none_in_toml_and_null_in_json(tmp_path):
+    (tmp_path / "c.toml").write_text('[postprocess]\nocclusion_seconds = "none"\ninterpolate_max_seconds = "none"\n')
+    c = load_config(tmp_path / "c.toml").postprocess
+    assert c.occlusion_seconds is None and c.interpolate_max_seconds is None
+    assert TrackerConfig().postprocess.occlusion_seconds == 1.0  # the default is on
+    assert config_from_dict({"postprocess": {"occlusion_seconds": None}}).postprocess.occlusion_seconds is None
+    with pytest.raises(ConfigError, match="occlusion_seconds must be a finite number"):
+        config_from_dict({"postprocess": {"occlusion_seconds": "off"}})
+    # "none" means None for numbers only: a string field keeps it as written
+    assert config_from_dict({"appearance": {"model": "none"}}).appearance.model == "none"
+
+
 def test_replace_validates():
     c = TrackerConfig().replace("association", l_max=10)
     assert c.association.l_max == 10

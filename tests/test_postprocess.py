@@ -65,3 +65,38 @@ def test_interpolation_that_checks_its_line_fills_only_gaps_the_motion_around_th
     assert expand(off_the_line, trusting, frame_rate=10).filled.sum() == 30  # the check is what refuses it
     short = PostprocessConfig(interpolate_max_seconds=None, check_seconds=5.0, min_agreement=0.5)
     assert expand(off_the_line, short, frame_rate=10).filled.sum() == 30  # a 3-s gap is under a 5-s check
+
+
+def test_long_gaps_are_filled_only_where_a_detection_in_front_could_hide_the_person():
+    from sotmot.postprocess import Occluders, expand
+    from sotmot.types import Tracklet
+
+    # a person 20 x 50 px at x = 0..9 (frames 1-10), missed for 29 frames, seen again at x = 40..49 (frames 40-49)
+    frames = np.r_[np.arange(1, 11), np.arange(40, 50)]
+    x = np.r_[np.arange(10.0), 39.0 + np.arange(10.0)]
+    boxes = np.stack([x, np.zeros(20), np.full(20, 20.0), np.full(20, 50.0)], axis=1)
+    person = Tracklet(id=1, frames=frames, boxes=boxes, scores=np.ones(20), det_index=np.arange(20),
+                      feature=np.zeros(0), n_features=20)
+    # frames 15-24: someone in front of the line (bottom edge lower); frames 25-29: someone behind it (higher up)
+    front = [(f, [f - 10.0, 5.0, 20.0, 50.0]) for f in range(15, 25)]
+    behind = [(f, [f - 1.0, -20.0, 20.0, 50.0]) for f in range(25, 30)]
+    far = [(f, [500.0, 5.0, 20.0, 50.0]) for f in range(30, 35)]  # in front, but nowhere near
+    f, b = zip(*(front + behind + far))
+    occluders = Occluders(Detections(np.array(f), np.array(b), np.ones(len(f))))
+
+    checked = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=1.0)
+    e = expand(person, checked, frame_rate=10, occluders=occluders)
+    assert e.frames[e.filled].tolist() == list(range(15, 25))
+    assert e.det_index[~e.filled].tolist() == list(range(20))
+    # a shorter gap than the check, no check, or nothing to check against: the whole gap on trust
+    assert expand(person, PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=5.0), 10,
+                  occluders).filled.sum() == 29
+    trusting = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=None)
+    assert expand(person, trusting, 10, occluders).filled.sum() == 29
+    assert expand(person, checked, 10).filled.sum() == 29
+    assert PostprocessConfig().occlusion_seconds == 1.0  # on by default
+    # to_tracks writes what expand keeps
+    tracks = to_tracks([person], Detections(frames, boxes, np.ones(20)),
+                       PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=1.0, smooth_window=0),
+                       frame_rate=10, occluders=occluders)
+    assert tracks.frames[tracks.interpolated].tolist() == list(range(15, 25))

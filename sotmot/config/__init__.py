@@ -107,13 +107,14 @@ def field_docs(cls: type) -> dict[str, str]:
 
 
 def _coerce(section: str, name: str, hint: Any, value: Any) -> Any:
-    """Check ``value`` against the field's type hint; ints are accepted for floats."""
+    """Check ``value`` against the field's type hint; ints are accepted for floats, and ``"none"`` for an optional
+    number (TOML has no null: ``interpolate_max_seconds = "none"``)."""
     args = typing.get_args(hint)
     origin = typing.get_origin(hint)
     if origin in (typing.Union, types.UnionType):
-        if value is None and type(None) in args:
-            return None
         inner = [a for a in args if a is not type(None)]
+        if type(None) in args and (value is None or (value == "none" and inner[0] in (int, float))):
+            return None
         return _coerce(section, name, inner[0], value)
     if origin is Literal:
         if value not in args:

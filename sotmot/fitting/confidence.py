@@ -119,8 +119,10 @@ def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerCo
     """Associate, post-process without confirmation, and label every output box; the detector ``family``, else
     guessed from the scores."""
     _, trajectories = associate(prepared.tracklets, config, prepared.info.frame_rate)
-    ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate)
-    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, None, prepared.info.frame_rate, ids)
+    occluders = prepared.occluders()
+    ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate, occluders)
+    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, None, prepared.info.frame_rate, ids,
+                       occluders)
     labels = box_labels(tracks, prepared.info, workdir)
     keyed = {(int(f), int(i)): int(v) for f, i, v in zip(tracks.frames, tracks.ids, labels) if v >= 0}
     return Labelled(prepared, trajectories, family or detector_family(raw_scores, prepared.info.name),
@@ -189,10 +191,11 @@ def scored_boxes(seq: Labelled, confidence: np.ndarray, config: TrackerConfig) -
     """Features ``(M, len(FEATURES))`` and labels ``(M,)`` of the labelled output boxes of ``seq``."""
     p = seq.prepared
     rows, labels = [], []
+    occluders = p.occluders()
     for t, tid in zip(seq.trajectories, seq.track_ids):
         if tid is None:
             continue
-        e = expand(t, config.postprocess, p.info.frame_rate)
+        e = expand(t, config.postprocess, p.info.frame_rate, occluders)
         x = box_features(t, e, confidence, p.detections.from_sot, p.features, p.info.frame_rate)
         y = np.array([seq.labels.get((int(f), tid), -1) for f in e.frames])
         rows.append(x[y >= 0])
@@ -207,7 +210,8 @@ def confirmed_tracks(seq: Labelled, confidence: np.ndarray, model: BoxModel, thr
     """The output of ``seq`` after confirmation with ``model`` at ``threshold``."""
     p = seq.prepared
     scorer = box_scorer(model, p.detections, p.features, confidence, p.info.frame_rate)
-    tracks = to_tracks(seq.trajectories, p.detections, config.postprocess, scorer, p.info.frame_rate, seq.track_ids)
+    tracks = to_tracks(seq.trajectories, p.detections, config.postprocess, scorer, p.info.frame_rate, seq.track_ids,
+                       p.occluders())
     return confirm(tracks, config.replace("confirm", threshold=threshold))[0]
 
 
@@ -238,7 +242,8 @@ def objective(report: EvalReport, base: EvalReport) -> float:
 def unconfirmed_tracks(seq: Labelled, config: TrackerConfig) -> Tracks:
     """The output of ``seq`` without confirmation (post-processing as configured)."""
     p = seq.prepared
-    return to_tracks(seq.trajectories, p.detections, config.postprocess, None, p.info.frame_rate, seq.track_ids)
+    return to_tracks(seq.trajectories, p.detections, config.postprocess, None, p.info.frame_rate, seq.track_ids,
+                     p.occluders())
 
 
 @dataclass
