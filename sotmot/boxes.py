@@ -73,6 +73,13 @@ def pixel_bounds(boxes: np.ndarray, width: int, height: int) -> tuple[np.ndarray
     return x1, y1, x2, y2
 
 
+def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Intersection areas of broadcastable ``(..., 4)`` box arrays."""
+    ix = np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2]) - np.maximum(a[..., 0], b[..., 0])
+    iy = np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3]) - np.maximum(a[..., 1], b[..., 1])
+    return np.clip(ix, 0.0, None) * np.clip(iy, 0.0, None)
+
+
 def _overlap(a: np.ndarray, b: np.ndarray, kind: Overlap, aligned: bool) -> np.ndarray:
     a = as_boxes(a)
     b = as_boxes(b)
@@ -81,9 +88,7 @@ def _overlap(a: np.ndarray, b: np.ndarray, kind: Overlap, aligned: bool) -> np.n
         b = b[None, :, :]
     elif a.shape != b.shape:
         raise ValueError(f"aligned overlap needs equal shapes, got {a.shape} and {b.shape}")
-    ix = np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2]) - np.maximum(a[..., 0], b[..., 0])
-    iy = np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3]) - np.maximum(a[..., 1], b[..., 1])
-    inter = np.clip(ix, 0.0, None) * np.clip(iy, 0.0, None)
+    inter = _intersection(a, b)
     area_a = a[..., 2] * a[..., 3]
     area_b = b[..., 2] * b[..., 3]
     if kind == "iou":
@@ -108,6 +113,14 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def iom_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Intersection over the *smaller* area (IoM, paper Sec. 6.1), ``(N, M)`` in [0, 1]."""
     return _overlap(a, b, "iom", aligned=False)
+
+
+def intersection_aligned(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Intersection area (pixels squared) of ``a[i]`` with ``b[i]`` for two ``(N, 4)`` arrays; returns ``(N,)``."""
+    a, b = as_boxes(a), as_boxes(b)
+    if a.shape != b.shape:
+        raise ValueError(f"aligned overlap needs equal shapes, got {a.shape} and {b.shape}")
+    return _intersection(a, b)
 
 
 def iou_aligned(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -10,13 +10,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sotmot.boxes import VELOCITY_BOXES, end_velocity, motion_agreement
+from sotmot.boxes import VELOCITY_BOXES, end_velocity, intersection_aligned, motion_agreement
 from sotmot.config import PostprocessConfig
 from sotmot.types import Detections, Tracklet, Tracks
 
 #: A detection stands in front of a box when its bottom edge is no higher than the box's by more than this share
 #: of the box's height (nearer the camera, so it can hide the person).
 FRONT_MARGIN = 0.05
+_NONE = np.zeros(0, dtype=np.int64)
 
 
 def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_gap: int | None = None,
@@ -158,17 +159,15 @@ class Occluders:
     def hide(self, frames: np.ndarray, boxes: np.ndarray) -> np.ndarray:
         """``(K,)`` True where a detection of the same 1-based frame overlaps the ``(K, 4)`` box and stands in front
         of it (its bottom edge as low as the box's, within :data:`FRONT_MARGIN` of the box's height)."""
-        out = np.zeros(len(frames), dtype=bool)
-        for k, (frame, box) in enumerate(zip(np.asarray(frames).tolist(), np.asarray(boxes))):
-            near = self._by_frame.get(int(frame))
-            if near is None:
-                continue
-            other = self.boxes[near]
-            front = other[:, 1] + other[:, 3] >= box[1] + box[3] * (1.0 - FRONT_MARGIN)
-            ix = np.minimum(other[:, 0] + other[:, 2], box[0] + box[2]) - np.maximum(other[:, 0], box[0])
-            iy = np.minimum(other[:, 1] + other[:, 3], box[1] + box[3]) - np.maximum(other[:, 1], box[1])
-            out[k] = bool(np.any(front & (ix > 0) & (iy > 0)))
-        return out
+        boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+        near = [self._by_frame.get(int(f), _NONE) for f in np.asarray(frames).tolist()]
+        owner = np.repeat(np.arange(len(near)), [len(n) for n in near])
+        if not len(owner):
+            return np.zeros(len(near), dtype=bool)
+        box, other = boxes[owner], self.boxes[np.concatenate(near)]
+        front = other[:, 1] + other[:, 3] >= box[:, 1] + box[:, 3] * (1.0 - FRONT_MARGIN)
+        hit = front & (intersection_aligned(box, other) > 0)
+        return np.bincount(owner[hit], minlength=len(near)) > 0
 
 
 def unhidden(frames: np.ndarray, boxes: np.ndarray, filled: np.ndarray, config: PostprocessConfig,
