@@ -5,7 +5,7 @@ For each ``--sequences`` entry ``NAME:PERIOD`` a moving-camera version of the
 still shared sequence is made with ``scripts/make_moving.py`` (a 5/6 window
 panned sinusoidally, one period every PERIOD seconds, with 1 px of jitter,
 rounded to whole pixels) and the same window held still (cached under
-``--cache``). Each is tracked with the defaults on its public detections:
+``--cache``). Each is tracked with the defaults (or ``--config``) on its public detections:
 
 - ``still``: the still window (``[motion] compensation = "auto"``, which finds the camera still);
 - ``pan, off``: the moving window without compensation;
@@ -48,7 +48,7 @@ from common import DEFAULT_DATA, ROOT
 import make_moving
 from sotmot.appearance import make_embedder
 from sotmot.benchmarks import cached_features, machine
-from sotmot.config import TrackerConfig
+from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import evaluate_files
 from sotmot.io import read_detections, read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.motion import compose, estimate_motion, invert
@@ -158,9 +158,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="still sequences the still check is timed on (default: %(default)s)")
     parser.add_argument("--cache", type=Path, default=ROOT / ".cache" / "moving",
                         help="where the moving sequences and features are kept (default: %(default)s)")
+    parser.add_argument("--config", type=Path, help="tracker configuration file (default: the defaults)")
     parser.add_argument("--json", type=Path, help="write every number here")
     args = parser.parse_args(argv)
-    config = TrackerConfig().replace("appearance", model=args.model)
+    config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
     embedder_box: list = []
     rows: dict[str, dict[str, dict[str, float]]] = {}
     errors: dict[str, dict[str, float]] = {}
@@ -227,8 +228,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"still check on {name}: {s['ms_per_frame']:.2f} ms a frame, camera {camera}")
     if args.json:
         write_text_atomic(args.json, json.dumps({
-            "machine": machine(), "model": args.model, "sequences": args.sequences, "forward": args.forward,
-            "turn": args.turn, "targets": TARGETS,
+            "machine": machine(), "model": args.model, "config": str(args.config) if args.config else "defaults",
+            "sequences": args.sequences, "forward": args.forward, "turn": args.turn, "targets": TARGETS,
             "synthetic": rows, "estimator": errors, "real": real, "timing": timing}, indent=1) + "\n")
     return 0
 

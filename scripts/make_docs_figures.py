@@ -200,7 +200,10 @@ def main(argv: list[str] | None = None) -> int:
                  f"trajectory is made of (`sotmot/confidence/box_model.py`, fitted as `docs/calibration.md` says). On "
                  f"PETS09-S2L1 the detector's scores became confidences by the `{p.confidence_method}` map; gaps "
                  f"longer than {base.postprocess.interpolate_max_seconds:g} s ({gap} frames at 7 fps) are never "
-                 f"filled, {int(r.tracks.interpolated.sum())} of {int(old.tracks.interpolated.sum())} interpolated "
+                 f"filled, in gaps over {base.postprocess.occlusion_seconds:g} s that the walk around them does not "
+                 f"lead along only boxes a detection in front could hide are written (`[postprocess] "
+                 f"occlusion_seconds`), {int(r.tracks.interpolated.sum())} of {int(old.tracks.interpolated.sum())} "
+                 f"interpolated "
                  f"boxes were kept, and {len(r.dropped)} boxes below the threshold were dropped in all "
                  f"(`--unconfirmed file` keeps them in `<name>.low.txt`; each box's probability is in "
                  f"`<name>.flags.csv`):", "",

@@ -124,25 +124,16 @@ def max_interpolated_gap(config: PostprocessConfig, frame_rate: float | None) ->
     return max(1, int(round(config.interpolate_max_seconds * frame_rate)))
 
 
-def unchecked_gaps(frames: np.ndarray, boxes: np.ndarray, config: PostprocessConfig,
-                   frame_rate: float | None) -> np.ndarray | None:
-    """``(L - 1,)`` True after each box whose gap fails ``[postprocess] check_seconds``: longer than it, and a
-    motion agreement (:func:`~sotmot.boxes.motion_agreement`) of the boxes around it below
-    ``min_agreement``. None when there is no check (or no frame rate)."""
-    if config.check_seconds is None or frame_rate is None:
-        return None
-    gaps = np.diff(frames)
-    skip = np.zeros(len(gaps), dtype=bool)
-    long = np.flatnonzero(gaps > max(1, int(round(config.check_seconds * frame_rate))))
-    if not len(long):
-        return skip
-    before = [slice(max(0, k + 1 - VELOCITY_BOXES), k + 1) for k in long.tolist()]
-    after = [slice(k + 1, k + 1 + VELOCITY_BOXES) for k in long.tolist()]
-    agreement = motion_agreement(boxes[long], np.array([end_velocity(frames[s], boxes[s]) for s in before]),
-                                 boxes[long + 1], np.array([end_velocity(frames[s], boxes[s]) for s in after]),
-                                 gaps[long])
-    skip[long] = agreement < config.min_agreement
-    return skip
+def gap_agreement(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray) -> np.ndarray:
+    """``(K,)`` motion agreement (:func:`~sotmot.boxes.motion_agreement`, up to :data:`~sotmot.boxes.VELOCITY_BOXES`
+    boxes each side) of the gaps after boxes ``gaps`` ``(K,)`` of one trajectory's ``(L,)`` 1-based ``frames`` and
+    ``(L, 4)`` ``x, y, w, h`` ``boxes``: how well the straight line through each gap fits the walk around it."""
+    gaps = np.asarray(gaps, dtype=np.int64)
+    before = [slice(max(0, k + 1 - VELOCITY_BOXES), k + 1) for k in gaps.tolist()]
+    after = [slice(k + 1, k + 1 + VELOCITY_BOXES) for k in gaps.tolist()]
+    return motion_agreement(boxes[gaps], np.array([end_velocity(frames[s], boxes[s]) for s in before]).reshape(-1, 2),
+                            boxes[gaps + 1], np.array([end_velocity(frames[s], boxes[s]) for s in after]).reshape(-1, 2),
+                            frames[gaps + 1] - frames[gaps])
 
 
 class Occluders:
@@ -170,18 +161,22 @@ class Occluders:
         return np.bincount(owner[hit], minlength=len(near)) > 0
 
 
-def unhidden(frames: np.ndarray, boxes: np.ndarray, filled: np.ndarray, config: PostprocessConfig,
-             frame_rate: float | None, occluders: Occluders | None) -> np.ndarray:
-    """``(L,)`` True for each interpolated box that ``[postprocess] occlusion_seconds`` takes out: in a gap longer
-    than it, and with nothing in front that could hide the person (:meth:`Occluders.hide`). All False when there is
-    no check, no frame rate or no ``occluders``."""
+def unhidden(trajectory: Tracklet, frames: np.ndarray, boxes: np.ndarray, filled: np.ndarray,
+             config: PostprocessConfig, frame_rate: float | None, occluders: Occluders | None) -> np.ndarray:
+    """``(L,)`` True for each interpolated box of ``trajectory`` (expanded to ``frames``, ``boxes``, ``filled``) that
+    ``[postprocess] occlusion_seconds`` takes out: in a gap longer than it whose straight line the walk around it
+    does not lead along (:func:`gap_agreement` below ``min_agreement``), with nothing in front that could hide the
+    person (:meth:`Occluders.hide`). All False when there is no check, no frame rate or no ``occluders``."""
     out = np.zeros(len(frames), dtype=bool)
     if config.occlusion_seconds is None or frame_rate is None or occluders is None or not filled.any():
         return out
-    real = frames[~filled]
-    k = np.searchsorted(real, frames[filled])  # the box after each interpolated one
-    long = real[k] - real[k - 1] > max(1, int(round(config.occlusion_seconds * frame_rate)))
-    candidates = np.flatnonzero(filled)[long]
+    t = trajectory
+    long = np.flatnonzero(np.diff(t.frames) > max(1, int(round(config.occlusion_seconds * frame_rate))))
+    if not len(long):
+        return out
+    off_line = long[gap_agreement(t.frames, t.boxes, long) < config.min_agreement]
+    gap = np.searchsorted(t.frames, frames) - 1  # the gap each interpolated box lies in (after box ``gap``)
+    candidates = np.flatnonzero(filled & np.isin(gap, off_line))
     out[candidates] = ~occluders.hide(frames[candidates], boxes[candidates])
     return out
 
@@ -191,14 +186,14 @@ def expand(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig()
     """The boxes of ``trajectory`` as post-processing writes them, interpolated if enabled (not smoothed).
 
     Gaps longer than ``interpolate_max_seconds`` at ``frame_rate`` stay gaps; in gaps longer than
-    ``occlusion_seconds``, boxes nothing in ``occluders`` could hide are left out.
+    ``occlusion_seconds`` off the walk's line, boxes nothing in ``occluders`` could hide are left out
+    (:func:`unhidden`).
     """
     t = trajectory
     if not (config.interpolate and len(t) > 1):
         return Expanded(t.frames, t.boxes, t.scores, np.zeros(len(t), dtype=bool), t.det_index)
-    frames, boxes, scores, filled = interpolate(t.frames, t.boxes, t.scores, max_interpolated_gap(config, frame_rate),
-                                                unchecked_gaps(t.frames, t.boxes, config, frame_rate))
-    keep = ~unhidden(frames, boxes, filled, config, frame_rate, occluders)
+    frames, boxes, scores, filled = interpolate(t.frames, t.boxes, t.scores, max_interpolated_gap(config, frame_rate))
+    keep = ~unhidden(t, frames, boxes, filled, config, frame_rate, occluders)
     frames, boxes, scores, filled = frames[keep], boxes[keep], scores[keep], filled[keep]
     det_index = np.full(len(frames), -1, dtype=np.int64)
     det_index[~filled] = t.det_index

@@ -44,43 +44,44 @@ def test_to_tracks_numbers_by_first_frame_marks_filled_and_drops_short():
     np.testing.assert_allclose(tracks.boxes[3], [1, 0, 10, 10])
 
 
-def test_interpolation_that_checks_its_line_fills_only_gaps_the_motion_around_them_agrees_with():
-    from sotmot.postprocess import expand
+def walker(x_after: float):
+    """Walking right 2 px a frame for frames 1-10 (20 x 50 px), a 30-frame gap, then 10 more frames from x_after."""
     from sotmot.types import Tracklet
 
-    def trajectory(x_after: float) -> Tracklet:
-        # walking right 2 px a frame for frames 1-10, a 30-frame gap, then 10 more frames from x_after
-        frames = np.r_[np.arange(1, 11), np.arange(41, 51)]
-        x = np.r_[2.0 * np.arange(10), x_after + 2.0 * np.arange(10)]
-        boxes = np.stack([x, np.zeros(20), np.full(20, 20.0), np.full(20, 50.0)], axis=1)
-        return Tracklet(id=1, frames=frames, boxes=boxes, scores=np.ones(20), det_index=np.arange(20),
-                        feature=np.zeros(0), n_features=20)
-
-    checked = PostprocessConfig(interpolate_max_seconds=None, check_seconds=1.0, min_agreement=0.5)
-    on_the_line = trajectory(x_after=80.0)  # where 2 px a frame leads: x = 18 + 2 * 31
-    off_the_line = trajectory(x_after=-150.0)  # someone else, far behind where the walk leads
-    assert expand(on_the_line, checked, frame_rate=10).filled.sum() == 30
-    assert expand(off_the_line, checked, frame_rate=10).filled.sum() == 0
-    trusting = PostprocessConfig(interpolate_max_seconds=None)
-    assert expand(off_the_line, trusting, frame_rate=10).filled.sum() == 30  # the check is what refuses it
-    short = PostprocessConfig(interpolate_max_seconds=None, check_seconds=5.0, min_agreement=0.5)
-    assert expand(off_the_line, short, frame_rate=10).filled.sum() == 30  # a 3-s gap is under a 5-s check
-
-
-def test_long_gaps_are_filled_only_where_a_detection_in_front_could_hide_the_person():
-    from sotmot.postprocess import Occluders, expand
-    from sotmot.types import Tracklet
-
-    # a person 20 x 50 px at x = 0..9 (frames 1-10), missed for 29 frames, seen again at x = 40..49 (frames 40-49)
-    frames = np.r_[np.arange(1, 11), np.arange(40, 50)]
-    x = np.r_[np.arange(10.0), 39.0 + np.arange(10.0)]
+    frames = np.r_[np.arange(1, 11), np.arange(41, 51)]
+    x = np.r_[2.0 * np.arange(10), x_after + 2.0 * np.arange(10)]
     boxes = np.stack([x, np.zeros(20), np.full(20, 20.0), np.full(20, 50.0)], axis=1)
-    person = Tracklet(id=1, frames=frames, boxes=boxes, scores=np.ones(20), det_index=np.arange(20),
-                      feature=np.zeros(0), n_features=20)
+    return Tracklet(id=1, frames=frames, boxes=boxes, scores=np.ones(20), det_index=np.arange(20),
+                    feature=np.zeros(0), n_features=20)
+
+
+def test_a_long_gap_with_nothing_in_front_is_filled_only_where_the_walk_leads_along_its_line():
+    from sotmot.postprocess import Occluders, expand
+
+    nothing = Occluders(Detections(np.zeros(0), np.zeros((0, 4)), np.zeros(0)))
+    checked = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=1.0, min_agreement=0.5)
+    on_the_line = walker(x_after=80.0)  # where 2 px a frame leads: x = 18 + 2 * 31
+    off_the_line = walker(x_after=-150.0)  # someone else, far behind where the walk leads
+    assert expand(on_the_line, checked, 10, nothing).filled.sum() == 30
+    assert expand(off_the_line, checked, 10, nothing).filled.sum() == 0
+    trusting = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=None)
+    assert expand(off_the_line, trusting, 10, nothing).filled.sum() == 30  # the check is what refuses it
+    short = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=5.0)
+    assert expand(off_the_line, short, 10, nothing).filled.sum() == 30  # a 3-s gap is under a 5-s check
+    assert expand(off_the_line, checked, 10).filled.sum() == 30  # nothing to check against: on trust
+    assert PostprocessConfig().occlusion_seconds == 1.0  # on by default
+
+
+def test_off_the_line_a_long_gap_is_filled_where_a_detection_in_front_could_hide_the_person():
+    from sotmot.postprocess import Occluders, expand
+
+    person = walker(x_after=-150.0)  # frames 11-40 missed, and the walk does not lead there
     # frames 15-24: someone in front of the line (bottom edge lower); frames 25-29: someone behind it (higher up)
-    front = [(f, [f - 10.0, 5.0, 20.0, 50.0]) for f in range(15, 25)]
-    behind = [(f, [f - 1.0, -20.0, 20.0, 50.0]) for f in range(25, 30)]
-    far = [(f, [500.0, 5.0, 20.0, 50.0]) for f in range(30, 35)]  # in front, but nowhere near
+    line = expand(person, PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=None), 10)
+    at = {int(f): b for f, b in zip(line.frames, line.boxes)}
+    front = [(f, at[f] + [3.0, 5.0, 0.0, 0.0]) for f in range(15, 25)]
+    behind = [(f, at[f] + [1.0, -20.0, 0.0, 0.0]) for f in range(25, 30)]
+    far = [(f, at[f] + [500.0, 5.0, 0.0, 0.0]) for f in range(30, 35)]  # in front, but nowhere near
     f, b = zip(*(front + behind + far))
     occluders = Occluders(Detections(np.array(f), np.array(b), np.ones(len(f))))
 
@@ -88,15 +89,8 @@ def test_long_gaps_are_filled_only_where_a_detection_in_front_could_hide_the_per
     e = expand(person, checked, frame_rate=10, occluders=occluders)
     assert e.frames[e.filled].tolist() == list(range(15, 25))
     assert e.det_index[~e.filled].tolist() == list(range(20))
-    # a shorter gap than the check, no check, or nothing to check against: the whole gap on trust
-    assert expand(person, PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=5.0), 10,
-                  occluders).filled.sum() == 29
-    trusting = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=None)
-    assert expand(person, trusting, 10, occluders).filled.sum() == 29
-    assert expand(person, checked, 10).filled.sum() == 29
-    assert PostprocessConfig().occlusion_seconds == 1.0  # on by default
     # to_tracks writes what expand keeps
-    tracks = to_tracks([person], Detections(frames, boxes, np.ones(20)),
+    tracks = to_tracks([person], Detections(person.frames, person.boxes, np.ones(20)),
                        PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=1.0, smooth_window=0),
                        frame_rate=10, occluders=occluders)
     assert tracks.frames[tracks.interpolated].tolist() == list(range(15, 25))

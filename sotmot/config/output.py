@@ -31,43 +31,33 @@ class PostprocessConfig:
         before confirmation: docs/calibration.md). Chosen leave one sequence
         out from 2, 3 and 4 s with confirmation refitted each time: 4 s
         had the best HOTA on every full-length sequence (docs/calibration.md).
-    check_seconds, min_agreement
-        Interpolation that checks its line: a gap longer than
-        ``check_seconds`` (and at most ``interpolate_max_seconds``) is filled
-        only where the straight line agrees with how the person moved on both
-        sides of it, a motion agreement
-        (:func:`sotmot.boxes.motion_agreement`, up to 10 boxes
-        each side) of at least ``min_agreement``; shorter gaps are filled on
-        trust. ``None`` (default): every gap up to the bound is filled.
-    occlusion_seconds
-        Interpolation fills occlusions: in a gap longer than this, a box is
-        written only where a detection stands in front of it (overlapping
-        it, its bottom edge as low or lower: nearer the camera) and could
-        hide the person. A person the detector missed that long with
-        nothing in front was not there, or walked off the straight line, or
+    occlusion_seconds, min_agreement
+        Interpolation fills occlusions: a gap longer than ``occlusion_seconds``
+        is filled on trust only where the walk on both sides leads along its
+        straight line (a motion agreement, :func:`sotmot.boxes.motion_agreement`
+        from up to 10 boxes each side, of at least ``min_agreement``); in any
+        other long gap a box is written only where a detection stands in
+        front of it (overlapping it, its bottom edge as low or lower: nearer
+        the camera) and could hide the person. A person the detector missed
+        that long, off the line and with nothing in front, was not there, or
         left the image and came back. ``None``: every gap up to the bound is
-        filled. 1.0 (default) passed the validation set's rule (no sequence
-        losing more than 0.5 HOTA or MOTA; combined MOTA +0.5 on the
-        full-length sequences, +1.2 on the label-only ones, FP -11 % and
-        -18 %), where 0.5 s lost 1.2 HOTA on MOT16-13 (docs/results.md,
-        "The validation set").
+        filled. 1.0 s and 0.5 (default) passed the validation set's rule (no
+        sequence losing more than 0.5 HOTA or MOTA, the moving-camera
+        variants included; docs/results.md, "The validation set").
     """
 
     interpolate: bool = True
     smooth_window: int = 3
     min_length: int = 1
     interpolate_max_seconds: float | None = 4.0
-    check_seconds: float | None = None
-    min_agreement: float = 0.5
     occlusion_seconds: float | None = 1.0
+    min_agreement: float = 0.5
 
     def __post_init__(self) -> None:
         _check(0 <= self.smooth_window <= 1000, "postprocess", "smooth_window must be between 0 and 1000")
         _check(1 <= self.min_length <= 1_000_000, "postprocess", "min_length must be between 1 and 1,000,000")
         _check(self.interpolate_max_seconds is None or 0 < self.interpolate_max_seconds <= 3600, "postprocess",
                "interpolate_max_seconds must be in (0, 3600] (or absent to fill every gap)")
-        _check(self.check_seconds is None or 0 <= self.check_seconds <= 3600, "postprocess",
-               "check_seconds must be in [0, 3600] (or absent to fill every gap on trust)")
         _check(0.0 <= self.min_agreement <= 1.0, "postprocess", "min_agreement must be in [0, 1]")
         _check(self.occlusion_seconds is None or 0 <= self.occlusion_seconds <= 3600, "postprocess",
                "occlusion_seconds must be in [0, 3600] (or absent to fill every gap on trust)")
