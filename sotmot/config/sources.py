@@ -169,7 +169,7 @@ class AppearanceConfig:
         trails re-ID by 18 HOTA combined (45.1 against 63.4; docs/benchmarks.md).
         Its gaps: the label sets prefer ``l_max_seconds = 2`` with
         ``interpolate_max_seconds = 2`` (``docs/validation/gap2s.toml``: HOTA
-        +1.0, MOTA +3.3 combined), a recommendation, not a default.
+        +1.0, MOTA +3.0 combined), a recommendation, not a default.
     model
         Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
         person-reidentification-retail-0288). ``None`` reads the environment
