@@ -20,8 +20,8 @@ FRONT_MARGIN = 0.05
 _NONE = np.zeros(0, dtype=np.int64)
 
 
-def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_gap: int | None = None,
-                skip: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_gap: int | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Fill every gap of at most ``max_gap`` frames (None: every gap) by linear interpolation of the boxes.
 
     Parameters
@@ -35,8 +35,6 @@ def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_g
         around its gap.
     max_gap
         Longest gap filled, as the frame difference of the boxes around it.
-    skip
-        ``(L - 1,)`` bool: True leaves the gap after box ``k`` unfilled, whatever its length.
 
     Returns
     -------
@@ -45,11 +43,9 @@ def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_g
         gaps; ``filled`` marks the new boxes.
     """
     full = np.arange(frames[0], frames[-1] + 1, dtype=np.int64)
-    if max_gap is not None or skip is not None:
+    if max_gap is not None:
         gaps = np.diff(frames)
-        fill = np.ones(len(gaps), dtype=bool) if max_gap is None else gaps <= max_gap
-        if skip is not None:
-            fill &= ~np.asarray(skip, dtype=bool)
+        fill = gaps <= max_gap
         after = np.searchsorted(frames, full, side="right")  # index of the box after each frame
         inside = np.clip(after, 1, len(gaps)) - 1
         full = full[np.isin(full, frames) | fill[inside]]
