@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
                     kept = [t for t in result.trajectories
                             if int((~prepared.detections.from_sot[t.det_index]).sum()) >= k]
                     tracks = to_tracks(kept, prepared.detections, online.postprocess, None, result.info.frame_rate,
-                                       occluders=prepared.occluders())
+                                       occluders=prepared.occluders)
                     path = results_path(out / f"min_hits_{k}", result.info.name)
                     write_results(path, tracks)
                     pairs[f"min_hits {k}"].append((path, result.info.gt_path, result.info.length, result.info.name))

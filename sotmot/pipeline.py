@@ -14,6 +14,7 @@ back into each frame's own.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import time
 from collections.abc import Callable
@@ -193,9 +194,10 @@ class Prepared:
     # resolved [sot] verify to the detector (so finishing with an "auto" configuration keeps the check)
     support: object | None = None
 
+    @functools.cached_property
     def occluders(self) -> Occluders:
         """The detections as what could hide a person in a long gap, in the trajectories' coordinates (the
-        reference frame when the camera moves)."""
+        reference frame when the camera moves); built once per prepared sequence."""
         detections = self.detections if self.motion is None else self.motion.to_ref_detections(self.detections)
         return Occluders(detections)
 
@@ -336,7 +338,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
         model = load_calibration(config.confirm.calibration).box_models[model_kind(prepared.confidence_method)]
         scorer = box_scorer(model, prepared.detections, prepared.features, prepared.confidence,
                             prepared.info.frame_rate)
-    occluders = prepared.occluders()
+    occluders = prepared.occluders
     ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate, occluders)
     tracks = to_tracks(trajectories, prepared.detections, config.postprocess, scorer, prepared.info.frame_rate, ids,
                        occluders)

@@ -119,7 +119,7 @@ def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerCo
     """Associate, post-process without confirmation, and label every output box; the detector ``family``, else
     guessed from the scores."""
     _, trajectories = associate(prepared.tracklets, config, prepared.info.frame_rate)
-    occluders = prepared.occluders()
+    occluders = prepared.occluders
     ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate, occluders)
     tracks = to_tracks(trajectories, prepared.detections, config.postprocess, None, prepared.info.frame_rate, ids,
                        occluders)
@@ -191,7 +191,7 @@ def scored_boxes(seq: Labelled, confidence: np.ndarray, config: TrackerConfig) -
     """Features ``(M, len(FEATURES))`` and labels ``(M,)`` of the labelled output boxes of ``seq``."""
     p = seq.prepared
     rows, labels = [], []
-    occluders = p.occluders()
+    occluders = p.occluders
     for t, tid in zip(seq.trajectories, seq.track_ids):
         if tid is None:
             continue
@@ -211,7 +211,7 @@ def confirmed_tracks(seq: Labelled, confidence: np.ndarray, model: BoxModel, thr
     p = seq.prepared
     scorer = box_scorer(model, p.detections, p.features, confidence, p.info.frame_rate)
     tracks = to_tracks(seq.trajectories, p.detections, config.postprocess, scorer, p.info.frame_rate, seq.track_ids,
-                       p.occluders())
+                       p.occluders)
     return confirm(tracks, config.replace("confirm", threshold=threshold))[0]
 
 
@@ -243,7 +243,7 @@ def unconfirmed_tracks(seq: Labelled, config: TrackerConfig) -> Tracks:
     """The output of ``seq`` without confirmation (post-processing as configured)."""
     p = seq.prepared
     return to_tracks(seq.trajectories, p.detections, config.postprocess, None, p.info.frame_rate, seq.track_ids,
-                     p.occluders())
+                     p.occluders)
 
 
 @dataclass
