@@ -2,38 +2,19 @@
 """The paper's Table 3, on our data: what does the SOT step add to the MOT part?
 
 Rows per sequence (``--rows``; default: :data:`TABLE3`): MOT only;
-SOT(template)+MOT and SOT(deep)+MOT with Algorithm 1 as published
-(``[sot] rules = "paper"``) and with the confident rules (``"confident"``:
-only extensions that reach another box, issue #12); the same checked by the
-person detector ("verified", ``[sot] verify = "detector"``, issue #25: each
-SOT box regressed onto a detector box down to ``verify_min_score``, and an
-extension ends where none supports it, the paper's box regression on SOT
-results); SOT after association, "+ends" (trajectory ends extended, ``[sot]
-extend_seconds`` as configured; every other row extends nothing), verified or
-not, and "+weak ends", the baseline that uses the same weak boxes without SOT
-(ByteTrack's second association at trajectory ends, ``extend_by =
-"detections"``); "+gaps" (interpolated boxes replaced by boxes found in the
-frames, ``[sot] refine_gaps``; verified or not) and "+weak gaps" (replaced by
-the detector's boxes alone); every row also "no-interp", without
-interpolation, to see whether SOT boxes only fill gaps that interpolation
-fills anyway.
-
-Two protocols, as MOTChallenge reports them: public (each sequence's
-``det/det.txt``; the rows the detector checks are "public, refined": tracks
-still start only from the given detections) and, with ``--private``, the
-detector's own boxes (``--detector-model``; run once per sequence at the weak
-boxes' threshold, boxes at ``[detection] min_score`` tracked).
-
-Columns: TrackEval HOTA, MOTA, MOTP, IDF1, FP, FN, IDSW; frames per second of
-the whole pipeline (the detections' re-ID features, and with ``--private``
-the detection, are computed once per sequence and their time is added to
-every row); the SOT boxes in the output (Algorithm 1's that survived NMS and
-confirmation, end extensions, refined gap boxes) and their precision against
-the ground truth (IoU >= 0.5 with a considered pedestrian box in that frame),
-in all and split into "gap" boxes (between the first and last other box of
-their track) and "end" boxes. The JSON also has, per sequence, the boxes
-Algorithm 1 added before association (``sot_boxes``, after its NMS) and its
-extension steps.
+SOT(template)+MOT and SOT(deep)+MOT with Algorithm 1 as published; the same
+checked by the person detector's weak boxes ("verified", ``[detection]
+weak_boxes = "on"``, issue #25: each SOT box regressed onto a detector box
+scoring at least 0.1, and an extension ends where none supports it, the
+paper's box regression on SOT results); after association, "+ends"
+(trajectory ends extended by SOT, ``[ends] seconds`` as configured; every other
+row extends nothing) and "+weak ends" (by the detector's weak boxes, no SOT:
+ByteTrack's second association at trajectory ends); "+gaps" (interpolated
+boxes replaced by boxes SOT finds in the frames, ``[ends] refine_gaps``) and
+"+weak gaps" (replaced by the detector's weak boxes); every row also
+"no-interp", without interpolation, to see whether SOT boxes only fill gaps
+that interpolation fills anyway. A row without "verified" or "weak" runs with
+the weak boxes off, under both protocols.
 
     python scripts/ablation.py --model ../shared/models/person-reidentification-retail-0288.onnx \
         --detector-model ../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml \
@@ -59,57 +40,48 @@ from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import evaluate_files
 from sotmot.io import read_ground_truth, read_seqinfo, results_path, write_results, write_text_atomic
-from sotmot.pipeline import finish_sequence, pass_detector, prepare_sequence
+from sotmot.detection import make_detector
+from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.plan import resolve
 
 ENDS = None  # "+ends" rows: the end extension as configured (the default's, or --config's)
-OFF = {"verify": "none", "extend_by": "sot"}  # no detector check (the default, "auto", checks private runs)
-CHECKED = {"verify": "detector", "extend_by": "sot"}
-ROWS = {
-    "MOT": {"variant": "none", **OFF},
-    # Algorithm 1 as published (``[sot] rules = "paper"``), and the confident rules (issue #12)
-    "SOT(template)+MOT": {"variant": "template", "rules": "paper", **OFF},
-    "SOT(template)+MOT+links": {"variant": "template", "rules": "paper", "must_link": True, **OFF},
-    "SOT(deep)+MOT": {"variant": "deep", "rules": "paper", **OFF},
-    "SOT(template)+MOT confident": {"variant": "template", "rules": "confident", **OFF},
-    "SOT(deep)+MOT confident": {"variant": "deep", "rules": "confident", **OFF},
-    "SOT(template)+MOT seeds>=0.95": {"variant": "template", "rules": "paper", "seed_min_confidence": 0.95, **OFF},
-    "SOT(deep)+MOT seeds>=0.9": {"variant": "deep", "rules": "paper", "seed_min_confidence": 0.9, **OFF},
-    # checked by the detector (issue #25): every SOT box regressed onto a detector box, unsupported ones dropped
-    "SOT(template)+MOT verified": {"variant": "template", "rules": "paper", **CHECKED},
-    "SOT(deep)+MOT verified": {"variant": "deep", "rules": "paper", **CHECKED},
-    "SOT(template)+MOT confident verified": {"variant": "template", "rules": "confident", **CHECKED},
-    "SOT(deep)+MOT confident verified": {"variant": "deep", "rules": "confident", **CHECKED},
-    # SOT after association: trajectory ends, and interpolated boxes replaced by boxes found in the frames
-    "MOT+ends": {"variant": "none", "extend_seconds": ENDS, **OFF},
-    "MOT+ends verified": {"variant": "none", "extend_seconds": ENDS, **CHECKED},
-    "MOT+weak ends": {"variant": "none", "extend_seconds": ENDS, "verify": "detector", "extend_by": "detections"},
-    "MOT+gaps": {"variant": "none", "refine_gaps": True, **OFF},
-    "MOT+gaps verified": {"variant": "none", "refine_gaps": True, **CHECKED},
-    # interpolated boxes replaced by the detector's boxes alone (the weak-box baseline inside gaps, no SOT)
-    "MOT+weak gaps": {"variant": "none", "refine_gaps": True, "verify": "detector", "extend_by": "detections"},
-    "MOT+weak ends+gaps": {"variant": "none", "extend_seconds": ENDS, "refine_gaps": True, "verify": "detector",
-                           "extend_by": "detections"},
-    "MOT+ends+gaps": {"variant": "none", "extend_seconds": ENDS, "refine_gaps": True, **OFF},
-    "SOT(deep)+MOT+ends": {"variant": "deep", "rules": "paper", "extend_seconds": ENDS, **OFF},
-    "SOT(deep)+MOT confident+ends": {"variant": "deep", "rules": "confident", "extend_seconds": ENDS, **OFF},
-    "SOT(deep)+MOT+ends seeds>=0.9": {"variant": "deep", "rules": "paper", "seed_min_confidence": 0.9,
-                                      "extend_seconds": ENDS, **OFF},
-    "SOT(deep)+MOT verified+weak ends": {"variant": "deep", "rules": "paper", "extend_seconds": ENDS,
-                                         "verify": "detector", "extend_by": "detections"},
-    "SOT(template)+MOT confident verified+weak ends": {"variant": "template", "rules": "confident",
-                                                       "extend_seconds": ENDS, "verify": "detector",
-                                                       "extend_by": "detections"},
+OFF = {"detection": {"weak_boxes": "off"}}  # no weak boxes (the default, "auto", uses them in private runs)
+WEAK = {"detection": {"weak_boxes": "on"}}
+ROWS: dict[str, dict] = {
+    "MOT": {"sot": {"variant": "none"}, **OFF},
+    # Algorithm 1 as published, alone and checked by the weak boxes (issue #25)
+    "SOT(template)+MOT": {"sot": {"variant": "template"}, **OFF},
+    "SOT(deep)+MOT": {"sot": {"variant": "deep"}, **OFF},
+    "SOT(template)+MOT verified": {"sot": {"variant": "template"}, **WEAK},
+    "SOT(deep)+MOT verified": {"sot": {"variant": "deep"}, **WEAK},
+    # after association: trajectory ends and gaps, by SOT or by the weak boxes
+    "MOT+ends": {"sot": {"variant": "none"}, "ends": {"seconds": ENDS}, **OFF},
+    "MOT+weak ends": {"sot": {"variant": "none"}, "ends": {"seconds": ENDS}, **WEAK},
+    "MOT+gaps": {"sot": {"variant": "none"}, "ends": {"refine_gaps": True}, **OFF},
+    "MOT+weak gaps": {"sot": {"variant": "none"}, "ends": {"refine_gaps": True}, **WEAK},
+    "MOT+ends+gaps": {"sot": {"variant": "none"}, "ends": {"seconds": ENDS, "refine_gaps": True}, **OFF},
+    "MOT+weak ends+gaps": {"sot": {"variant": "none"}, "ends": {"seconds": ENDS, "refine_gaps": True}, **WEAK},
+    "SOT(deep)+MOT+ends": {"sot": {"variant": "deep"}, "ends": {"seconds": ENDS}, **OFF},
+    "SOT(deep)+MOT verified+weak ends": {"sot": {"variant": "deep"}, "ends": {"seconds": ENDS}, **WEAK},
 }
 # every row also without interpolation: does SOT fill gaps that interpolation would have filled anyway? (issue #12)
 ROWS.update({f"{name} no-interp": {**spec, "postprocess": {"interpolate": False}} for name, spec in list(ROWS.items())})
-#: The default rows: the paper's Table 3 (MOT, SOT(template)+MOT, SOT(deep)+MOT) under both rules, unchecked and
-#: checked by the detector, SOT after association (unchecked, checked, and the weak boxes alone), and both checked.
-TABLE3 = ["MOT", "SOT(template)+MOT", "SOT(deep)+MOT", "SOT(template)+MOT confident", "SOT(deep)+MOT confident",
-          "SOT(template)+MOT verified", "SOT(deep)+MOT verified", "SOT(template)+MOT confident verified",
-          "SOT(deep)+MOT confident verified", "MOT+ends", "MOT+ends verified", "MOT+weak ends",
-          "SOT(deep)+MOT verified+weak ends", "SOT(template)+MOT confident verified+weak ends"]
+
+
+def row_config(base: TrackerConfig, row: str) -> TrackerConfig:
+    """``base`` with the sections ``row`` sets; a row without "+ends" extends nothing, "+ends" as ``base`` does."""
+    config = base.replace("ends", seconds=0.0)
+    for section, fields in ROWS[row].items():
+        config = config.replace(section, **{k: base.ends.seconds if v is ENDS else v for k, v in fields.items()})
+    return config
+
+
+#: The default rows: the paper's Table 3 (MOT, SOT(template)+MOT, SOT(deep)+MOT), unchecked and checked by the
+#: weak boxes, the trajectory ends by SOT and by the weak boxes, and both checked.
+TABLE3 = ["MOT", "SOT(template)+MOT", "SOT(deep)+MOT", "SOT(template)+MOT verified", "SOT(deep)+MOT verified",
+          "MOT+ends", "MOT+weak ends", "SOT(deep)+MOT verified+weak ends"]
 #: The rows without the detector (all of them before issue #25).
-UNCHECKED = [r for r in TABLE3 if ROWS[r].get("verify") != "detector"]
+UNCHECKED = [r for r in ROWS if ROWS[r]["detection"]["weak_boxes"] != "on"]
 COLUMNS = ("HOTA", "MOTA", "MOTP", "IDF1", "FP", "FN", "IDSW")
 
 
@@ -159,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", type=Path)
     parser.add_argument("--rows", default=None,
                         help="comma-separated subset of: " + ", ".join(ROWS) + " (default: the paper's Table 3 rows, "
-                             "both rules, checked by the detector or not, and the trajectory ends; without "
+                             "checked by the weak boxes or not, and the trajectory ends; without "
                              "--detector-model only the unchecked ones)")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--min-length", type=int, default=100,
@@ -167,11 +139,12 @@ def main(argv: list[str] | None = None) -> int:
                              "%(default)s; 0 takes the 30-frame clips too)")
     parser.add_argument("--json", type=Path)
     args = parser.parse_args(argv)
-    rows = [r for r in (args.rows or ",".join(TABLE3 if args.detector_model else UNCHECKED)).split(",") if r]
+    rows = [r for r in (args.rows or ",".join(TABLE3 if args.detector_model else [r for r in TABLE3 if r in UNCHECKED]))
+            .split(",") if r]
     unknown = [r for r in rows if r not in ROWS]
     if unknown:
         parser.error(f"unknown rows: {', '.join(unknown)}")
-    if not args.detector_model and (args.private or any(ROWS[r].get("verify") == "detector" for r in rows)):
+    if not args.detector_model and (args.private or any(r not in UNCHECKED for r in rows)):
         parser.error("--private and the rows the detector checks need --detector-model")
     base = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
     if args.detector_model:
@@ -188,23 +161,17 @@ def main(argv: list[str] | None = None) -> int:
             info = read_seqinfo(seq)
             detector = None
             if args.detector_model:  # one detector per sequence, at the weak boxes' threshold, for every row
-                detector = CachedDetector(pass_detector(base, verify=True))
+                detector = CachedDetector(make_detector(resolve(row_config(base, "MOT+weak ends"), info).weak_detector))
             start = time.perf_counter()
             # the re-ID features (and the detections) of the rows without SOT: computed once, shared by every row
-            features = prepare_sequence(seq, base.replace("sot", **ROWS["MOT"]), embedder,
-                                        detector=detector).features
+            features = prepare_sequence(seq, row_config(base, "MOT"), embedder, detector=detector).features
             embed_seconds = time.perf_counter() - start
             results[info.name] = {}
             for row in rows:
-                spec = {"extend_seconds": 0.0, **ROWS[row]}  # rows without "+ends" extend nothing
-                if spec["extend_seconds"] is ENDS:
-                    spec["extend_seconds"] = base.sot.extend_seconds
-                config = base.replace("sot", **{k: v for k, v in spec.items() if k != "postprocess"})
-                if "postprocess" in spec:
-                    config = config.replace("postprocess", **spec["postprocess"])
+                config = row_config(base, row)
                 start = time.perf_counter()
                 prepared = prepare_sequence(seq, config, embedder, detector=detector,
-                                            features=None if spec["variant"] != "none" else features)
+                                            features=None if config.sot.variant != "none" else features)
                 run = finish_sequence(prepared, config, embedder=embedder)
                 seconds = time.perf_counter() - start + embed_seconds
                 path = results_path(Path(tmp) / row, info.name)

@@ -54,8 +54,9 @@ from sotmot.plugins import BACKENDS
 from common import DEFAULT_DATA, run_timed
 from sotmot.benchmarks import machine, sequences
 from sotmot.config import TrackerConfig
-from sotmot.io import write_text_atomic
+from sotmot.io import read_seqinfo, write_text_atomic
 from sotmot.pipeline import pass_detector, track_sequence
+from sotmot.plan import resolve
 
 STAGES = ("read", "detect", "preprocess", "appearance", "decode", "motion", "sot", "tracklets", "association",
           "postprocess", "confirm", "extend")
@@ -122,14 +123,14 @@ def main(argv: list[str] | None = None) -> int:
                                      flip=not args.no_flip)
     config = config.replace("sot", variant=args.sot)
     detector = None
+    seqs = sequences(args.data, args.sequences)
     if args.detector_model:
         config = config.replace("detection", source="model", model=args.detector_model)
         # loaded once, outside the clock, like the re-ID model; at the weak boxes' threshold, as sotmot track runs it
-        detector = pass_detector(config, config.sot.resolved(True).verify == "detector")
+        detector = pass_detector(resolve(config, read_seqinfo(seqs[0])))
     config = config.replace("appearance", backend=resolve_backend(config.appearance).backend)  # the one that runs
     embedder = make_embedder(config.appearance)
     rows = {}
-    seqs = sequences(args.data, args.sequences)
     for seq in seqs:
         start, cpu = time.perf_counter(), time.process_time()
         result = track_sequence(seq, config.replace("association", solver=args.solver), embedder=embedder,

@@ -69,7 +69,8 @@ def validation_set(data: Path, cache: Path, groups: set[str]) -> list[tuple[str,
 def motion_only(config: TrackerConfig) -> TrackerConfig:
     """``config`` for a sequence without frames: no re-ID, no camera motion, nothing that reads pixels."""
     return (config.replace("appearance", backend="none", model=None)
-            .replace("motion", compensation="off").replace("sot", variant="none", extend_seconds=0.0))
+            .replace("motion", compensation="off").replace("sot", variant="none")
+            .replace("ends", seconds=0.0))
 
 
 def named_config(spec: str) -> tuple[str, tuple[TrackerConfig, str]]:

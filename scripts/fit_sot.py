@@ -5,9 +5,9 @@ Each labelled sequence of at least ``--min-length`` frames under ``--data`` is
 tracked once with the configuration (appearance cached under ``--cache``),
 then its confirmed trajectories' ends are extended once with the loosest gates
 of the grid (``sotmot.sot.extend.extend_ends`` with a trace of every added box and
-its re-ID affinity). Every grid point -- ``extend_min_confidence`` (the
-trajectory's mean confirmation confidence), ``extend_min_affinity`` and
-``extend_seconds`` -- is then the same run cut where its gates would have
+its re-ID affinity). Every grid point -- ``[ends] min_confidence`` (the
+trajectory's mean confirmation confidence), ``min_affinity`` and
+``seconds`` -- is then the same run cut where its gates would have
 stopped each end (an end stops at its first box that fails a gate, so cutting
 the loose run reproduces the strict one, except that a box cut from one end
 no longer blocks another track's end), and scored with TrackEval. Each grid
@@ -16,14 +16,12 @@ best mean HOTA on the sequences of the *other* videos (MOT16-09 and MOT17-09-FRC
 are one video, left out together); the table gives what it does on the
 held-out sequence, beside no extension.
 
-With ``--verify`` the person detector (``--detector-model``) checks every box
-the extension finds (``[sot] verify = "detector"``): a box that a detector box
-supports is replaced by it and gated by ``extend_supported_affinity``
-(``--supported-affinities``), one without support by ``extend_min_affinity``
-(``--affinities``; 1 drops every unsupported box). ``--extend-by detections``
-is the simplest alternative that uses the same weak boxes: trajectories
-extended by the detector's boxes alone (ByteTrack's second association at
-trajectory ends), no SOT. With ``--private`` the
+With ``--weak`` the ends grow by the person detector's weak boxes
+(``--detector-model``, ``[detection] weak_boxes = "on"``) instead of SOT:
+the detector's boxes near the motion prior (ByteTrack's second association at
+trajectory ends), each gated by the fixed affinity of
+:data:`sotmot.sot.support.SUPPORTED_AFFINITY` (``--affinities`` then changes
+nothing). With ``--private`` the
 sequences are tracked from that detector's boxes (MOTChallenge's private
 detections) instead of their public ``det.txt``. The rows give the added
 boxes and how many of them are right (matched to ground truth by the CLEAR
@@ -49,9 +47,11 @@ from sotmot.appearance import make_embedder
 from sotmot.benchmarks import cached_features, machine, private_config
 from sotmot.fitting.confidence import box_labels
 from sotmot.scoring import evaluate_files
-from sotmot.sot.extend import DetectorSupport, extend_ends, gated, with_added
+from sotmot.sot.extend import extend_ends, gated, with_added
+from sotmot.sot.support import DetectorSupport
 from sotmot.io import FrameReader, results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.plan import resolve
 
 ROOT = Path(__file__).resolve().parents[1]
 SHOWN = ("HOTA", "MOTA", "IDF1", "FP", "FN", "IDSW")
@@ -65,63 +65,50 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_fit_arguments(parser, ROOT / ".cache" / "features")
     parser.add_argument("--confidences", default="0,0.6,0.7,0.8",
-                        help="candidate extend_min_confidence values (default: %(default)s)")
+                        help="candidate [ends] min_confidence values (default: %(default)s)")
     parser.add_argument("--affinities", default="0.5,0.6,0.7",
-                        help="candidate extend_min_affinity values (default: %(default)s)")
-    parser.add_argument("--seconds", default="0.5,1.0", help="candidate extend_seconds values (default: %(default)s)")
-    parser.add_argument("--detector-model", metavar="PATH.xml",
-                        help="the person detector of --verify, --extend-by detections and --private")
-    parser.add_argument("--verify", action="store_true",
-                        help="check the found boxes with the detector ([sot] verify = detector)")
-    parser.add_argument("--supported-affinities", default="0.3,0.4,0.5",
-                        help="with --verify: candidate extend_supported_affinity values (default: %(default)s)")
-    parser.add_argument("--extend-by", choices=["sot", "detections"], default="sot",
-                        help="detections: the weak-box baseline, trajectories extended by the detector's boxes "
-                             "alone, no SOT ([sot] extend_by; implies --verify)")
+                        help="candidate [ends] min_affinity values (default: %(default)s)")
+    parser.add_argument("--seconds", default="0.5,1.0", help="candidate [ends] seconds values (default: %(default)s)")
+    parser.add_argument("--detector-model", metavar="PATH.xml", help="the person detector of --weak and --private")
+    parser.add_argument("--weak", action="store_true",
+                        help="the ends grow by the detector's weak boxes, no SOT ([detection] weak_boxes = on)")
     parser.add_argument("--private", action="store_true",
                         help="track from the detector's boxes instead of each sequence's det/det.txt")
     parser.add_argument("--det-cache", type=Path, default=ROOT / ".cache" / "detections",
                         help="with --private: where the detector's boxes are kept (default: %(default)s)")
     args = parser.parse_args(argv)
-    args.verify = args.verify or args.extend_by == "detections"
-    if (args.private or args.verify) and not args.detector_model:
-        parser.error("--private, --verify and --extend-by detections need --detector-model")
+    if (args.private or args.weak) and not args.detector_model:
+        parser.error("--private and --weak need --detector-model")
 
     config, seq_dirs = fit_setup(args)
-    supported = floats(args.supported_affinities) if args.verify else [None]
-    grid = list(itertools.product(floats(args.confidences), floats(args.affinities), supported,
-                                  floats(args.seconds)))
-    loosest = config.replace("sot", extend_min_confidence=0.0,
-                             extend_min_affinity=min(g[1] for g in grid),
-                             extend_supported_affinity=min(g[2] if g[2] is not None else g[1] for g in grid),
-                             extend_seconds=max(g[3] for g in grid)).sot
+    grid = list(itertools.product(floats(args.confidences), floats(args.affinities), floats(args.seconds)))
+    loosest = config.replace("ends", min_confidence=0.0, min_affinity=min(g[1] for g in grid),
+                             seconds=max(g[2] for g in grid)).ends
     support = None
     if args.detector_model:
         config = config.replace("detection", model=args.detector_model)
-    if args.verify:
-        loosest = dataclasses.replace(loosest, verify="detector", extend_by=args.extend_by)
+    weak = config.replace("detection", weak_boxes="on")
     embedder_box: list = []
     traced: dict[str, tuple] = {}
     for seq_dir in seq_dirs:
         seq_config = private_config(config, seq_dir, args.detector_model, args.det_cache) if args.private else config
         prepared = prepare_sequence(seq_dir, seq_config, features=cached_features(seq_dir, seq_config, args.cache,
                                                                                     embedder_box))
-        run = finish_sequence(prepared, seq_config.replace("sot", extend_seconds=0.0))
+        run = finish_sequence(prepared, seq_config.replace("ends", seconds=0.0))
         info = prepared.info
         identity = run.identities()
         if not embedder_box:
             embedder_box.append(make_embedder(config.appearance))
-        if args.verify:
-            support = DetectorSupport.from_config(config.detection, loosest.verify_min_score)  # boxes per sequence
+        if args.weak:  # the detector at the weak boxes' threshold, on the frames the ends visit (per sequence)
+            support = DetectorSupport.from_config(resolve(weak, info).weak_detector)
         trace: list[dict] = []
         extend_ends(run.tracks, identity, FrameReader(info, cache_size=8), info.length, info.frame_rate,
-                    embedder_box[0], loosest, trace=trace, support=support)
+                    embedder_box[0], config.sot, loosest, trace=trace, support=support)
         traced[info.name] = (info, run.tracks, trace)
         print(f"{info.name}: {len(trace)} end boxes at the loosest gates, {sum(b['supported'] for b in trace)} "
               f"supported by a detector box", file=sys.stderr, flush=True)
     names = list(traced)
-    runs = {"none": None, **{(f"conf>={c:g} aff>={a:g} {s:g}s" if sup is None else
-                              f"conf>={c:g} aff>={a:g}/{sup:g} {s:g}s"): (c, a, sup, s) for c, a, sup, s in grid}}
+    runs = {"none": None, **{f"conf>={c:g} aff>={a:g} {s:g}s": (c, a, s) for c, a, s in grid}}
     rows: dict[str, dict[str, dict]] = {name: {} for name in names}
     files: dict[str, list] = {run: [] for run in runs}
     with tempfile.TemporaryDirectory(prefix="sotmot-fit-sot-") as tmp:
@@ -131,9 +118,8 @@ def main(argv: list[str] | None = None) -> int:
                 if gates is None:
                     out = tracks
                 else:
-                    c, a, sup, s = gates
-                    strict = dataclasses.replace(loosest, extend_min_confidence=c, extend_min_affinity=a,
-                                                 extend_seconds=s, extend_supported_affinity=a if sup is None else sup)
+                    c, a, s = gates
+                    strict = dataclasses.replace(loosest, min_confidence=c, min_affinity=a, seconds=s)
                     out = with_added(tracks, [(b["frame"], b["track"], b["box"])
                                               for b in gated(trace, info.frame_rate, strict)])
                 path = results_path(Path(tmp) / f"run{index}", name)
@@ -190,9 +176,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"machine: {machine()}")
     if args.json:
         write_text_atomic(args.json, json.dumps({"machine": machine(), "grid": grid, "rows": rows,
-                                                 "detector_model": args.detector_model, "verify": args.verify,
+                                                 "detector_model": args.detector_model, "weak": args.weak,
                                                  "private": args.private,
-                                                 "extend_by": args.extend_by,
                                                  "combined": combined, "held_out": held_out,
                                                  "fitted_on_all": fitted_on_all}, indent=1, default=float) + "\n")
     return 0

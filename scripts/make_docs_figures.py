@@ -103,9 +103,9 @@ def main(argv: list[str] | None = None) -> int:
                                                         d.from_sot[rows]), np.arange(len(rows)))
         sot_fig = save(fig, "sot.jpg")
         text += ["## 2. The SOT step (optional, `--sot template`)", "",
-                 f"Algorithm 1 extends every box forward and backward. Under the `{sot_cfg.sot.rules}` rules (the "
-                 f"paper's, the default: every extension is kept, a candidate refused only where it overlaps a box "
-                 f"at IoU above {sot_cfg.sot.tau_I:g}) the template variant made "
+                 f"Algorithm 1 extends every box forward and backward. As the paper publishes it (every extension "
+                 f"is kept, a candidate refused only where it overlaps a box at IoU above {sot_cfg.sot.tau_I:g}) "
+                 f"the template variant made "
                  f"{prepared_sot.sot_steps} extension attempts and kept {len(added)} new boxes (after NMS). "
                  f"Frame {f_sot}, new boxes dashed:", "", f"![SOT]({sot_fig})", "",
                  "On our data this step, before association, does not raise MOTA over the confirmed output, so "
@@ -185,7 +185,7 @@ def main(argv: list[str] | None = None) -> int:
                  "![graph](figures/graph_pets_100_140.png)", ""]
         before = before_confirmation(base)
         old = finish_sequence(p, before, embedder)
-        no_ends = finish_sequence(p, base.replace("sot", extend_seconds=0.0), embedder)
+        no_ends = finish_sequence(p, base.replace("ends", seconds=0.0), embedder)
         with tempfile.TemporaryDirectory() as tmp:
             scores = {}
             for label, run_ in (("every box kept, every gap filled", old), ("confirmed", no_ends),
@@ -212,10 +212,10 @@ def main(argv: list[str] | None = None) -> int:
                    for k, v in scores.items()], "",
                  "## 8. SOT after association: the ends of trusted trajectories", "",
                  f"Interpolation cannot reach before a trajectory's first or after its last box. Each trajectory "
-                 f"whose mean confirmation confidence is at least {base.sot.extend_min_confidence:g} is followed "
-                 f"up to {base.sot.extend_seconds:g} s past both ends by the SOT machinery (template proposals "
+                 f"whose mean confirmation confidence is at least {base.ends.min_confidence:g} is followed "
+                 f"up to {base.ends.seconds:g} s past both ends by the SOT machinery (template proposals "
                  f"around a constant-velocity prior, re-ranked by re-ID against the trajectory's mean feature, "
-                 f"kept while the affinity is >= {base.sot.extend_min_affinity:g}; `sotmot/sot/extend.py`). On "
+                 f"kept while the affinity is >= {base.ends.min_affinity:g}; `sotmot/sot/extend.py`). On "
                  f"PETS09-S2L1 it added {int(r.tracks.from_sot.sum())} boxes (the last row above); at 7 fps "
                  f"people move far between frames and few ends can be followed. On the 30 fps sequences it adds "
                  f"more and gains about 1 MOTA (`docs/benchmarks.md`).", ""]

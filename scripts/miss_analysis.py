@@ -14,7 +14,7 @@ Where it lies in its person's tracked life (:meth:`FrameErrors.miss_positions`):
 * ``link``: between two frames where the person is matched to two different
   trajectories association did not join (extending either could reach it);
 * ``end<=E``: before the person's first or after their last matched frame, at
-  most ``[sot] extend_seconds`` away (the default end extension's reach);
+  most ``[ends] seconds`` away (the default end extension's reach);
 * ``end<=L``: further, within ``[association] l_max_seconds`` (a longer
   extension could reach it);
 * ``end>L``: further still;
@@ -28,8 +28,9 @@ front covers the one behind too; the first that applies):
 * ``input``: a box the tracker was given (public: ``det/det.txt`` at any
   score; private: the detector's boxes at ``[detection] min_score``): the
   person was detected, and cleaning, association or confirmation lost them;
-* ``weak``: a detector box scoring at least ``[sot] verify_min_score`` (what
-  SOT checked by the detector, and the weak-box ends, can use);
+* ``weak``: a detector box scoring at least the weak boxes' 0.1
+  (:data:`sotmot.sot.support.WEAK_MIN_SCORE`: what SOT checked by the
+  detector, and the weak-box ends, can use);
 * ``faint``: a detector box scoring at least ``--faint`` (0.05) but less;
 * ``none``: no detector box; only SOT's own template and re-ID evidence could
   find the person.
@@ -69,6 +70,7 @@ from sotmot.scoring import evaluate_files, frame_errors
 from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_path, write_results
 from sotmot.io import write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.sot.support import WEAK_MIN_SCORE
 
 EVIDENCE = ("input", "weak", "faint", "none")
 POSITIONS = ("gap", "link", "end<=E", "end<=L", "end>L", "never")
@@ -215,11 +217,11 @@ def main(argv: list[str] | None = None) -> int:
             per_sequence[info.name] = classify(
                 frame_errors(path, info.gt_path, info.length, info.name),
                 by_frame(given.frames, given.boxes, given.scores), by_frame(found.frames, found.boxes, found.scores),
-                by_frame(gt.frames, gt.boxes, gt.visibility), frame_rate, seq_config.sot.extend_seconds,
-                association.l_max / frame_rate, seq_config.sot.verify_min_score)
+                by_frame(gt.frames, gt.boxes, gt.visibility), frame_rate, seq_config.ends.seconds,
+                association.l_max / frame_rate, WEAK_MIN_SCORE)
             print(f"{info.name}: {sum(missed(per_sequence[info.name][p]) for p in POSITIONS)} misses", file=sys.stderr)
         report = evaluate_files(pairs)
-    extend_seconds = config.sot.extend_seconds
+    extend_seconds = config.ends.seconds
     gap_seconds = config.association.l_max_seconds or float("nan")
     kind = ("private detections: the boxes of " + Path(args.detector_model).name if args.private
             else "public detections: each sequence's det/det.txt")
@@ -228,12 +230,12 @@ def main(argv: list[str] | None = None) -> int:
     for name, counts in per_sequence.items():
         lines += ["", name] + table(counts, extend_seconds, gap_seconds)
     lines += ["", f"evidence: detector {Path(args.detector_model).name}, boxes from score {args.faint:g} ('faint'), "
-              f"'weak' from {config.sot.verify_min_score:g}; machine: {machine()}"]
+              f"'weak' from {WEAK_MIN_SCORE:g}; machine: {machine()}"]
     print("\n".join(lines))
     if args.json:
         write_text_atomic(args.json, json.dumps({
             "machine": machine(), "detections": kind, "detector": Path(args.detector_model).name,
-            "faint": args.faint, "weak": config.sot.verify_min_score, "extend_seconds": extend_seconds,
+            "faint": args.faint, "weak": WEAK_MIN_SCORE, "extend_seconds": extend_seconds,
             "gap_seconds": gap_seconds, "config": config.to_dict(),
             "metrics": {name: {k: report.sequences[name][k] for k in ("HOTA", "MOTA", "FP", "FN")}
                         for name in per_sequence},

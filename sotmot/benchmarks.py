@@ -47,7 +47,7 @@ def before_confirmation(config: TrackerConfig) -> TrackerConfig:
     end extension (issue #12), no occlusion check (issue #39)."""
     return (config.replace("confirm", enabled=False)
             .replace("postprocess", interpolate_max_seconds=None, occlusion_seconds=None)
-            .replace("sot", extend_seconds=0.0))
+            .replace("ends", seconds=0.0))
 
 
 def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box: list) -> np.ndarray:
@@ -121,8 +121,8 @@ def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
 def private_config(config: TrackerConfig, seq: Path, detector_model: str, cache: Path) -> TrackerConfig:
     """``config`` for tracking ``seq`` from a detector's boxes (MOTChallenge's private detections): the boxes
     from :func:`model_detections`, and, with ``auto`` confidence, the detector's family when it is a known
-    one, and with ``auto`` verification, the detector's weak boxes checking the SOT step (found again on the
-    frames it visits), as ``sotmot track --detections model`` would take them."""
+    one, and with ``auto`` weak boxes, the detector's weak boxes checking the SOT step and extending trajectory
+    ends (found again on the frames visited), as ``sotmot track --detections model`` would take them."""
     from sotmot.detection import known_family
 
     detection = config.replace("detection", source="model", model=detector_model)
@@ -130,8 +130,8 @@ def private_config(config: TrackerConfig, seq: Path, detector_model: str, cache:
     out = config.replace("detection", file=str(model_detections(seq, detection, cache)), model=detector_model)
     if family and config.preprocess.confidence == "auto":
         out = out.replace("preprocess", confidence=family)
-    if config.sot.verify == "auto":
-        out = out.replace("sot", verify="detector")
+    if config.detection.weak_boxes == "auto":
+        out = out.replace("detection", weak_boxes="on")
     return out
 
 

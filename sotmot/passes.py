@@ -140,7 +140,7 @@ def detect_sequence(info: SeqInfo, detector, embedder: Embedder | None = None, p
     box the detector returned, frame -> (``(K, 4)`` ``x, y, w, h``, ``(K,)``
     scores): run at a lower threshold, one pass gives both the tracked boxes
     and the weak boxes that check the SOT step
-    (:class:`sotmot.sot.extend.DetectorSupport`).
+    (:class:`sotmot.sot.support.DetectorSupport`).
     """
     def boxes_of(frame: int, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         boxes, scores = detector.detect(image)

@@ -30,15 +30,16 @@ from sotmot.association.merge import merge_group
 from sotmot.confidence.calibration import load_calibration, model_kind
 from sotmot.confidence.maps import confidence_knots, detection_confidence, self_map
 from sotmot.config import TrackerConfig
-from sotmot.errors import ConfigError
 from sotmot.confirm import box_scorer, confirm
-from sotmot.detection import Detector, detection_source, detector_detections, known_family, make_detector
+from sotmot.detection import Detector, make_detector
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
 from sotmot.motion import CameraMotion, estimate_motion
 from sotmot.passes import detect_sequence, embed_detections
+from sotmot.plan import Plan, resolve
 from sotmot.postprocess import Occluders, output_ids, to_tracks
 from sotmot.preprocess import nms_per_frame, preprocess_indices, resolve_nms
 from sotmot.progress import Progress, as_progress
+from sotmot.sot.support import WEAK_MIN_SCORE, DetectorSupport
 from sotmot.tracklets import build_tracklets
 from sotmot.types import Detections, Tracklet, Tracks
 
@@ -46,23 +47,20 @@ log = logging.getLogger(__name__)
 
 def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, embedder: Embedder,
             config: TrackerConfig, progress: "bool | Progress" = False,
-            confidence: np.ndarray | None = None,
             timings: dict[str, float] | None = None,
             motion: CameraMotion | None = None,
-            support=None) -> tuple[Detections, np.ndarray, np.ndarray, int]:
+            support: DetectorSupport | None = None) -> tuple[Detections, np.ndarray, np.ndarray, int]:
     """The SOT step, then NMS on the enlarged set (paper Sec. 3.3 and 6.1).
 
     ``features`` of ``detections``, or None: the SOT step computes them from
     the frames it decodes, window by window, so each frame is decoded once
-    for appearance, SOT and the added boxes' features. ``confidence``
-    (``(N,)`` of ``detections``) chooses the seeds with ``[sot]
-    seed_min_confidence``. ``timings``, when given, receives ``"appearance"``
+    for appearance, SOT and the added boxes' features. ``timings``, when given, receives ``"appearance"``
     (the seconds of re-ID inside the step: detections, candidates, added
     boxes) and ``"decode"`` (frame reading).
 
-    ``support`` (a :class:`~sotmot.sot.extend.DetectorSupport`), when given,
-    regresses each found box onto a detector box and ends extensions no
-    detector box supports (``[sot] verify``).
+    ``support`` (the detector's weak boxes, ``[detection] weak_boxes``), when
+    given, regresses each found box onto a detector box and ends extensions no
+    detector box supports.
 
     Returns the enlarged detections (added boxes flagged ``from_sot``), their
     features, the SOT links ``(K, 2)`` as indices into them (links whose ends
@@ -83,10 +81,8 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, 
     tracker = SotTracker(config.sot, timed("decode", FrameReader(info, cache_size=1)), info.length,
                          embed=timed("appearance", embedder.embed), det_features=features, motion=motion,
                          support=support)
-    seeds = None if confidence is None else confidence >= config.sot.seed_min_confidence
     show = as_progress(progress)
-    result = tracker.run(detections, progress=lambda items: show(items, f"{info.name}: SOT ({config.sot.variant})"),
-                         seeds=seeds)
+    result = tracker.run(detections, progress=lambda items: show(items, f"{info.name}: SOT ({config.sot.variant})"))
     if timings is not None:
         for stage, seconds in spent.items():
             timings[stage] = timings.get(stage, 0.0) + seconds
@@ -163,12 +159,11 @@ class TrackResult:
         return {i: t.feature for t, i in zip(self.trajectories, self.track_ids) if i is not None}
 
 
-def associate(tracklets: list[Tracklet], config: TrackerConfig,
-              frame_rate: float | None) -> tuple[Association, list[Tracklet]]:
-    """Run the solver ``[association] solver`` names and merge each group into one trajectory; ``frame_rate``
-    turns ``[association] l_max_seconds`` into frames (:meth:`~sotmot.config.AssociationConfig.at`)."""
-    solver = get_solver(config.association.solver)
-    association = solver(tuple(tracklets), config.association.at(frame_rate))
+def associate(tracklets: list[Tracklet], plan: Plan) -> tuple[Association, list[Tracklet]]:
+    """Run the solver ``[association] solver`` names (with the plan's gap limit in frames) and merge each group
+    into one trajectory."""
+    solver = get_solver(plan.association.solver)
+    association = solver(tuple(tracklets), plan.association)
     by_id = {t.id: t for t in tracklets}
     trajectories = [merge_group([by_id[i] for i in group], new_id=k)
                     for k, group in enumerate(association.groups, 1)]
@@ -190,9 +185,9 @@ class Prepared:
     confidence_method: str = "raw"
     detected: Detections | None = None
     motion: CameraMotion | None = None
-    # sotmot.sot.extend.DetectorSupport: the detector's boxes that check SOT boxes, set exactly when preparation
-    # resolved [sot] verify to the detector (so finishing with an "auto" configuration keeps the check)
-    support: object | None = None
+    # the detector's weak boxes (the plan's weak_boxes): they checked Algorithm 1 and serve the trajectory ends
+    support: DetectorSupport | None = None
+    plan: Plan | None = None
 
     @functools.cached_property
     def occluders(self) -> Occluders:
@@ -200,6 +195,13 @@ class Prepared:
         reference frame when the camera moves); built once per prepared sequence."""
         detections = self.detections if self.motion is None else self.motion.to_ref_detections(self.detections)
         return Occluders(detections)
+
+    def finishing(self, config: TrackerConfig) -> Plan:
+        """The plan that finishes this sequence with ``config`` (:func:`finish_sequence`): the preparation's own
+        when ``config`` is the one it was prepared with; else its decisions on the detections kept (where they
+        came from, whether the weak boxes are at hand) with ``config``'s association and trajectory ends."""
+        plan = self.plan if self.plan is not None else resolve(config, self.info)
+        return plan if config is plan.config else plan.finishing(config)
 
 
 class _Clock:
@@ -213,12 +215,13 @@ class _Clock:
         self.last = now
 
 
-def pass_detector(config: TrackerConfig, verify: bool) -> Detector:
-    """The detector of a run on the detector's own boxes: with ``verify`` (``[sot] verify`` resolved to the
-    detector) run at the lower of ``[detection] min_score`` and ``[sot] verify_min_score``, so one pass gives the
-    boxes tracked and the weak boxes that check the SOT step (:func:`prepare_sequence` splits them)."""
-    low = min(config.detection.min_score, config.sot.verify_min_score) if verify else config.detection.min_score
-    return make_detector(dataclasses.replace(config.detection, min_score=low))
+def pass_detector(plan: Plan) -> Detector:
+    """The detector of a run on the detector's own boxes, as the plan runs it: with the weak boxes at the lower
+    of ``[detection] min_score`` and :data:`~sotmot.sot.support.WEAK_MIN_SCORE`, so one pass gives the boxes
+    tracked and the weak boxes that check the SOT step (:func:`prepare_sequence` splits them)."""
+    if plan.detector is None:
+        raise ValueError(f"{plan.info.name}: this run has no detector (detections from {plan.source})")
+    return make_detector(plan.detector)
 
 
 def prepare_sequence(seq_dir: "str | Path | SeqInfo", config: TrackerConfig = TrackerConfig(),
@@ -229,49 +232,53 @@ def prepare_sequence(seq_dir: "str | Path | SeqInfo", config: TrackerConfig = Tr
 
     Parameters are those of :func:`track_sequence`.
     """
+    return prepare(plan_for(seq_dir, config, detections), embedder, progress, features, detector, detections)
+
+
+def plan_for(seq_dir: "str | Path | SeqInfo", config: TrackerConfig, detections: Detections | None = None) -> Plan:
+    """The plan (:func:`sotmot.plan.resolve`) of tracking ``seq_dir`` with ``config``; ``detections``: handed over."""
+    info = seq_dir if isinstance(seq_dir, SeqInfo) else read_seqinfo(seq_dir, config.input.fps)
+    return resolve(config, info, given=detections is not None)
+
+
+def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Progress" = False,
+            features: np.ndarray | None = None, detector: Detector | None = None,
+            detections: Detections | None = None) -> Prepared:
+    """:func:`prepare_sequence` of a plan already made."""
     timings: dict[str, float] = {}
     clock = _Clock(timings)
-    info = seq_dir if isinstance(seq_dir, SeqInfo) else read_seqinfo(seq_dir, config.input.fps)
-    sot = config.sot.variant != "none"
-    if sot and config.appearance.backend == "none":
-        raise ConfigError(f"[sot] variant = {config.sot.variant!r} needs a re-ID model; [appearance] backend = "
-                          f"'none' (motion only) tracks without one: set variant = 'none' or choose a backend")
-    source, det_file = ("given", None) if detections is not None else detection_source(config.detection, info)
-    sot_config = config.sot.resolved(detector_detections(config.detection, info))
-    verify = sot_config.verify == "detector"
+    info, config = plan.info, plan.config
     detected = raw_features = support = None
-    if source == "model":  # one pass over the frames: detection, and re-ID of what it found
-        embed_now = features is None and not sot
+    if plan.source == "model":  # one pass over the frames: detection, and re-ID of what it found
+        embed_now = features is None and not plan.sot
         if embed_now:
-            embedder = embedder_for(config.appearance, embedder)
+            embedder = embedder_for(plan.appearance, embedder)
         if detector is None:
-            detector = pass_detector(config, verify)
+            detector = pass_detector(plan)
         low = getattr(detector, "min_score", None)  # a detector without one: every box it gives is tracked
         split = config.detection.min_score if low is not None and low < config.detection.min_score else None
-        weak = {} if verify and low is not None and low <= sot_config.verify_min_score else None
+        weak = {} if plan.weak_boxes and low is not None and low <= WEAK_MIN_SCORE else None
         # embedding too, the pass is the appearance stage with detection inside it (timed as "detect", like
         # "decode"); detection alone, the pass is the "detect" stage
         raw, raw_features = detect_sequence(info, detector, embedder if embed_now else None, progress,
                                             timings if embed_now else None, weak=weak, min_score=split)
         if weak is not None:
-            from sotmot.sot.extend import DetectorSupport
-
-            support = DetectorSupport.from_pass(weak, sot_config.verify_min_score)
+            support = DetectorSupport.from_pass(weak)
         detected = raw
         log.info("%s: the detector found %d boxes", info.name, len(raw))
         clock.lap("appearance" if embed_now else "detect")
     else:
-        raw = detections if detections is not None else read_detections(det_file, info.length,
+        raw = detections if detections is not None else read_detections(plan.det_file, info.length,
                                                                          (info.width, info.height))
         clock.lap("read")
     kept = preprocess_indices(raw, config.preprocess)
     dets = raw.subset(kept)
     log.info("%s: %d detections, %d after preprocessing", info.name, len(raw), len(dets))
     clock.lap("preprocess")
-    if features is None and not sot and raw_features is not None:
+    if features is None and not plan.sot and raw_features is not None:
         features = raw_features[kept]
-    elif features is None and not sot:  # with SOT, the SOT step computes them from the frames it decodes
-        embedder = embedder_for(config.appearance, embedder)
+    elif features is None and not plan.sot:  # with SOT, the SOT step computes them from the frames it decodes
+        embedder = embedder_for(plan.appearance, embedder)
         features = embed_detections(info, dets, embedder, progress, timings)
     elif features is not None and len(features) != len(dets):
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
@@ -281,18 +288,15 @@ def prepare_sequence(seq_dir: "str | Path | SeqInfo", config: TrackerConfig = Tr
     if config.motion.compensation != "off":
         clock.lap("motion")
     method, knots = confidence_knots(config.preprocess.confidence, raw.scores,
-                                     load_calibration(config.confirm.calibration),
-                                     known_family(config.detection, info), info.name)
+                                     load_calibration(config.confirm.calibration), plan.family, info.name)
     log.info("%s: detection confidence by %r", info.name, method)
-    if verify and support is None:  # public, refined: the detector runs on the frames the SOT step visits
-        from sotmot.sot.extend import DetectorSupport
-
-        support = DetectorSupport.from_config(config.detection, sot_config.verify_min_score, detector)
-    if sot:
-        embedder = embedder_for(config.appearance, embedder)
+    if plan.weak_boxes and support is None:  # public, refined: the detector runs on the frames the search visits
+        support = DetectorSupport.from_config(plan.weak_detector, detector)
+    if plan.sot:
+        embedder = embedder_for(plan.appearance, embedder)
         inside: dict[str, float] = {}
-        dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress,
-                                               detection_confidence(dets.scores, knots), inside, motion, support)
+        dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress, inside, motion,
+                                               support)
         log.info("%s: SOT added %d boxes (after NMS)", info.name, int(dets.from_sot.sum()))
         clock.lap("sot")
         # the re-ID inside the SOT step (the detections' features too, when it computed them) counts as appearance;
@@ -301,12 +305,11 @@ def prepare_sequence(seq_dir: "str | Path | SeqInfo", config: TrackerConfig = Tr
         timings["appearance"] += inside["appearance"]
         timings["decode"] = timings.get("decode", 0.0) + inside["decode"]
     # tracklets hold their boxes in the reference frame when the camera moved (the same detections otherwise)
-    tracklets = build_tracklets(motion.to_ref_detections(dets), features, info.frame_rate, config.tracklets,
-                                must_link=links if config.sot.must_link else None)
+    tracklets = build_tracklets(motion.to_ref_detections(dets), features, info.frame_rate, config.tracklets)
     clock.lap("tracklets")
     confidence = detection_confidence(dets.scores, knots)  # the SOT step's boxes too
     return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected, motion,
-                    support)
+                    support, plan)
 
 
 def with_self_confidence(prepared: Prepared, trajectories: list[Tracklet]) -> Prepared:
@@ -325,11 +328,12 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
                     embedder: Embedder | None = None,
                     progress: "bool | Progress" = False) -> TrackResult:
     """Long-term association with the solver ``[association] solver``, then post-processing, confirmation and
-    (with ``[sot] extend_seconds``) the extension of trajectory ends; ``embedder`` serves the latter
+    (with ``[ends] seconds``) the extension of trajectory ends; ``embedder`` serves the latter
     (built from ``config.appearance`` when needed and omitted)."""
+    plan = prepared.finishing(config)
     timings = dict(prepared.timings)
     clock = _Clock(timings)
-    association, trajectories = associate(prepared.tracklets, config, prepared.info.frame_rate)
+    association, trajectories = associate(prepared.tracklets, plan)
     clock.lap("association")
     if prepared.confidence_method == "self":  # the map from what association made of this very sequence
         prepared = with_self_confidence(prepared, trajectories)
@@ -352,11 +356,11 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
                        else (tracks, Tracks.empty()))
     clock.lap("confirm")
     motion_only = prepared.features.shape[1] == 0
-    if motion_only and (config.sot.extend_seconds > 0 or config.sot.refine_gaps):
+    if motion_only and config.ends.enabled:
         log.info("%s: no re-ID (motion only): trajectory ends are not extended, gaps not refined", prepared.info.name)
-    elif (config.sot.extend_seconds > 0 or config.sot.refine_gaps) and len(tracks):
+    elif config.ends.enabled and len(tracks):
         identity = {i: t.feature for t, i in zip(trajectories, ids) if i is not None}
-        tracks = extend_trajectories(prepared, identity, tracks, config, embedder, progress)
+        tracks = extend_trajectories(prepared, plan, identity, tracks, embedder, progress)
         clock.lap("extend")
     log.info("%s: %d tracklets -> %d trajectories -> %d tracks, %d boxes kept, %d dropped as unconfirmed (%s)",
              prepared.info.name, len(prepared.tracklets), len(trajectories), tracks.n_tracks, len(tracks),
@@ -366,27 +370,28 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
                        ids, motion, prepared.confidence_method)
 
 
-def extend_trajectories(prepared: Prepared, identity: dict[int, np.ndarray], tracks: Tracks, config: TrackerConfig,
+def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.ndarray], tracks: Tracks,
                         embedder: Embedder | None = None, progress: "bool | Progress" = False) -> Tracks:
     """SOT after association (:mod:`sotmot.sot.extend`) on the output ``tracks`` (``identity``: track id -> mean
-    feature): interpolated boxes replaced by boxes found in the frames (``[sot] refine_gaps``), then the ends
-    extended (``[sot] extend_seconds``)."""
-    from sotmot.sot.extend import DetectorSupport, extend_ends, refine_gaps
+    feature): interpolated boxes replaced by boxes found in the frames (``[ends] refine_gaps``), then the ends
+    extended (``[ends] seconds``), by the detector's weak boxes when the plan has them, else by SOT."""
+    from sotmot.sot.extend import extend_ends, refine_gaps
 
-    info = prepared.info
-    reader, embedder = FrameReader(info, cache_size=8), embedder_for(config.appearance, embedder)
-    sot = config.sot.resolved(prepared.support is not None)
-    support = prepared.support if sot.verify == "detector" else None
-    if sot.verify == "detector" and support is None:  # its own low threshold: weak boxes are support, never tracks
-        support = DetectorSupport.from_config(config.detection, sot.verify_min_score)
-    if sot.refine_gaps:
-        tracks = refine_gaps(tracks, identity, reader, embedder, sot,
+    info, config = prepared.info, plan.config
+    reader, embedder = FrameReader(info, cache_size=8), embedder_for(plan.appearance, embedder)
+    support = None
+    if plan.weak_boxes:  # the preparation's, or the detector at the weak boxes' threshold on the frames searched
+        support = prepared.support if prepared.support is not None else DetectorSupport.from_config(
+            plan.weak_detector)
+    if config.ends.refine_gaps:
+        tracks = refine_gaps(tracks, identity, reader, embedder, config.sot, config.ends,
                              progress=lambda items: as_progress(progress)(items, f"{info.name}: refine gaps"),
                              support=support)
-    if sot.extend_seconds > 0:
+    if config.ends.seconds > 0:
         before = len(tracks)
-        tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, sot,
-                             progress=lambda items: as_progress(progress)(items, f"{info.name}: extend ends"),
+        tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, config.sot,
+                             config.ends, progress=lambda items: as_progress(progress)(items, f"{info.name}: extend "
+                                                                                                "ends"),
                              support=support, motion=prepared.motion)
         log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
     if support is not None:
@@ -419,13 +424,21 @@ def track_sequence(seq_dir: "str | Path | SeqInfo", config: TrackerConfig = Trac
         used by benchmarks that try several settings on the same detections).
     detector
         Person detector, when the detections come from the model (``[detection]
-        source``), or that checks SOT boxes (``[sot] verify``; used when its
-        ``min_score`` is at most ``verify_min_score``); built from
+        source``), or whose weak boxes check SOT boxes (``[detection]
+        weak_boxes``; used when its ``min_score`` is at most
+        :data:`~sotmot.sot.support.WEAK_MIN_SCORE`); built from
         ``config.detection`` when needed and omitted.
     detections
         The detections, already read and checked (:func:`sotmot.io.detections_from_array`), instead of a file
         or the detector; tracked as a detections file is (``[detection] source = "file"``).
     """
     get_solver(config.association.solver)  # an unknown name fails before any work is done
-    return finish_sequence(prepare_sequence(seq_dir, config, embedder, progress, features, detector, detections),
-                           config, embedder, progress)
+    return track_plan(plan_for(seq_dir, config, detections), embedder, progress, features, detector, detections)
+
+
+def track_plan(plan: Plan, embedder: Embedder | None = None, progress: "bool | Progress" = False,
+               features: np.ndarray | None = None, detector: Detector | None = None,
+               detections: Detections | None = None) -> TrackResult:
+    """Every stage of :func:`track_sequence`, of a plan already made."""
+    return finish_sequence(prepare(plan, embedder, progress, features, detector, detections), plan.config,
+                           embedder, progress)

@@ -26,7 +26,7 @@ from sotmot.io import SeqInfo
 #: Record fields that never make a resume re-run: when it ran, how fast (threads, batch size), what it
 #: found (the camera's motion), what the configuration's "auto" choices became (they follow from the
 #: configuration and inputs, which are compared), and paths whose file contents are compared by hash instead.
-IGNORED = ("time", "camera_motion", "sot_checks", "config.appearance.threads", "config.appearance.batch_size",
+IGNORED = ("time", "camera_motion", "plan", "config.appearance.threads", "config.appearance.batch_size",
            "config.appearance.model", "config.confirm.calibration", "reid_model.path", "confidence_calibration.path",
            "results_sha256", "config.detection.model", "config.detection.file", "config.detection.threads",
            "detector_model.path", "inputs.detections.path", "side_files", "confidence_method",
@@ -65,14 +65,14 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
     """The record of tracking ``info`` with ``config`` (its solver included), as of now."""
     from importlib import resources
 
-    from sotmot.detection import detection_source, detector_detections
+    from sotmot.plan import resolve
 
     model = config.appearance.model
     calibration = config.confirm.calibration
     packaged = resources.files("sotmot").joinpath("data", "confidence.json")
-    source, det_file = detection_source(config.detection, info)
-    sot = config.sot.resolved(detector_detections(config.detection, info))
-    detector = config.detection.model if source == "model" or sot.verify == "detector" else None
+    plan = resolve(config, info)
+    source, det_file = plan.source, plan.det_file
+    detector = config.detection.model if plan.detector is not None or plan.weak_boxes else None
     return {
         "sotmot": sotmot_version(),
         "sequence": info.name,
@@ -86,9 +86,9 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
                                   "sha256": None if det_file is None else file_sha256(det_file)},
                    "frames (names, sizes)": frames_fingerprint(info)},
         "detector_model": {"path": detector, "sha256": file_sha256(detector) if detector else None},
-        # [sot] verify and extend_by as "auto" resolved them: whether the detector checked the SOT boxes, and
-        # where the boxes that extend trajectory ends came from
-        "sot_checks": {"verify": sot.verify, "extend_by": sot.extend_by},
+        # every "auto" as the run decided it (sotmot.plan): whether the detector's weak boxes checked the SOT
+        # boxes, where the boxes that extend trajectory ends came from, the gap limit in frames, ...
+        "plan": plan.record(),
         "time": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
 

@@ -399,7 +399,7 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     config = resolve_paths(config)
     # the backend "auto" picks, decided here once: the run record and every worker see the one that runs
     config = config.replace("appearance", backend=resolve_backend(config.appearance).backend)
-    if config.sot.verify == "detector":  # the check of SOT boxes needs the detector: said now, not after tracking
+    if config.detection.weak_boxes == "on":  # the weak boxes need the detector: said now, not after tracking
         from sotmot.detection import resolve_detector_path
 
         resolve_detector_path(config.detection.model)

@@ -35,8 +35,7 @@ def batch_length(frame_rate: float, batch_seconds: float) -> int:
 
 def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: float,
                     config: TrackletConfig = TrackletConfig(),
-                    progress: Callable[[Iterable[int]], Iterable[int]] | None = None,
-                    must_link: np.ndarray | None = None) -> list[Tracklet]:
+                    progress: Callable[[Iterable[int]], Iterable[int]] | None = None) -> list[Tracklet]:
     """Build tracklets from detections and their appearance features.
 
     Parameters
@@ -53,10 +52,6 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
         Gates, tail length, batch length and ``l_min``.
     progress
         Optional wrapper over the iterable of frames (e.g. a progress bar).
-    must_link
-        Optional ``(K, 2)`` detection index pairs ``(earlier, later)`` in
-        adjacent frames (the SOT step's links): such a pair is matched whenever
-        both ends are free, before any other match, gates or not.
 
     Returns
     -------
@@ -65,7 +60,6 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
         ids run from 1 in that order.
     """
     features = np.asarray(features, dtype=np.float32)
-    successor = {int(a): int(b) for a, b in (must_link if must_link is not None else np.zeros((0, 2), int))}
     if len(features) != len(detections):
         raise ValueError(f"{len(detections)} detections but {len(features)} features")
     motion_only = features.ndim == 2 and features.shape[1] == 0
@@ -103,13 +97,6 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
                 aff = affinity(tails, features[idx])
                 allowed = (aff >= config.min_affinity) & (ious >= config.min_iou)
             cost = np.where(allowed, -aff, _FORBIDDEN)
-            if successor:
-                position = {int(d): c for c, d in enumerate(idx)}
-                for r, t in enumerate(active):
-                    c = position.get(successor.get(t[-1], -1))
-                    if c is not None:
-                        allowed[r, c] = True
-                        cost[r, c] = -2.0  # below any affinity-based cost: taken first
             rows, cols = linear_sum_assignment(cost)
             for r, c in zip(rows, cols):
                 if allowed[r, c]:

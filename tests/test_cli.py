@@ -123,9 +123,9 @@ def test_graph_and_explain_commands_run_to_the_end(tmp_path, model_0288, capsys)
     assert "tracks 1 and 2" in capsys.readouterr().out
 
 
-def test_verifying_sot_boxes_with_a_missing_detector_fails_before_tracking(tmp_path, model_0288, capsys):
+def test_weak_boxes_with_a_missing_detector_fail_before_tracking(tmp_path, model_0288, capsys):
     seq = require(DATA / "MOT16-05-clip30")
     assert main(["track", str(seq), "--out", str(tmp_path / "out"), "--reid-model", str(model_0288),
-                 "--verify-sot", "detector", "--detector-model", str(tmp_path / "gone.xml"), "-q"]) == 2
+                 "--weak-boxes", "on", "--detector-model", str(tmp_path / "gone.xml"), "-q"]) == 2
     assert "person detector not found" in capsys.readouterr().err
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

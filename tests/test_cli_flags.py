@@ -73,7 +73,7 @@ def test_a_value_the_configuration_refuses_is_an_error_that_names_the_flag():
     from sotmot.errors import ConfigError
 
     for argv, shown in ((["--fps", "0"], "--fps 0: [input] fps"), (["--window", "-1"], "--window -1: [windows]"),
-                        (["--extend-ends", "-2"], "--extend-ends -2: [sot]")):
+                        (["--extend-ends", "-2"], "--extend-ends -2: [ends]")):
         with pytest.raises(ConfigError, match="^" + re.escape(shown)):
             _config("track", argv)
 

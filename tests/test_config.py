@@ -1,4 +1,6 @@
+import dataclasses
 import json
+import re
 
 import pytest
 
@@ -80,21 +82,50 @@ def test_importing_the_config_imports_no_plug_in_and_no_numeric_library():
     assert "'sotmot.plugins'" in loaded
 
 
-@pytest.mark.parametrize("name", ["seed_min_confidence", "extend_min_affinity", "extend_min_confidence", "stop_iou",
-                                  "verify_min_score", "verify_iou", "extend_supported_affinity"])
-def test_every_sot_share_is_checked_to_lie_in_0_1(name):
+@pytest.mark.parametrize("section, name", [("sot", "tau"), ("sot", "tau_a"), ("ends", "min_affinity"),
+                                           ("ends", "min_confidence"), ("ends", "stop_iou")])
+def test_every_sot_and_ends_share_is_checked_to_lie_in_0_1(section, name):
     with pytest.raises(ConfigError, match=f"{name} must be in"):
-        SotConfig(**{name: 1.5})
+        config_from_dict({section: {name: 1.5}})
 
 
-def test_sot_auto_checks_with_the_detector_only_when_its_boxes_are_tracked():
-    auto = SotConfig()
-    assert (auto.resolved(True).verify, auto.resolved(True).extend_by) == ("detector", "detections")
-    assert (auto.resolved(False).verify, auto.resolved(False).extend_by) == ("none", "sot")
-    asked = SotConfig(verify="detector", extend_by="sot")  # public, refined, SOT at the ends
-    assert asked.resolved(False) == asked
-    with pytest.raises(ConfigError, match="needs verify"):
-        SotConfig(verify="none", extend_by="detections")
+def test_the_sot_section_is_algorithm_1_alone():
+    """Issue #40: [sot] holds Algorithm 1 as published (at most 12 fields); the trajectory ends have [ends]."""
+    assert len(dataclasses.fields(SotConfig)) <= 12
+    assert not {f.name for f in dataclasses.fields(SotConfig)} & {"extend_seconds", "verify", "rules", "must_link"}
+
+
+@pytest.mark.parametrize("old, says", [("extend_seconds = 2.0", "now [ends] seconds"),
+                                       ("verify = \"detector\"", "now [detection] weak_boxes"),
+                                       ("rules = \"confident\"", "removed: Algorithm 1 runs as the paper publishes"),
+                                       ("extend_supported_stop_iou = 0.7", "removed: the detector's weak boxes")])
+def test_a_key_that_left_the_sot_section_says_where_it_went(tmp_path, old, says):
+    path = tmp_path / "old.toml"
+    path.write_text(f"[sot]\nvariant = \"template\"\n{old}\n")
+    with pytest.raises(ConfigError, match=re.escape(says)) as failure:
+        load_config(path)
+    assert str(path) in str(failure.value)
+
+
+def test_the_plan_decides_the_weak_boxes_once(tmp_path):
+    """[detection] weak_boxes "auto": on when the detections come from the detector, off for a det.txt; "on"
+    refines a public run with the detector at the weak boxes' threshold; the gap limit is in frames."""
+    from conftest import write_sequence
+    from sotmot.io import read_seqinfo
+    from sotmot.plan import resolve
+    from sotmot.sot.support import WEAK_MIN_SCORE
+
+    info = read_seqinfo(write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9"], images=False, frame_rate=10))
+    public = resolve(TrackerConfig(), info)
+    assert (public.source, public.weak_boxes, public.detector, public.weak_detector) == ("file", False, None, None)
+    assert public.ends_from == "sot"
+    assert public.association.l_max == round(10 * TrackerConfig().association.l_max_seconds)  # seconds at 10 fps
+    refined = resolve(TrackerConfig().replace("detection", weak_boxes="on"), info)
+    assert refined.weak_boxes and refined.detector is None and refined.weak_detector.min_score == WEAK_MIN_SCORE
+    private = resolve(TrackerConfig().replace("detection", source="model"), info)
+    assert private.weak_boxes and private.detector.min_score == WEAK_MIN_SCORE and private.ends_from == "detections"
+    off = resolve(TrackerConfig().replace("detection", source="model", weak_boxes="off"), info)
+    assert not off.weak_boxes and off.detector.min_score == TrackerConfig().detection.min_score
 
 
 def test_the_gap_limit_in_seconds_is_checked_and_read_from_a_file(tmp_path):

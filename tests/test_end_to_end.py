@@ -72,6 +72,6 @@ def test_each_stage_is_seen(tud, tmp_path, change):
         "l_max 5": (base.replace("association", l_max=5), "greedy"),
         "flow solver": (base, "flow"),
         "confirmation off": (base.replace("confirm", enabled=False), "greedy"),
-        "end extension off": (base.replace("sot", extend_seconds=0.0), "greedy"),
+        "end extension off": (base.replace("ends", seconds=0.0), "greedy"),
     }[change]
     assert off_pin(scores(tud, tmp_path, config, solver)), f"the pins do not see: {change}"

@@ -5,9 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from conftest import GeometryEmbedder
-from sotmot.config import SotConfig, TrackerConfig
+from sotmot.config import EndsConfig, SotConfig, TrackerConfig
 from sotmot.boxes import inside_share
 from sotmot.sot.extend import end_velocity, extend_ends, refine_gaps
+from sotmot.sot.support import SUPPORTED_AFFINITY, SUPPORTED_STOP_IOU, WEAK_MIN_SCORE, DetectorSupport
 from sotmot.types import Tracks
 
 WIDTH, HEIGHT, LENGTH = 200, 120, 34
@@ -38,9 +39,8 @@ def test_end_is_extended_while_the_person_is_visible_and_stops_when_they_leave()
     images = frames_with_walker()
     detected = range(1, 21)  # the detector lost the person after frame 20
     tracks = Tracks(list(detected), [1] * 20, [[walker_x(f), 40, 20, 40] for f in detected], [0.9] * 20)
-    config = SotConfig(extend_seconds=1.5)
     out = extend_ends(tracks, {1: LOOK}, images.__getitem__, LENGTH, 10.0,
-                      GeometryEmbedder(), config)
+                      GeometryEmbedder(), SotConfig(), EndsConfig(seconds=1.5))
     added = out.subset(out.from_sot)
     # fully inside until frame 27 (x + w = 182), leaving from 28 on (the template search only places
     # whole boxes in the image, so the last frames of the exit are not found); never past frame 29
@@ -58,10 +58,11 @@ def test_extension_stops_at_another_trajectory_and_after_its_time():
     both = Tracks(np.r_[walker.frames, blocker.frames], np.r_[walker.ids, blocker.ids],
                   np.r_[walker.boxes, blocker.boxes], np.r_[walker.scores, blocker.scores])
     feats = {1: LOOK, 2: LOOK}
-    out = extend_ends(both, feats, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), SotConfig(extend_seconds=1.5))
+    out = extend_ends(both, feats, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), SotConfig(),
+                      EndsConfig(seconds=1.5))
     assert out.frames[out.from_sot & (out.ids == 1)].tolist() == [21, 22, 23]
     short = extend_ends(walker, {1: feats[1]}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(),
-                        SotConfig(extend_seconds=0.2))
+                        SotConfig(), EndsConfig(seconds=0.2))
     assert short.frames[short.from_sot].tolist() == [21, 22]
 
 
@@ -71,7 +72,7 @@ def test_a_different_looking_candidate_is_refused():
     tracks = Tracks(list(detected), [1] * 20, [[walker_x(f), 40, 20, 40] for f in detected], [0.9] * 20)
     stranger = -LOOK  # the opposite feature: affinity 0
     out = extend_ends(tracks, {1: stranger}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(),
-                      SotConfig(extend_seconds=1.5))
+                      SotConfig(), EndsConfig(seconds=1.5))
     assert not out.from_sot.any()
 
 
@@ -91,7 +92,7 @@ def test_pipeline_extends_ends_by_default_and_not_when_turned_off(tmp_path):
     lines = [f"{f},-1,{10 + 2 * f},20,20,40,0.95" for f in range(1, 9)]
     seq = write_sequence(tmp_path, lines, length=10, frame_rate=4, width=120, height=80)
     config = TrackerConfig().replace("confirm", enabled=False)
-    off = track_sequence(seq, config.replace("sot", extend_seconds=0.0), embedder=GeometryEmbedder())
+    off = track_sequence(seq, config.replace("ends", seconds=0.0), embedder=GeometryEmbedder())
     assert "extend" not in off.timings
     on = track_sequence(seq, config, embedder=GeometryEmbedder())
     assert "extend" in on.timings and len(on.tracks) >= len(off.tracks)
@@ -105,7 +106,7 @@ def test_doubtful_trajectories_are_not_extended():
     def extended(confidence):
         tracks = Tracks(list(detected), [1] * 20, boxes, [0.9] * 20, confidence=[confidence] * 20)
         out = extend_ends(tracks, {1: LOOK}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(),
-                          SotConfig(extend_seconds=1.5, extend_min_confidence=0.7))
+                          SotConfig(), EndsConfig(seconds=1.5, min_confidence=0.7))
         return int(out.from_sot.sum())
 
     assert extended(0.9) >= 7 and extended(0.6) == 0
@@ -119,11 +120,11 @@ def test_an_interpolated_box_off_the_person_is_replaced_by_the_box_found_there()
     interpolated = np.isin(frames, [9, 10, 11])
     boxes[interpolated, 0] -= 7  # interpolation put the box 7 px behind the person (they sped up)
     tracks = Tracks(frames, [1] * 20, boxes, [0.9] * 20, interpolated=interpolated)
-    out = refine_gaps(tracks, {1: LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig())
+    out = refine_gaps(tracks, {1: LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig(), EndsConfig())
     assert out.from_sot.tolist() == interpolated.tolist() and not out.interpolated.any()
     assert np.abs(out.boxes[interpolated, 0] - [walker_x(f) for f in (9, 10, 11)]).max() <= 1.0
     assert np.array_equal(out.boxes[~interpolated], tracks.boxes[~interpolated])
-    kept = refine_gaps(tracks, {1: -LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig())
+    kept = refine_gaps(tracks, {1: -LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig(), EndsConfig())
     assert np.array_equal(kept.boxes, tracks.boxes) and kept.interpolated.tolist() == interpolated.tolist()
 
 
@@ -140,58 +141,38 @@ class StubDetector:
         return np.array([[walker_x(frame) + 2.0, 41.0, 20.0, 40.0], [0.0, 0.0, 20.0, 40.0]]), np.array([0.15, 0.05])
 
 
-def test_the_detector_checks_sot_boxes_replaces_them_and_gates_the_unsupported():
-    """[sot] verify: where a (weak) detector box supports the found box, it takes its place and a low re-ID
-    affinity suffices; where none does, the strict gate applies."""
-    from sotmot.sot.extend import DetectorSupport
-
+def test_weak_boxes_extend_an_end_under_their_own_gate_where_sot_boxes_would_not():
+    """[detection] weak_boxes: the ends grow by the detector's weak boxes near the motion prior (no template search),
+    each needing the re-ID affinity SUPPORTED_AFFINITY; an SOT box needs [ends] min_affinity."""
     images = frames_with_walker()
     detected = range(1, 21)
     tracks = Tracks(list(detected), [1] * 20, [[walker_x(f), 40, 20, 40] for f in detected], [0.9] * 20)
-    # the identity a little off the walker's look: affinity about 0.9, below a strict unsupported gate of 0.95
+    # the identity a little off the walker's look: affinity about 0.9, below a strict SOT gate of 0.95
     identity = GeometryEmbedder().embed(None, np.array([[0.0, 0.0, 21.0, 41.0]]))[0]
     affinity = float(identity @ LOOK)
-    assert 0.5 < affinity < 0.95
-    strict = SotConfig(extend_seconds=1.5, verify="detector", extend_by="sot", extend_min_affinity=0.95,
-                       extend_supported_affinity=0.5, verify_min_score=0.1)
-    support = DetectorSupport(StubDetector(images, range(21, 25)), strict.verify_min_score)
-    trace: list[dict] = []
-    out = extend_ends(tracks, {1: identity}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), strict,
-                      trace=trace, support=support)
-    added = out.subset(out.from_sot & (out.frames > 20))
-    assert added.frames.tolist() == [21, 22, 23, 24]  # supported from 21 to 24; frame 25 has no detector box
-    np.testing.assert_allclose(added.boxes, [[walker_x(f) + 2.0, 41.0, 20.0, 40.0] for f in range(21, 25)])
-    assert [b["supported"] for b in trace] == [True] * 4
-    assert support.frames_detected >= 5  # it looked at frame 25 too, and found nothing there
-    # the same run without the detector: nothing passes the strict gate; with the usual gate, template boxes
-    nothing = extend_ends(tracks, {1: identity}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), strict)
-    assert not nothing.from_sot.any()
-    usual = extend_ends(tracks, {1: identity}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(),
-                        SotConfig(extend_seconds=1.5))
-    assert usual.frames[usual.from_sot & (usual.frames > 20)].tolist()[:7] == list(range(21, 28))
-
-
-def test_the_weak_box_baseline_extends_by_the_detector_boxes_alone():
-    """[sot] extend_by = "detections": the detector's boxes near the motion prior, no template search."""
-    from sotmot.sot.extend import DetectorSupport
-
-    images = frames_with_walker()
-    detected = range(1, 21)
-    tracks = Tracks(list(detected), [1] * 20, [[walker_x(f), 40, 20, 40] for f in detected], [0.9] * 20)
-    config = SotConfig(extend_seconds=1.5, verify="detector", extend_by="detections", verify_iou=0.5,
-                       extend_supported_affinity=0.5)
-    support = DetectorSupport(StubDetector(images, [21, 22, 23, 26]), config.verify_min_score)
+    assert SUPPORTED_AFFINITY < affinity < 0.95
+    strict = EndsConfig(seconds=1.5, min_affinity=0.95)
+    support = DetectorSupport(StubDetector(images, [21, 22, 23, 26]))
     read: list[int] = []
-    out = extend_ends(tracks, {1: LOOK}, lambda f: read.append(f) or images[f], LENGTH, 10.0, GeometryEmbedder(),
-                      config, support=support)
+    trace: list[dict] = []
+    out = extend_ends(tracks, {1: identity}, lambda f: read.append(f) or images[f], LENGTH, 10.0, GeometryEmbedder(),
+                      SotConfig(), strict, trace=trace, support=support)
     added = out.subset(out.from_sot)
     assert added.frames.tolist() == [21, 22, 23]  # frame 24 has no box: the end stops there, 26 is never reached
     assert read == [21, 22, 23, 24]  # only the frames searched: no template, so the end frame 20 is not decoded
     np.testing.assert_allclose(added.boxes, [[walker_x(f) + 2.0, 41.0, 20.0, 40.0] for f in (21, 22, 23)])
+    assert [b["supported"] for b in trace] == [True] * 3
+    # without the weak boxes nothing passes the strict gate; with the usual gate, the template's boxes
+    nothing = extend_ends(tracks, {1: identity}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), SotConfig(),
+                          strict)
+    assert not nothing.from_sot.any()
+    usual = extend_ends(tracks, {1: identity}, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), SotConfig(),
+                        EndsConfig(seconds=1.5))
+    assert usual.frames[usual.from_sot & (usual.frames > 20)].tolist()[:7] == list(range(21, 28))
 
 
 def test_under_the_public_protocol_no_track_starts_from_a_detector_box(tmp_path, monkeypatch):
-    """With [sot] verify the detector only checks boxes that extend trajectories the given detections started:
+    """With [detection] weak_boxes = "on" the detector only extends trajectories the given detections started:
     a person the detector sees in every frame, but who is in no det.txt line, never becomes a track."""
     import cv2
 
@@ -217,8 +198,11 @@ def test_under_the_public_protocol_no_track_starts_from_a_detector_box(tmp_path,
             return np.array([[walker_x(frame), 40.0, 20.0, 40.0], ghost]), np.array([0.3, 0.3])
 
     monkeypatch.setattr(detection, "make_detector", lambda config: SeesEveryone())
-    config = (TrackerConfig().replace("confirm", enabled=False)
-              .replace("sot", verify="detector", extend_by="sot", extend_seconds=0.5, extend_supported_affinity=0.3))
+    # (the weak-box search needs its motion prior at IoU 0.5 with the detector's box: no smoothing, which at 6 px a
+    # frame pulls the end box 11 px behind the walker, and no camera motion, which this synthetic background fools)
+    config = (TrackerConfig().replace("confirm", enabled=False).replace("detection", weak_boxes="on")
+              .replace("ends", seconds=0.5).replace("postprocess", smooth_window=0)
+              .replace("motion", compensation="off"))
     result = track_sequence(seq, config, embedder=GeometryEmbedder())
     tracks = result.tracks
     assert set(tracks.ids.tolist()) == {1}
@@ -230,17 +214,18 @@ def test_under_the_public_protocol_no_track_starts_from_a_detector_box(tmp_path,
     from sotmot.pipeline import finish_sequence, prepare_sequence
 
     prepared = prepare_sequence(seq, config, embedder=GeometryEmbedder())
-    again = finish_sequence(prepared, config.replace("sot", verify="auto"), embedder=GeometryEmbedder())
+    again = finish_sequence(prepared, config.replace("detection", weak_boxes="auto"), embedder=GeometryEmbedder())
     assert prepared.support.frames_detected > 0
     np.testing.assert_array_equal(again.tracks.boxes, tracks.boxes)
-    assert prepare_sequence(seq, config.replace("sot", verify="auto"), embedder=GeometryEmbedder()).support is None
+    assert prepare_sequence(seq, config.replace("detection", weak_boxes="auto"),
+                            embedder=GeometryEmbedder()).support is None
 
 
 def test_with_the_detectors_own_boxes_its_weak_boxes_come_from_the_same_pass_and_extend_the_ends(tmp_path,
                                                                                                 monkeypatch):
     """Private detections (issue #25): the detector runs once per frame at the lower of its two thresholds; boxes
-    at [detection] min_score or above are tracked, the weaker ones only extend trajectory ends ([sot] verify and
-    extend_by "auto"), and the detector is never run again for them."""
+    at [detection] min_score or above are tracked, the weaker ones only extend trajectory ends ([detection]
+    weak_boxes "auto"), and the detector is never run again for them."""
     import cv2
 
     import sotmot.pipeline as pipeline
@@ -271,9 +256,9 @@ def test_with_the_detectors_own_boxes_its_weak_boxes_come_from_the_same_pass_and
     monkeypatch.setattr(pipeline, "make_detector", Fading)
     config = (TrackerConfig().replace("detection", source="model", model="/models/fading.xml")
               .replace("confirm", enabled=False).replace("postprocess", smooth_window=0)
-              .replace("sot", extend_seconds=1.0, extend_supported_affinity=0.3))
+              .replace("ends", seconds=1.0))
     result = pipeline.track_sequence(seq, config, embedder=GeometryEmbedder())
-    assert thresholds == [config.sot.verify_min_score]  # one detector, at the weak boxes' threshold
+    assert thresholds == [WEAK_MIN_SCORE]  # one detector, at the weak boxes' threshold
     assert sorted(calls) == list(range(1, LENGTH + 1))  # each frame detected once
     assert result.detections.frames.tolist() == list(range(1, 21))  # the weak boxes are not tracked
     assert result.detected.frames.tolist() == list(range(1, 21))  # nor written to <name>.det.txt
@@ -281,15 +266,15 @@ def test_with_the_detectors_own_boxes_its_weak_boxes_come_from_the_same_pass_and
     assert added.frames.tolist() == [21, 22, 23, 24]
     np.testing.assert_array_equal(added.boxes, [[walker_x(f), 40.0, 20.0, 40.0] for f in range(21, 25)])
     calls.clear()
-    off = pipeline.track_sequence(seq, config.replace("sot", verify="none"), embedder=GeometryEmbedder())
+    off = pipeline.track_sequence(seq, config.replace("detection", weak_boxes="off"), embedder=GeometryEmbedder())
     assert thresholds[-1] == config.detection.min_score and sorted(calls) == list(range(1, LENGTH + 1))
-    # without the check the template search extends the end (and runs on past the detector's last weak box)
+    # without the weak boxes the template search extends the end (and runs on past the detector's last weak box)
     assert off.tracks.frames[off.tracks.from_sot].max() > 24
 
 
 def test_the_run_record_says_whether_the_detector_checked_the_sot_boxes(tmp_path):
-    """[sot] verify / extend_by "auto" resolved, in <name>.run.json: private runs check, a det.txt does not
-    unless asked; the resolved values never make --resume re-run (they follow from what is compared)."""
+    """[detection] weak_boxes "auto" as the plan decided it, in <name>.run.json: private runs use the weak boxes, a
+    det.txt does not unless asked; the plan never makes --resume re-run (it follows from what is compared)."""
     from conftest import write_sequence
     from sotmot.io import read_seqinfo
     from sotmot.provenance import IGNORED, run_record
@@ -298,39 +283,39 @@ def test_the_run_record_says_whether_the_detector_checked_the_sot_boxes(tmp_path
     model = tmp_path / "detector.xml"
     model.write_bytes(b"<net/>")
     public = TrackerConfig().replace("detection", model=str(model))
-    assert run_record(info, public)["sot_checks"] == {"verify": "none", "extend_by": "sot"}
-    refined = public.replace("sot", verify="detector")
-    assert run_record(info, refined)["sot_checks"] == {"verify": "detector", "extend_by": "detections"}
-    private = public.replace("detection", source="model")
-    record = run_record(info, private)
-    assert record["sot_checks"] == {"verify": "detector", "extend_by": "detections"}
-    assert record["detector_model"]["path"] == str(model) and "sot_checks" in IGNORED
+    plan = run_record(info, public)["plan"]
+    assert (plan["weak_boxes"], plan["ends_from"], plan["detections"]) == (False, "sot", "file")
+    assert run_record(info, public)["detector_model"]["path"] is None
+    refined = run_record(info, public.replace("detection", weak_boxes="on"))["plan"]
+    assert (refined["weak_boxes"], refined["ends_from"], refined["detector_min_score"]) == (True, "detections", None)
+    record = run_record(info, public.replace("detection", source="model"))
+    assert (record["plan"]["weak_boxes"], record["plan"]["ends_from"]) == (True, "detections")
+    assert record["plan"]["detector_min_score"] == WEAK_MIN_SCORE  # one pass: the tracked boxes and the weak ones
+    assert record["detector_model"]["path"] == str(model) and "plan" in IGNORED
 
 
 def test_the_weak_box_baseline_inside_gaps_takes_the_detector_box_over_an_interpolated_one():
-    """[sot] refine_gaps with extend_by = "detections" (the ablation's "+weak gaps"): an interpolated box is
-    replaced by a detector box overlapping it at verify_iou or more, and stays where the detector saw nothing."""
-    from sotmot.sot.extend import DetectorSupport
-
+    """[ends] refine_gaps with the weak boxes (the ablation's "+weak gaps"): an interpolated box is replaced by a
+    detector box overlapping it at SUPPORT_IOU or more, and stays where the detector saw nothing."""
     images = frames_with_walker()
     frames = list(range(1, 21))
     boxes = np.array([[walker_x(f), 40, 20, 40] for f in frames])
     interpolated = np.isin(frames, [9, 10, 11])
     boxes[interpolated, 0] -= 3  # interpolation put the box 3 px behind the person (IoU 0.58 with the detector's)
     tracks = Tracks(frames, [1] * 20, boxes, [0.9] * 20, interpolated=interpolated)
-    config = SotConfig(verify="detector", extend_by="detections", verify_iou=0.5, refine_gaps=True)
-    support = DetectorSupport(StubDetector(images, [9, 10]), config.verify_min_score)  # nothing seen in frame 11
-    out = refine_gaps(tracks, {1: LOOK}, images.__getitem__, GeometryEmbedder(), config, support=support)
+    support = DetectorSupport(StubDetector(images, [9, 10]))  # nothing seen in frame 11
+    out = refine_gaps(tracks, {1: LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig(),
+                      EndsConfig(refine_gaps=True), support=support)
     assert out.from_sot.tolist() == np.isin(frames, [9, 10]).tolist()
     np.testing.assert_allclose(out.boxes[[8, 9]], [[walker_x(f) + 2.0, 41.0, 20.0, 40.0] for f in (9, 10)])
     assert out.interpolated.tolist() == np.isin(frames, [11]).tolist()
     np.testing.assert_array_equal(out.boxes[10], tracks.boxes[10])
 
 
-def test_a_detector_box_beside_another_trajectory_extends_an_end_where_a_template_box_would_stop():
-    """[sot] extend_supported_stop_iou: a weak detector box overlapping someone else's box at about 0.6 is a person
-    of its own and extends the end; with the template's stop_iou (0.3) the same end stops there."""
-    from sotmot.sot.extend import DetectorSupport
+def test_a_detector_box_beside_another_trajectory_extends_an_end_where_a_template_box_would_stop(monkeypatch):
+    """SUPPORTED_STOP_IOU: a weak detector box overlapping someone else's box at about 0.6 is a person of its own
+    and extends the end; with the template's [ends] stop_iou (0.3) in its place the same end stops there."""
+    import sotmot.sot.extend as extend
 
     images = frames_with_walker()
     walker = [(f, 1, [walker_x(f), 40, 20, 40]) for f in range(1, 21)]
@@ -339,13 +324,12 @@ def test_a_detector_box_beside_another_trajectory_extends_an_end_where_a_templat
     tracks = Tracks(list(frames), list(ids), list(boxes), [0.9] * len(frames))
     features = {1: LOOK, 2: -LOOK}
 
-    def run(stop: float) -> list[int]:
-        config = SotConfig(extend_seconds=0.4, verify="detector", extend_by="detections",
-                           extend_supported_stop_iou=stop)
-        support = DetectorSupport(StubDetector(images, range(21, 25)), config.verify_min_score)
-        out = extend_ends(tracks, features, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), config,
-                          support=support)
+    def run() -> list[int]:
+        support = DetectorSupport(StubDetector(images, range(21, 25)))
+        out = extend_ends(tracks, features, images.__getitem__, LENGTH, 10.0, GeometryEmbedder(), SotConfig(),
+                          EndsConfig(seconds=0.4), support=support)
         return out.frames[out.from_sot & (out.ids == 1)].tolist()
 
-    assert run(0.7) == [21, 22, 23, 24]
-    assert run(0.3) == []
+    assert SUPPORTED_STOP_IOU == 0.7 and run() == [21, 22, 23, 24]
+    monkeypatch.setattr(extend, "SUPPORTED_STOP_IOU", EndsConfig().stop_iou)
+    assert run() == []

@@ -110,7 +110,7 @@ def _panning_sequence(root: Path, pan: float, length: int = 8, name: str = "PAN"
 
 def test_a_person_standing_still_while_the_camera_pans_is_one_tracklet(tmp_path):
     seq = _panning_sequence(tmp_path, pan=28.0)  # more than the box's width a frame: no overlap in the image
-    off = TrackerConfig().replace("motion", compensation="off").replace("sot", extend_seconds=0.0)
+    off = TrackerConfig().replace("motion", compensation="off").replace("ends", seconds=0.0)
     prepared_off = prepare_sequence(seq, off, GeometryEmbedder())
     prepared_on = prepare_sequence(seq, off.replace("motion", compensation="auto"), GeometryEmbedder())
     # in the image the boxes never overlap: each stays alone (and a lone box is no tracklet, l_min = 1)
@@ -133,7 +133,7 @@ def test_a_still_camera_gives_the_identity_and_identical_results(tmp_path):
     motion = estimate_motion(info, dets, MotionConfig())
     assert not motion.moving
     np.testing.assert_array_equal(motion.to_reference, CameraMotion.still(info.length).to_reference)
-    base = TrackerConfig().replace("sot", extend_seconds=0.0)
+    base = TrackerConfig().replace("ends", seconds=0.0)
     auto = track_sequence(seq, base, GeometryEmbedder())
     off = track_sequence(seq, base.replace("motion", compensation="off"), GeometryEmbedder())
     for column in ("frames", "ids", "boxes", "scores", "interpolated", "from_sot"):
@@ -169,7 +169,7 @@ def test_explain_and_graph_say_the_positions_were_compensated(tmp_path):
     from sotmot.inspect.explain import explain, inspection_graph
     from sotmot.inspect.graph_view import html_page
 
-    config = TrackerConfig().replace("sot", extend_seconds=0.0)
+    config = TrackerConfig().replace("ends", seconds=0.0)
     moving = track_sequence(_panning_sequence(tmp_path, pan=28.0), config, GeometryEmbedder())
     graph = inspection_graph(moving, config)
     assert graph.graph["compensated"]
@@ -182,7 +182,7 @@ def test_explain_and_graph_say_the_positions_were_compensated(tmp_path):
 def test_the_sot_step_follows_the_camera(tmp_path):
     """Algorithm 1 on a panning camera: its overlap checks and prior follow the camera, and it runs to the end."""
     seq = _panning_sequence(tmp_path, pan=12.0)
-    config = TrackerConfig().replace("sot", variant="template", extend_seconds=0.0)
+    config = TrackerConfig().replace("sot", variant="template").replace("ends", seconds=0.0)
     result = track_sequence(seq, config, GeometryEmbedder())
     assert result.motion.moving and result.tracks.n_tracks == 1
 

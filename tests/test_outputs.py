@@ -230,7 +230,10 @@ def test_a_replayed_det_txt_repeats_the_run_under_any_name_and_without_its_recor
     assert main(["track", str(video), "--det", str(copy), "--out", str(tmp_path / "replay"), "-q"]) == 0
     assert (tmp_path / "replay" / "street.txt").read_bytes() == (out / "street.txt").read_bytes()
     replay = json.loads((tmp_path / "replay" / "street.run.json").read_text())
-    assert replay["confidence_method"] == "pd0202" and replay["sot_checks"] == record["sot_checks"]
+    assert replay["confidence_method"] == "pd0202" and replay["plan"]["detections"] == "file"
+    decided = ("weak_boxes", "ends_from", "confidence_family")  # the replay decides as the detector's run did
+    assert [replay["plan"][k] for k in decided] == [record["plan"][k] for k in decided]
+    assert [record["plan"][k] for k in decided] == [True, "detections", "pd0202"]
 
 
 def test_side_files_belong_to_one_run_resume_rewrites_a_lost_one_render_says_so(tmp_path, capsys):

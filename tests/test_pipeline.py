@@ -97,7 +97,7 @@ def test_the_gap_limit_in_seconds_follows_the_frame_rate(tmp_path):
     seen = [*range(1, 21), *range(51, 71)]
     seq = write_sequence(tmp_path, [f"{f},-1,{10 + 3 * f},40,20,40,0.9" for f in seen], length=70, frame_rate=10,
                          width=320, height=120)
-    base = TrackerConfig().replace("confirm", enabled=False).replace("sot", extend_seconds=0.0)
+    base = TrackerConfig().replace("confirm", enabled=False).replace("ends", seconds=0.0)
     tracks = {}
     for label, seconds in (("frames", None), ("2 s", 2.0), ("4 s", 4.0)):
         config = base.replace("association", l_max_seconds=seconds)
@@ -116,3 +116,45 @@ def test_the_gap_limit_in_seconds_follows_the_frame_rate(tmp_path):
     assert both.at(10.0).l_max == 30
     assert config_from_dict({"association": {"l_max": 45}}).association.at(30.0).l_max == 45
     assert config_from_dict({"association": {"min_affinity": 0.5}}).association.at(30.0).l_max == 120
+
+
+@pytest.mark.parametrize("case", ["defaults", "sot template", "weak boxes at ends and gaps", "detector"])
+def test_once_the_plan_is_made_no_stage_replaces_configuration(case, model_0288, monkeypatch):
+    """Issue #40: every "auto" is decided by sotmot.plan.resolve; the stages read the plan, so nothing builds a
+    changed copy of a configuration section (dataclasses.replace, TrackerConfig.replace) while the run goes on."""
+    import dataclasses
+
+    from conftest import DATA, MODELS, require
+    from sotmot.config import SECTIONS
+    from sotmot.io import read_seqinfo
+    from sotmot.pipeline import track_plan
+    from sotmot.plan import resolve
+
+    seq = require(DATA / "MOT16-05-clip30")
+    config = TrackerConfig().replace("appearance", model=str(model_0288))
+    if case == "sot template":
+        config = config.replace("sot", variant="template")
+    elif case == "weak boxes at ends and gaps":  # public, refined: the detector on the frames the searches visit
+        pytest.importorskip("openvino")
+        detector = require(MODELS / "person-detection-0202" / "person-detection-0202.FP16-INT8.xml")
+        config = config.replace("detection", weak_boxes="on", model=str(detector)).replace("ends", refine_gaps=True)
+    elif case == "detector":
+        pytest.importorskip("openvino")
+        detector = require(MODELS / "person-detection-0202" / "person-detection-0202.FP16-INT8.xml")
+        config = config.replace("detection", source="model", model=str(detector))
+    plan = resolve(config, read_seqinfo(seq))
+    replaced: list[str] = []
+    original = dataclasses.replace
+    kinds = (TrackerConfig, *SECTIONS.values())
+
+    def watching(obj, /, **changes):
+        if isinstance(obj, kinds):
+            replaced.append(f"{type(obj).__name__}({', '.join(changes)})")
+        return original(obj, **changes)
+
+    monkeypatch.setattr(dataclasses, "replace", watching)
+    result = track_plan(plan)
+    assert len(result.tracks) and replaced == []
+    # the watch itself works: a replace of a section is seen
+    config.replace("ends", seconds=0.5)
+    assert replaced == ["TrackerConfig(ends)"]

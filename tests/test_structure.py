@@ -18,6 +18,7 @@ FLOORS = {
     "sotmot.io": 2, "sotmot.scoring": 2,
     "sotmot.appearance": 3, "sotmot.detection": 3, "sotmot.postprocess": 3, "sotmot.motion": 3,
     "sotmot.confidence": 4, "sotmot.provenance": 4, "sotmot.passes": 4, "sotmot.sot": 4, "sotmot.tracklets": 4,
+    "sotmot.plan": 4,
     "sotmot.workers": 4,
     "sotmot.preprocess": 5, "sotmot.confirm": 5, "sotmot.association": 5,
     "sotmot.solvers": 6,  # the solvers/ folder of the source tree, installed as sotmot.solvers

@@ -51,26 +51,28 @@ def embedder_for(config: AppearanceConfig, embedder: Embedder | None = None) -> 
 
 
 def resolve_backend(config: AppearanceConfig) -> AppearanceConfig:
-    """``config`` with ``backend = "auto"`` made concrete: ``"openvino"`` where the OpenVINO runtime is installed
-    and the device is the CPU (the same tracking scores as onnxruntime, about twice as fast), else ``"onnx"``."""
-    if config.backend != "auto":
-        return config
+    """``config`` as a run uses it: ``backend = "auto"`` made concrete (``"openvino"`` where the OpenVINO runtime is
+    installed and the device is the CPU: the same tracking scores as onnxruntime, about twice as fast; else
+    ``"onnx"``), and ``threads`` no more than the machine's CPUs. ``config`` itself when nothing changes."""
     import importlib.util
 
-    fast = config.device == "cpu" and importlib.util.find_spec("openvino") is not None
-    return dataclasses.replace(config, backend="openvino" if fast else "onnx")
+    changes: dict[str, object] = {}
+    if config.backend == "auto":
+        fast = config.device == "cpu" and importlib.util.find_spec("openvino") is not None
+        changes["backend"] = "openvino" if fast else "onnx"
+    cpus = os.cpu_count() or 1
+    if config.threads > cpus:
+        log.warning("appearance threads = %d but this machine has %d CPUs; using %d", config.threads, cpus, cpus)
+        changes["threads"] = cpus
+    return dataclasses.replace(config, **changes) if changes else config
 
 
 def make_embedder(config: AppearanceConfig) -> Embedder:
-    """Build the embedder that ``config.backend`` names (``"auto"``: :func:`resolve_backend`)."""
+    """Build the embedder that ``config.backend`` names (``config`` as :func:`resolve_backend` makes it)."""
     config = resolve_backend(config)
     target = BACKENDS.get(config.backend)
     if target is None:
         raise ConfigError(f"unknown appearance backend {config.backend!r}; valid: {', '.join(BACKENDS)}")
-    cpus = os.cpu_count() or 1
-    if config.threads > cpus:
-        log.warning("appearance threads = %d but this machine has %d CPUs; using %d", config.threads, cpus, cpus)
-        config = dataclasses.replace(config, threads=cpus)
     module, name = target.split(":")
     try:
         importlib.import_module(module)

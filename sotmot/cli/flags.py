@@ -118,11 +118,10 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--unconfirmed",), "confirm", "low_confidence", choices=lambda: ["drop", "file", "keep"], sets=_unconfirmed,
          note="Boxes more likely false than true after association: drop them, write them to DIR/<name>.low.txt "
               "(file), or keep them (keep: [confirm] enabled = false)."),
+    Flag(("--weak-boxes",), "detection", "weak_boxes"),
     Flag(("--sot",), "sot", "variant"),
-    Flag(("--sot-rules",), "sot", "rules"),
-    Flag(("--verify-sot",), "sot", "verify"),
-    Flag(("--refine-gaps",), "sot", "refine_gaps", switch=True),
-    Flag(("--extend-ends",), "sot", "extend_seconds", metavar="SECONDS"),
+    Flag(("--refine-gaps",), "ends", "refine_gaps", switch=True),
+    Flag(("--extend-ends",), "ends", "seconds", metavar="SECONDS"),
     Flag(("--camera-motion",), "motion", "compensation"),
     Flag(("--window",), "windows", "seconds", metavar="SECONDS", commands=frozenset({"track"})),
 )

@@ -7,7 +7,7 @@ so and points at ``docs/calibration.md``, which derives it from data.
 
 A configuration file (TOML or JSON) holds one table per stage
 (``detection``, ``preprocess``, ``appearance``, ``sot``, ``tracklets``, ``association``,
-``postprocess``, ``confirm``)::
+``postprocess``, ``confirm``, ``ends``, ...)::
 
     [preprocess]
     nms = "iou"
@@ -35,12 +35,12 @@ from typing import Any, Literal
 from sotmot.config.association import AssociationConfig, TrackletConfig
 from sotmot.config.common import MAX_FRAME_RATE
 from sotmot.config.output import ConfirmConfig, MotionConfig, PostprocessConfig, WindowConfig
-from sotmot.config.sot import SotConfig
+from sotmot.config.sot import EndsConfig, SotConfig
 from sotmot.config.sources import AppearanceConfig, ConfidenceMethod, DetectionConfig, InputConfig, PreprocessConfig
 from sotmot.errors import ConfigError
 
 __all__ = ["AppearanceConfig", "AssociationConfig", "ConfidenceMethod", "ConfirmConfig", "DetectionConfig",
-           "InputConfig", "MAX_FRAME_RATE", "MotionConfig", "PostprocessConfig", "SECTIONS", "SotConfig",
+           "EndsConfig", "InputConfig", "MAX_FRAME_RATE", "MotionConfig", "PostprocessConfig", "SECTIONS", "SotConfig",
            "TrackerConfig", "TrackletConfig", "WindowConfig", "config_from_dict", "field_docs", "load_config"]
 
 
@@ -57,6 +57,7 @@ class TrackerConfig:
     association: AssociationConfig = field(default_factory=AssociationConfig)
     postprocess: PostprocessConfig = field(default_factory=PostprocessConfig)
     confirm: ConfirmConfig = field(default_factory=ConfirmConfig)
+    ends: EndsConfig = field(default_factory=EndsConfig)
     motion: MotionConfig = field(default_factory=MotionConfig)
     windows: WindowConfig = field(default_factory=WindowConfig)
 
@@ -83,6 +84,7 @@ SECTIONS: dict[str, type] = {
     "association": AssociationConfig,
     "postprocess": PostprocessConfig,
     "confirm": ConfirmConfig,
+    "ends": EndsConfig,
     "motion": MotionConfig,
     "windows": WindowConfig,
 }
@@ -151,10 +153,32 @@ def _in_frames(section: str, given: dict[str, Any]) -> dict[str, Any]:
     return {}
 
 
+#: Keys that left a section (issue #40), and what to write instead: a file written for an older sotmot gets told.
+MOVED = {
+    ("sot", "extend_seconds"): "now [ends] seconds",
+    ("sot", "extend_min_confidence"): "now [ends] min_confidence",
+    ("sot", "extend_min_affinity"): "now [ends] min_affinity",
+    ("sot", "stop_iou"): "now [ends] stop_iou",
+    ("sot", "refine_gaps"): "now [ends] refine_gaps",
+    ("sot", "verify"): "now [detection] weak_boxes (\"detector\" is \"on\", \"none\" is \"off\")",
+    ("sot", "extend_by"): "removed: trajectory ends grow by the detector's weak boxes when [detection] weak_boxes "
+                          "is on, else by SOT",
+    ("sot", "rules"): "removed: Algorithm 1 runs as the paper publishes it (the \"confident\" rules gained nothing "
+                      "held out)",
+    ("sot", "must_link"): "removed: seeding tracklets with the SOT links gained nothing",
+    ("sot", "seed_min_confidence"): "removed: every detection seeds Algorithm 1, as in the paper",
+    **{("sot", name): "removed: the detector's weak boxes are judged by fixed values (sotmot.sot.support)"
+       for name in ("verify_min_score", "verify_iou", "extend_supported_affinity", "extend_supported_stop_iou")},
+}
+
+
 def _build(section: str, values: dict[str, Any]) -> Any:
     cls = SECTIONS[section]
     hints = typing.get_type_hints(cls)
     names = [f.name for f in dataclasses.fields(cls)]
+    moved = [f"[{section}] {k}: {MOVED[section, k]}" for k in sorted(values) if (section, k) in MOVED]
+    if moved:
+        raise ConfigError("; ".join(moved))
     unknown = sorted(set(values) - set(names))
     if unknown:
         raise ConfigError(f"[{section}] unknown key(s) {', '.join(unknown)}; valid keys: {', '.join(names)}")

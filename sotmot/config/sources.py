@@ -64,6 +64,21 @@ class DetectionConfig:
     threads
         CPU threads of the detector (0: the runtime's choice; with
         ``--workers N``: each process's share of the cores).
+    weak_boxes
+        The detector's weak boxes (scoring from 0.1 up to ``min_score``; never
+        tracked themselves) as evidence after tracking: ``"on"``: every box SOT
+        finds (Algorithm 1, gap refinement) is checked by them (a found box that
+        overlaps a weak box at IoU 0.5 or more is replaced by it, the paper's box
+        regression on SOT results; in Algorithm 1 an unsupported candidate ends
+        its extension), and trajectory ends (``[ends]``) grow by weak boxes
+        instead of SOT. Only trajectories that exist are extended, so tracks
+        still start from the detections tracked (MOTChallenge's public rule
+        holds with public detections: "public, refined"). ``"off"``: none.
+        ``"auto"`` (default): ``"on"`` when the detections come from the
+        detector (``source``; its weak boxes come from the same pass over the
+        frames, or a replayed ``<name>.det.txt`` of the same detector),
+        ``"off"`` for other detections files, so a public run is refined only
+        when asked.
     """
 
     source: Literal["auto", "file", "model"] = "auto"
@@ -74,10 +89,13 @@ class DetectionConfig:
     input_height: int = 0
     input_width: int = 0
     threads: int = 0
+    weak_boxes: Literal["auto", "on", "off"] = "auto"
 
     def __post_init__(self) -> None:
         _check(self.source in ("auto", "file", "model"), "detection",
                f"source must be one of auto, file, model; got {self.source!r}")
+        _check(self.weak_boxes in ("auto", "on", "off"), "detection",
+               f"weak_boxes must be one of auto, on, off; got {self.weak_boxes!r}")
         _check(self.backend in DETECTORS, "detection",
                f"backend must be one of {', '.join(sorted(DETECTORS))}; got {self.backend!r}")
         _check(0.0 <= self.min_score <= 1.0, "detection", "min_score must be in [0, 1]")

@@ -135,8 +135,8 @@ def known_family(config: DetectionConfig, info) -> str | None:
 
 
 def detector_detections(config: DetectionConfig, info) -> bool:
-    """Whether the detector's own judgement is at hand for ``info``'s detections (what ``[sot] verify = "auto"``
-    turns on): they come from the model now, or they are a replayed detections file whose header names the very
+    """Whether the detector's own judgement is at hand for ``info``'s detections (what ``[detection] weak_boxes =
+    "auto"`` turns on): they come from the model now, or they are a replayed detections file whose header names the very
     detector in use (by its SHA-256: its weak boxes can be found again, and the replay repeats the run)."""
     source, path = detection_source(config, info)
     if source == "model":

@@ -118,7 +118,7 @@ def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerCo
                    workdir: Path, family: str | None = None) -> Labelled:
     """Associate, post-process without confirmation, and label every output box; the detector ``family``, else
     guessed from the scores."""
-    _, trajectories = associate(prepared.tracklets, config, prepared.info.frame_rate)
+    _, trajectories = associate(prepared.tracklets, prepared.finishing(config))
     occluders = prepared.occluders
     ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate, occluders)
     tracks = to_tracks(trajectories, prepared.detections, config.postprocess, None, prepared.info.frame_rate, ids,

@@ -26,14 +26,10 @@ Two appearance variants score candidates:
   re-ranked by the re-ID model's affinity with the seed's feature, all
   candidates of a step in one batched forward pass.
 
-Under ``[sot] rules = "confident"`` (issue #12) three rules change: a
-candidate overlapping any box at IoU above ``stop_iou`` stops the end (a
-lagging duplicate of a detection is not added), the search is centred on a
-constant-velocity prior (the end's own last step), and an extension is kept
-only if it *reaches* another box (meets an opposite end or runs into a box);
-extensions that grow to ``L``, leave the window or lose the object are
-removed at the end of the window. False isolated seeds have nothing to reach.
-Seeds can also be limited by confidence (``seed_min_confidence``).
+With the detector's weak boxes (``[detection] weak_boxes``, on by default
+with the built-in detector) each found box is replaced by the weak box it
+overlaps (the paper's box regression on SOT results, Sec. 6.1), and an
+extension ends where none supports it.
 
 The step runs over windows of frames (``window`` frames, default ``2 L + 1``)
 so only a window's frames are kept in memory; an end never leaves its window.
@@ -50,10 +46,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sotmot.appearance import affinity_rows
-from sotmot.boxes import centers, iou_matrix
+from sotmot.boxes import iou_matrix
 from sotmot.config import SotConfig
 from sotmot.motion import CameraMotion
 from sotmot.sot.search import TemplateSearch
+from sotmot.sot.support import SUPPORT_IOU
 from sotmot.types import Detections
 
 log = logging.getLogger(__name__)
@@ -97,8 +94,6 @@ class _End:
     score: float = field(compare=False)
     length: int = field(compare=False)
     direction: int = field(compare=False)
-    chain: int = field(compare=False)
-    velocity: np.ndarray = field(compare=False)
 
 
 class SotTracker:
@@ -122,15 +117,15 @@ class SotTracker:
         run with SOT decodes each frame once (``SotResult.det_features``).
     motion
         The camera's motion (None: a still camera): a box is carried into the
-        next frame by the camera's motion before the overlap checks, and the
-        constant-velocity prior is the person's own motion in the reference frame.
+        next frame by the camera's motion, where the search is centred and the
+        overlap checks are made.
     support
-        ``(frame, image) -> (K, 4)`` the person detector's boxes in a frame
-        (:class:`sotmot.sot.extend.DetectorSupport`, ``[sot] verify``), or
-        None. With it, a candidate is replaced by the detector box it overlaps
-        at IoU ``verify_iou`` or more (the paper's box regression on SOT
-        results, Sec. 6.1), and an extension ends where no detector box
-        supports its candidate.
+        ``(frame, image) -> (K, 4)`` the person detector's weak boxes in a
+        frame (:class:`sotmot.sot.support.DetectorSupport`, ``[detection]
+        weak_boxes``), or None. With it, a candidate is replaced by the weak
+        box it overlaps at IoU :data:`~sotmot.sot.support.SUPPORT_IOU` or more
+        (the paper's box regression on SOT results, Sec. 6.1), and an
+        extension ends where no weak box supports its candidate.
     """
 
     def __init__(self, config: SotConfig, read_frame: Callable[[int], np.ndarray], n_frames: int,
@@ -185,13 +180,8 @@ class SotTracker:
         return boxes[best], float(aff[best]), feats[best]
 
     # -- Algorithm 1 ---------------------------------------------------------------------------
-    def run(self, detections: Detections, progress: Callable | None = None,
-            seeds: np.ndarray | None = None) -> SotResult:
-        """Run Algorithm 1 window by window over all ``detections``.
-
-        ``seeds`` (``(N,)`` bool) limits which detections start extensions (the
-        paper: all); the others can still be met and still block candidates.
-        """
+    def run(self, detections: Detections, progress: Callable | None = None) -> SotResult:
+        """Run Algorithm 1 window by window over all ``detections``, every one a seed."""
         cfg = self.config
         n = len(detections)
         self._boxes: list[np.ndarray] = [b for b in detections.boxes]
@@ -200,10 +190,6 @@ class SotTracker:
                                                    else [None] * n)
         self._templates: dict[int, np.ndarray] = {}
         links: list[tuple[int, int]] = []
-        confident = cfg.rules == "confident"
-        overlap = cfg.stop_iou if confident else cfg.tau_I  # a candidate overlapping a box this much is refused
-        chain_of: dict[int, int] = {}  # added box -> the extension (chain) that added it
-        reached: list[bool] = []  # per chain: did it reach another box (``confident`` keeps only those)
         window = cfg.window or 2 * cfg.L + 1
         ranks = _score_ranks(detections.scores)
         per_frame = detections.by_frame()
@@ -238,12 +224,8 @@ class SotTracker:
             for f in range(w0, w1 + 1):
                 for d in in_frame[f]:
                     ends[d] = {1, -1}
-                    if seeds is not None and not seeds[d]:
-                        continue
                     for direction in (1, -1):
-                        heapq.heappush(heap, _End(-ranks[d], counter, d, d, ranks[d], 1, direction,
-                                                  len(reached), np.zeros(2)))
-                        reached.append(False)
+                        heapq.heappush(heap, _End(-ranks[d], counter, d, d, ranks[d], 1, direction))
                         counter += 1
             while heap:
                 end = heapq.heappop(heap)
@@ -262,7 +244,8 @@ class SotTracker:
                 others = in_frame[g]
                 if others:
                     ious = iou_matrix(carried, np.stack([self._boxes[b] for b in others]))[0]
-                    facing = [b for b, iou in zip(others, ious) if iou > cfg.tau_I and -end.direction in ends.get(b, ())]
+                    facing = [b for b, iou in zip(others, ious)
+                              if iou > cfg.tau_I and -end.direction in ends.get(b, ())]
                     if facing:
                         aff = self._seed_affinity(seed, image(g), facing)
                         best = int(np.argmax(aff))
@@ -270,34 +253,27 @@ class SotTracker:
                             meet = facing[best]
                             ends[meet].discard(-end.direction)
                             links.append((end.box_id, meet) if end.direction == 1 else (meet, end.box_id))
-                            reached[end.chain] = True
-                            if meet in chain_of:  # two extensions met half way: both reached a box
-                                reached[chain_of[meet]] = True
                             continue
-                # the person's own step, in the reference frame, on top of the camera's
-                prior = self.motion.box_from_ref(g, self.motion.box_to_ref(f, box) + np.r_[end.velocity, 0.0, 0.0]) \
-                    if confident else carried
-                found, aff, feature = self.next(prior, seed, *cached(g))
+                found, aff, feature = self.next(carried, seed, *cached(g))
                 if len(found) == 0 or aff < cfg.tau_a:
                     continue
 
                 def runs_into(candidate: np.ndarray) -> bool:
+                    """A box already in the frame is the same object (IoU above ``tau_I``): someone is there."""
                     return bool(others) and iou_matrix(candidate, np.stack([self._boxes[b] for b in others]))[0].max() \
-                        > overlap
+                        > cfg.tau_I
 
                 if runs_into(found):
-                    reached[end.chain] = True  # it ran into a box: someone is already there
                     continue
                 if self.support is not None:  # box regression on the SOT result: a detector box takes its place
                     weak = self.support(g, image(g))
                     ious = iou_matrix(found, weak)[0] if len(weak) else np.zeros(1)
-                    if ious.max() < cfg.verify_iou:
+                    if ious.max() < SUPPORT_IOU:
                         self.unsupported += 1
                         continue  # no detector box supports it: the extension ends here
                     found = weak[int(np.argmax(ious))]
                     self.regressed += 1
                     if runs_into(found):
-                        reached[end.chain] = True
                         continue
                     # deep: the regressed box's own feature (another end may meet it); template: embedded later
                     feature = self.embed(image(g), found[None])[0] if cfg.variant == "deep" else None
@@ -307,12 +283,9 @@ class SotTracker:
                 self._features.append(feature)
                 in_frame[g].append(new)
                 ends[new] = {end.direction}
-                chain_of[new] = end.chain
                 links.append((end.box_id, new) if end.direction == 1 else (new, end.box_id))
-                to_ref = self.motion.box_to_ref  # the person's own step: in the reference frame
-                step = centers(to_ref(g, found)[None])[0] - centers(to_ref(f, box)[None])[0]
                 heapq.heappush(heap, _End(-end.score * cfg.e, counter, new, seed, end.score * cfg.e,
-                                          end.length + 1, end.direction, end.chain, step))
+                                          end.length + 1, end.direction))
                 counter += 1
             if self.embed is not None:  # added boxes the variant did not embed (template): their frames are here
                 todo: dict[int, list[int]] = {}
@@ -322,8 +295,6 @@ class SotTracker:
                 for f, idx in todo.items():
                     for b, feature in zip(idx, self.embed(image(f), np.stack([self._boxes[b] for b in idx]))):
                         self._features[b] = feature
-        if confident:
-            self._drop_unreached(n, [b for b in range(n, len(self._boxes)) if not reached[chain_of[b]]], links)
         added = len(self._boxes) - n
         scores = np.concatenate([detections.scores, np.full(added, _added_score(detections.scores))])
         enlarged = Detections(np.asarray(self._frames), np.asarray(self._boxes).reshape(-1, 4), scores,
@@ -338,20 +309,6 @@ class SotTracker:
             log.info("SOT: %d candidates regressed onto a detector box, %d ended unsupported", self.regressed,
                      self.unsupported)
         return SotResult(enlarged, np.asarray(links, dtype=np.int64).reshape(-1, 2), feats, self.steps, det_feats)
-
-
-    def _drop_unreached(self, n: int, drop: list[int], links: list[tuple[int, int]]) -> None:
-        """Remove the added boxes ``drop`` (indices >= ``n``) and their links, renumbering the rest."""
-        if not drop:
-            return
-        gone = set(drop)
-        keep = [b for b in range(len(self._boxes)) if b not in gone]
-        new_index = {b: i for i, b in enumerate(keep)}
-        self._boxes = [self._boxes[b] for b in keep]
-        self._frames = [self._frames[b] for b in keep]
-        self._features = [self._features[b] for b in keep]
-        links[:] = [(new_index[a], new_index[b]) for a, b in links if a in new_index and b in new_index]
-        log.debug("SOT (confident rules) dropped %d boxes of extensions that reached no box", len(gone))
 
 
 def _score_ranks(scores: np.ndarray) -> np.ndarray:

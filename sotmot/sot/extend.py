@@ -12,15 +12,17 @@ feature, the paper's seed, the mean was right more often: on MOT17-09-FRCNN
 71 of 73 added boxes against 102 of 150). An end stops at the first frame where
 
 * no candidate has a template correlation above ``[sot] tau`` and an
-  affinity with the trajectory of at least ``extend_min_affinity``;
+  affinity with the trajectory of at least ``[ends] min_affinity``;
 * the best candidate overlaps a box of another trajectory (or one already
-  added) at IoU above ``stop_iou``: someone else is there (a box a detector
-  box supports, a detection of its own, above ``extend_supported_stop_iou``);
+  added) at IoU above ``[ends] stop_iou``: someone else is there;
 * less than half the candidate lies inside the image (the person leaves);
-* it has grown ``extend_seconds``, or reached the sequence's first or last frame.
+* it has grown ``[ends] seconds``, or reached the sequence's first or last frame.
 
-Only trajectories the confirmation stage trusts (mean confidence at least
-``extend_min_confidence``) are extended. :func:`refine_gaps` uses the same
+With the detector's weak boxes (``[detection] weak_boxes``) the candidates
+are the weak boxes near the prior instead of template proposals (no SOT),
+judged by the values of :mod:`sotmot.sot.support`. Only trajectories the
+confirmation stage trusts (mean confidence at least ``[ends]
+min_confidence``) are extended. :func:`refine_gaps` uses the same
 search inside a trajectory's gaps, where it replaces an interpolated box by
 the box found around it when the evidence passes the same gates.
 
@@ -30,7 +32,6 @@ pixels, frames 1-based.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 from collections.abc import Callable
 
@@ -38,9 +39,10 @@ import numpy as np
 
 from sotmot.appearance import Embedder, affinity_rows
 from sotmot.boxes import centers, inside_share, iou_matrix
-from sotmot.config import DetectionConfig, SotConfig
+from sotmot.config import EndsConfig, SotConfig
 from sotmot.motion import CameraMotion
 from sotmot.sot.search import TemplateSearch
+from sotmot.sot.support import SUPPORT_IOU, SUPPORTED_AFFINITY, SUPPORTED_STOP_IOU, DetectorSupport
 from sotmot.types import Tracks
 
 log = logging.getLogger(__name__)
@@ -66,7 +68,7 @@ def end_velocity(frames: np.ndarray, boxes: np.ndarray, direction: int) -> np.nd
 
 
 def end_steps(seconds: float, frame_rate: float) -> int:
-    """How many frames an end may grow: ``extend_seconds`` at the sequence's frame rate, at least one."""
+    """How many frames an end may grow: ``[ends] seconds`` at the sequence's frame rate, at least one."""
     return max(1, int(round(seconds * frame_rate)))
 
 
@@ -76,26 +78,26 @@ def mean_confidence(confidence: np.ndarray) -> float:
     return float(scored.mean()) if len(scored) else 1.0
 
 
-def passes_end_gates(config: SotConfig, track_confidence: float = 1.0, affinity: float = 1.0, step: int = 1,
+def passes_end_gates(config: EndsConfig, track_confidence: float = 1.0, affinity: float = 1.0, step: int = 1,
                      steps: int | None = None, supported: bool = False) -> bool:
     """The end extension's gates, stated once: the track's mean confirmation confidence is at least
-    ``extend_min_confidence``, the found box's re-ID affinity with the track at least ``extend_min_affinity``
-    (``extend_supported_affinity`` for a box a detector box ``supported``, ``[sot] verify``), and the box at
+    ``min_confidence``, the found box's re-ID affinity with the track at least ``min_affinity``
+    (:data:`~sotmot.sot.support.SUPPORTED_AFFINITY` for a detector's weak box, ``supported``), and the box at
     most ``steps`` frames from the end (None: no limit). :func:`extend_ends` checks each where it knows the
     number; :func:`gated` applies all of them to a trace (``scripts/fit_sot.py``)."""
-    needed = config.extend_supported_affinity if supported else config.extend_min_affinity
-    return (not track_confidence < config.extend_min_confidence and not affinity < needed
+    needed = SUPPORTED_AFFINITY if supported else config.min_affinity
+    return (not track_confidence < config.min_confidence and not affinity < needed
             and (steps is None or step <= steps))
 
 
-def gated(trace: list[dict], frame_rate: float, config: SotConfig) -> list[dict]:
+def gated(trace: list[dict], frame_rate: float, config: EndsConfig) -> list[dict]:
     """The boxes of a :func:`extend_ends` trace (run with looser gates) that ``config``'s gates keep.
 
     An end stops at its first box that fails a gate, as :func:`extend_ends`
     does, so this reproduces the stricter run, except that a box cut from one
     end no longer blocks another track's end.
     """
-    steps = end_steps(config.extend_seconds, frame_rate)
+    steps = end_steps(config.seconds, frame_rate)
     stopped, kept = set(), []
     for box in trace:  # in the order they were added: each end's boxes one step after another
         end = (box["track"], box["direction"])
@@ -107,60 +109,15 @@ def gated(trace: list[dict], frame_rate: float, config: SotConfig) -> list[dict]
     return kept
 
 
-class DetectorSupport:
-    """The person detector as a verifier of SOT boxes (``[sot] verify = "detector"``): its boxes scoring at least
-    ``verify_min_score`` in a frame, detected once per frame the search visits."""
-
-    def __init__(self, detector, min_score: float) -> None:
-        self.detector = detector
-        self.min_score = min_score
-        self._boxes: dict[int, np.ndarray] = {}
-        self.frames_detected = 0
-
-    @classmethod
-    def from_pass(cls, found: dict[int, tuple[np.ndarray, np.ndarray]], min_score: float) -> DetectorSupport:
-        """The boxes one detection pass already found (frame -> (boxes, scores), run at a threshold no higher
-        than ``min_score``: :func:`sotmot.passes.detect_sequence`'s ``weak``); a frame the pass did not see has
-        none (the detector is not run again)."""
-        support = cls(None, min_score)
-        for frame, (boxes, scores) in found.items():
-            support._boxes[frame] = boxes[scores >= min_score]
-        return support
-
-    @classmethod
-    def from_config(cls, detection: DetectionConfig, min_score: float, detector=None) -> DetectorSupport:
-        """The detector ``detection`` names, run at the verifier's own low threshold ``min_score`` (its tracking
-        threshold, ``[detection] min_score``, would hide the weak boxes); ``detector``, one already loaded, is
-        used instead when it runs at ``min_score`` or lower."""
-        if detector is not None and getattr(detector, "min_score", 1.0) <= min_score:
-            return cls(detector, min_score)
-        from sotmot.detection import make_detector
-
-        return cls(make_detector(dataclasses.replace(detection, min_score=min_score)), min_score)
-
-    def __call__(self, frame: int, image: np.ndarray) -> np.ndarray:
-        """``(K, 4)`` ``x, y, w, h`` boxes of ``frame`` (its ``image``)."""
-        if frame not in self._boxes:
-            if self.detector is None:
-                return np.zeros((0, 4))
-            boxes, scores = self.detector.detect(image)
-            keep = np.asarray(scores) >= self.min_score
-            self._boxes[frame] = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)[keep]
-            self.frames_detected += 1
-        return self._boxes[frame]
-
-
 class _Finder:
-    """The search both uses share: template proposals around a prior, re-ranked by re-ID against an identity."""
+    """The search both uses share: candidates around a prior (the detector's weak boxes when ``support`` is given,
+    else template proposals), re-ranked by re-ID against an identity."""
 
     def __init__(self, tracks: Tracks, read_frame: Callable[[int], np.ndarray], embedder: Embedder,
-                 config: SotConfig, support: DetectorSupport | None = None) -> None:
-        if config.extend_by == "auto":  # as [sot] extend_by = "auto" resolves: weak boxes where a detector is at hand
-            config = dataclasses.replace(config, extend_by="detections" if support is not None else "sot")
-        self.read_frame, self.embedder, self.config, self.support = read_frame, embedder, config, support
-        if config.extend_by == "detections" and support is None:
-            raise ValueError("[sot] extend_by = 'detections' needs the detector's boxes (a DetectorSupport)")
-        self.search = TemplateSearch(config)
+                 search: SotConfig, ends: EndsConfig, support: DetectorSupport | None = None) -> None:
+        self.read_frame, self.embedder, self.support = read_frame, embedder, support
+        self.search_config, self.ends = search, ends
+        self.search = TemplateSearch(search)
         self.occupied: dict[int, list[tuple[int, np.ndarray]]] = {}  # frame -> (track id, box) of every box there
         for f, i, b in zip(tracks.frames.tolist(), tracks.ids.tolist(), tracks.boxes):
             self.occupied.setdefault(f, []).append((i, b))
@@ -179,47 +136,41 @@ class _Finder:
     def template(self, frame: int, box: np.ndarray) -> np.ndarray | None:
         """The template of ``box`` in ``frame``; None for the weak-box search, which uses none (so the frame is
         not decoded for it)."""
-        return None if self.config.extend_by == "detections" else TemplateSearch.template(self.read_frame(frame), box)
+        return None if self.support is not None else TemplateSearch.template(self.read_frame(frame), box)
 
     def find(self, template: np.ndarray | None, frame: int, prior: np.ndarray, identity: np.ndarray,
              track_id: int) -> tuple[np.ndarray | None, float, bool]:
         """The best candidate for ``track_id`` in ``frame`` around ``prior``, its re-ID affinity with ``identity``,
-        and whether a detector box supports it.
+        and whether it is a detector's weak box.
 
-        With a :class:`DetectorSupport`, a candidate that overlaps a detector
-        box at IoU ``verify_iou`` or more is replaced by that box (supported).
-        The box is None when the evidence is not there: no proposal
-        correlates above ``tau``, or the best re-ranked one has affinity under
-        the gate (:func:`passes_end_gates`), lies less than half inside the
-        image, or overlaps a box of another track at IoU above ``stop_iou``
-        (``extend_supported_stop_iou`` for a supported box).
+        The candidates are the weak boxes overlapping the prior at IoU
+        :data:`~sotmot.sot.support.SUPPORT_IOU` or more when the finder has
+        them, else the template proposals correlating above ``[sot] tau``.
+        The box is None when the evidence is not there: no candidate, or the
+        best re-ranked one has affinity under the gate
+        (:func:`passes_end_gates`), lies less than half inside the image, or
+        overlaps a box of another track at IoU above ``[ends] stop_iou``
+        (:data:`~sotmot.sot.support.SUPPORTED_STOP_IOU` for a weak box).
         """
-        cfg = self.config
         image = self.read_frame(frame)
-        if cfg.extend_by == "detections":  # the weak-box baseline: the detector's boxes near the prior, no SOT
+        supported = self.support is not None
+        if supported:  # the detector's boxes near the prior, no SOT
             candidates = self.support(frame, image)
-            candidates = candidates[iou_matrix(prior, candidates)[0] >= cfg.verify_iou] if len(candidates) \
+            candidates = candidates[iou_matrix(prior, candidates)[0] >= SUPPORT_IOU] if len(candidates) \
                 else candidates
         else:
-            candidates, ncc = self.search.search(template, self.grey(frame), prior, top=cfg.rerank)
-            candidates = candidates[ncc > cfg.tau]
+            candidates, ncc = self.search.search(template, self.grey(frame), prior, top=self.search_config.rerank)
+            candidates = candidates[ncc > self.search_config.tau]
         if len(candidates) == 0:
             return None, 0.0, False
         aff = affinity_rows(np.repeat(identity[None], len(candidates), 0), self.embedder.embed(image, candidates))
         best = int(np.argmax(aff))
-        found, affinity, supported = candidates[best], float(aff[best]), cfg.extend_by == "detections"
-        if self.support is not None and not supported:
-            boxes = self.support(frame, image)
-            if len(boxes):
-                overlap = iou_matrix(found, boxes)[0]
-                k = int(np.argmax(overlap))
-                if overlap[k] >= cfg.verify_iou:
-                    found, supported = boxes[k], True  # the paper's box regression on a SOT result
-        if not passes_end_gates(cfg, affinity=affinity, supported=supported) \
+        found, affinity = candidates[best], float(aff[best])
+        if not passes_end_gates(self.ends, affinity=affinity, supported=supported) \
                 or inside_share(found[None], image.shape[1], image.shape[0])[0] < 0.5:
             return None, affinity, supported
         others = [b for o, b in self.occupied.get(frame, []) if o != track_id]
-        stop = cfg.extend_supported_stop_iou if supported else cfg.stop_iou  # a detector box is someone of its own
+        stop = SUPPORTED_STOP_IOU if supported else self.ends.stop_iou  # a detector box is someone of its own
         if others and iou_matrix(found, np.stack(others))[0].max() > stop:
             return None, affinity, supported
         return found, affinity, supported
@@ -235,7 +186,7 @@ def _track_rows(tracks: Tracks, track_id: int) -> np.ndarray:
 
 
 def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Callable[[int], np.ndarray],
-                n_frames: int, frame_rate: float, embedder: Embedder, config: SotConfig,
+                n_frames: int, frame_rate: float, embedder: Embedder, search: SotConfig, config: EndsConfig,
                 progress: Callable | None = None, trace: list[dict] | None = None,
                 support: DetectorSupport | None = None, motion: CameraMotion | None = None) -> Tracks:
     """``tracks`` with boxes added before the first and after the last box of each track.
@@ -244,7 +195,7 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
     ----------
     tracks
         Confirmed output tracks; only those whose mean confirmation confidence is at least
-        ``extend_min_confidence`` are extended.
+        ``[ends] min_confidence`` are extended.
     features
         Track id -> mean appearance feature of its detections (its identity).
     read_frame
@@ -252,30 +203,32 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
     n_frames
         Sequence length.
     frame_rate
-        Frames per second (``extend_seconds`` becomes frames with it).
+        Frames per second (``[ends] seconds`` becomes frames with it).
     embedder
         The re-ID model that re-ranks candidates.
+    search
+        The template search of ``[sot]``: ``tau``, ``rerank``, ``search_radius``, ``scales``.
     config
-        ``tau``, ``rerank``, ``search_radius``, ``scales``, ``stop_iou`` and the ``extend_*`` fields.
+        ``[ends]``: how far, and the gates.
     progress
         Wraps the list of track ids (a progress bar).
     trace
         If given, one dict per added box is appended: ``frame``, ``track``,
         ``direction`` (+1 after the last box, -1 before the first), ``step``
         (frames from the end), ``box``, ``affinity`` (re-ID, with the track's
-        identity), ``track_confidence`` and ``supported`` (a detector box took
-        its place). ``scripts/fit_sot.py`` fits the gates from it; it shows why
+        identity), ``track_confidence`` and ``supported`` (a detector's weak
+        box). ``scripts/fit_sot.py`` fits the gates from it; it shows why
         an end grew as far as it did.
     support
-        The detector that checks each found box (``[sot] verify``), or None.
+        The detector's weak boxes (``[detection] weak_boxes``): the ends grow by them instead of SOT; or None.
     motion
         The camera's motion: when it moved, the constant-velocity prior is
         carried in the reference frame (the track's own motion, not the
         camera's) and mapped into the frame searched.
     """
-    steps = end_steps(config.extend_seconds, frame_rate)
+    steps = end_steps(config.seconds, frame_rate)
     motion = motion if motion is not None else CameraMotion.still(n_frames)
-    finder = _Finder(tracks, read_frame, embedder, config, support)
+    finder = _Finder(tracks, read_frame, embedder, search, config, support)
     added: list[tuple[int, int, np.ndarray]] = []
     ids = np.unique(tracks.ids).tolist()
     for track_id in (progress(ids) if progress else ids):
@@ -321,7 +274,7 @@ def with_added(tracks: Tracks, added: list[tuple[int, int, np.ndarray]]) -> Trac
 
 
 def refine_gaps(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Callable[[int], np.ndarray],
-                embedder: Embedder, config: SotConfig, progress: Callable | None = None,
+                embedder: Embedder, search: SotConfig, config: EndsConfig, progress: Callable | None = None,
                 support: DetectorSupport | None = None) -> Tracks:
     """``tracks`` with interpolated boxes replaced by boxes found in the frames where the evidence supports them.
 
@@ -334,7 +287,7 @@ def refine_gaps(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
     ``interpolated``) only when :meth:`_Finder.find` accepts a candidate, else
     the interpolated box stays. Boxes are ``x, y, w, h`` pixels, frames 1-based.
     """
-    finder = _Finder(tracks, read_frame, embedder, config, support)
+    finder = _Finder(tracks, read_frame, embedder, search, config, support)
     boxes = tracks.boxes.copy()
     interpolated, from_sot = tracks.interpolated.copy(), tracks.from_sot.copy()
     ids = np.unique(tracks.ids[tracks.interpolated]).tolist()
