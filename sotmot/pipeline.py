@@ -137,6 +137,9 @@ class TrackResult:
     confidence_method
         How detection scores became confidences (``[preprocess] confidence`` as
         ``"auto"`` resolved it: a detector family, ``"self"``, ``"quantile"``, ...).
+    occluders
+        The detections as post-processing's occlusion check saw them (what could
+        hide a person in a long gap; :func:`sotmot.postprocess.gaps_of`).
     """
 
     info: SeqInfo
@@ -153,6 +156,7 @@ class TrackResult:
     track_ids: list[int | None] = field(default_factory=list)
     motion: CameraMotion | None = None
     confidence_method: str = ""
+    occluders: Occluders | None = None
 
     def identities(self) -> dict[int, np.ndarray]:
         """Output track id -> the mean appearance feature of its trajectory (its identity)."""
@@ -188,13 +192,16 @@ class Prepared:
     # the detector's weak boxes (the plan's weak_boxes): they checked Algorithm 1 and serve the trajectory ends
     support: DetectorSupport | None = None
     plan: Plan | None = None
+    # the detections in the reference frame's pixels (the trajectories' coordinates), as the tracklets hold them
+    in_ref: Detections | None = None
 
     @functools.cached_property
     def occluders(self) -> Occluders:
         """The detections as what could hide a person in a long gap, in the trajectories' coordinates (the
         reference frame when the camera moves); built once per prepared sequence."""
-        detections = self.detections if self.motion is None else self.motion.to_ref_detections(self.detections)
-        return Occluders(detections)
+        if self.in_ref is not None:
+            return Occluders(self.in_ref)
+        return Occluders(self.detections if self.motion is None else self.motion.to_ref_detections(self.detections))
 
     def finishing(self, config: TrackerConfig) -> Plan:
         """The plan that finishes this sequence with ``config`` (:func:`finish_sequence`): the preparation's own
@@ -247,10 +254,10 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
     """:func:`prepare_sequence` of a plan already made."""
     timings: dict[str, float] = {}
     clock = _Clock(timings)
-    info, config = plan.info, plan.config
+    info, config, sot = plan.info, plan.config, plan.sot
     detected = raw_features = support = None
     if plan.source == "model":  # one pass over the frames: detection, and re-ID of what it found
-        embed_now = features is None and not plan.sot
+        embed_now = features is None and not sot
         if embed_now:
             embedder = embedder_for(plan.appearance, embedder)
         if detector is None:
@@ -274,10 +281,16 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
     kept = preprocess_indices(raw, config.preprocess)
     dets = raw.subset(kept)
     log.info("%s: %d detections, %d after preprocessing", info.name, len(raw), len(dets))
+    # the detector's scores as confidences: the map fitted for its family, the ranks, or (after association) the
+    # sequence's own trajectories ("self")
+    method, knots = confidence_knots(config.preprocess.confidence, raw.scores,
+                                     load_calibration(config.confirm.calibration), plan.family, info.name)
+    confidence = detection_confidence(dets.scores, knots)
+    log.info("%s: detection confidence by %r", info.name, method)
     clock.lap("preprocess")
-    if features is None and not plan.sot and raw_features is not None:
+    if features is None and not sot and raw_features is not None:
         features = raw_features[kept]
-    elif features is None and not plan.sot:  # with SOT, the SOT step computes them from the frames it decodes
+    elif features is None and not sot:  # with SOT, the SOT step computes them from the frames it decodes
         embedder = embedder_for(plan.appearance, embedder)
         features = embed_detections(info, dets, embedder, progress, timings)
     elif features is not None and len(features) != len(dets):
@@ -287,16 +300,14 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
     motion = estimate_motion(info, dets, config.motion, progress)
     if config.motion.compensation != "off":
         clock.lap("motion")
-    method, knots = confidence_knots(config.preprocess.confidence, raw.scores,
-                                     load_calibration(config.confirm.calibration), plan.family, info.name)
-    log.info("%s: detection confidence by %r", info.name, method)
     if plan.weak_boxes and support is None:  # public, refined: the detector runs on the frames the search visits
         support = DetectorSupport.from_config(plan.weak_detector, detector)
-    if plan.sot:
+    if sot:
         embedder = embedder_for(plan.appearance, embedder)
         inside: dict[str, float] = {}
         dets, features, links, steps = run_sot(info, dets, features, embedder, config, progress, inside, motion,
                                                support)
+        confidence = detection_confidence(dets.scores, knots)  # the SOT step's boxes too
         log.info("%s: SOT added %d boxes (after NMS)", info.name, int(dets.from_sot.sum()))
         clock.lap("sot")
         # the re-ID inside the SOT step (the detections' features too, when it computed them) counts as appearance;
@@ -304,12 +315,13 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
         timings["sot"] -= inside["appearance"]
         timings["appearance"] += inside["appearance"]
         timings["decode"] = timings.get("decode", 0.0) + inside["decode"]
-    # tracklets hold their boxes in the reference frame when the camera moved (the same detections otherwise)
-    tracklets = build_tracklets(motion.to_ref_detections(dets), features, info.frame_rate, config.tracklets)
+    # association, post-processing and the occlusion check see the boxes in the reference frame when the camera
+    # moved (the same detections otherwise)
+    in_ref = motion.to_ref_detections(dets)
+    tracklets = build_tracklets(in_ref, features, info.frame_rate, config.tracklets)
     clock.lap("tracklets")
-    confidence = detection_confidence(dets.scores, knots)  # the SOT step's boxes too
     return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected, motion,
-                    support, plan)
+                    support, plan, in_ref)
 
 
 def with_self_confidence(prepared: Prepared, trajectories: list[Tracklet]) -> Prepared:
@@ -367,7 +379,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
              len(dropped), config.association.solver)
     return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
                        association, trajectories, tracks, timings, prepared.confidence, dropped, prepared.detected,
-                       ids, motion, prepared.confidence_method)
+                       ids, motion, prepared.confidence_method, occluders)
 
 
 def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.ndarray], tracks: Tracks,

@@ -158,3 +158,34 @@ def test_once_the_plan_is_made_no_stage_replaces_configuration(case, model_0288,
     # the watch itself works: a replace of a section is seen
     config.replace("ends", seconds=0.5)
     assert replaced == ["TrackerConfig(ends)"]
+
+
+def test_one_run_enters_each_stage_module_at_most_twice(tmp_path):
+    """Issue #40: traced through one run of track_sequence, the pipeline calls into each module of sotmot at most
+    twice (consecutive calls into one module are one entry): the data goes forward through the stages, not back
+    and forth. sotmot.types is left out: its calls are methods of the detections and tracks themselves."""
+    import collections
+    import sys
+
+    lines = [f"{f},-1,{10 + 2 * f},20,20,40,0.95" for f in range(1, 9)] + \
+            [f"{f},-1,{90 - 2 * f},30,20,40,0.9" for f in range(1, 11)]
+    seq = write_sequence(tmp_path, lines, length=10, frame_rate=4, width=120, height=80)
+    entries: list[str] = []
+
+    def watch(frame, event, arg):
+        if event != "call" or frame.f_back is None or frame.f_back.f_globals.get("__name__") != "sotmot.pipeline":
+            return
+        module = frame.f_globals.get("__name__", "")
+        if module.startswith("sotmot") and module not in ("sotmot.pipeline", "sotmot.types") \
+                and (not entries or entries[-1] != module):
+            entries.append(module)
+
+    sys.setprofile(watch)
+    try:
+        result = track_sequence(seq, TrackerConfig(), embedder=GeometryEmbedder())
+    finally:
+        sys.setprofile(None)
+    assert "extend" in result.timings and "sotmot.sot.extend" in entries  # every stage ran, the ends too
+    assert {"sotmot.plan", "sotmot.motion", "sotmot.tracklets", "sotmot.confirm"} <= set(entries)
+    twice = {m: n for m, n in collections.Counter(entries).items() if n > 2}
+    assert not twice, f"entered more than twice: {twice} in {entries}"
