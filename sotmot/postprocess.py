@@ -196,6 +196,71 @@ def expand(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig()
     return Expanded(frames, boxes, scores, filled, det_index)
 
 
+@dataclass(frozen=True)
+class Gap:
+    """One gap of a trajectory and what post-processing wrote in it (``sotmot explain`` prints it).
+
+    Attributes
+    ----------
+    after, before
+        The 1-based frames of the boxes around the gap (frames ``after + 1`` to ``before - 1`` had none).
+    written
+        Interpolated boxes written in the gap.
+    left_out
+        Boxes the occlusion check took out (``[postprocess] occlusion_seconds``).
+    agreement
+        The gap's motion agreement (:func:`gap_agreement`) when the occlusion check judged it, else None.
+    why
+        In words: which rule decided.
+    """
+
+    after: int
+    before: int
+    written: int
+    left_out: int
+    agreement: float | None
+    why: str
+
+
+def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(), frame_rate: float | None = None,
+            occluders: Occluders | None = None) -> list[Gap]:
+    """Every gap of ``trajectory`` (frames without a box between two of its boxes) and what :func:`expand` wrote
+    in it, with the rule that decided: interpolation off, longer than ``interpolate_max_seconds``, filled, or
+    judged by the occlusion check (on the walk's line: filled on trust; off it: the boxes a detection in front could
+    hide)."""
+    t = trajectory
+    gaps = np.flatnonzero(np.diff(t.frames) > 1)
+    if not len(gaps):
+        return []
+    out = expand(t, config, frame_rate, occluders)
+    written = np.bincount(np.searchsorted(t.frames, out.frames[out.filled]) - 1, minlength=len(t))
+    limit = max_interpolated_gap(config, frame_rate)
+    check = None if config.occlusion_seconds is None or frame_rate is None or occluders is None \
+        else max(1, int(round(config.occlusion_seconds * frame_rate)))
+    judged = gaps[np.diff(t.frames)[gaps] > check] if check is not None else gaps[:0]
+    agreement = dict(zip(judged.tolist(), gap_agreement(t.frames, t.boxes, judged).tolist()))
+    report = []
+    for k in gaps.tolist():
+        length, n = int(t.frames[k + 1] - t.frames[k]) - 1, int(written[k])
+        a = agreement.get(k)
+        if not config.interpolate:
+            why = "interpolation is off ([postprocess] interpolate)"
+        elif limit is not None and length + 1 > limit:
+            why = (f"left empty: longer than [postprocess] interpolate_max_seconds = "
+                   f"{config.interpolate_max_seconds:g} s ({limit} frames)")
+        elif a is None:
+            why = "interpolated"
+        elif a >= config.min_agreement:
+            why = (f"interpolated on trust: the walk on both sides leads along the line (motion agreement {a:.3f} "
+                   f">= min_agreement {config.min_agreement:g})")
+        else:
+            why = (f"off the walk's line (motion agreement {a:.3f} < {config.min_agreement:g}): a box is written only "
+                   f"where a detection stands in front and could hide the person")
+        report.append(Gap(int(t.frames[k]), int(t.frames[k + 1]), n, length - n if config.interpolate and
+                          (limit is None or length + 1 <= limit) else 0, a, why))
+    return report
+
+
 #: Scores the boxes of one expanded trajectory: ``(trajectory, expanded) -> (L,)`` probabilities.
 BoxScorer = Callable[[Tracklet, Expanded], np.ndarray]
 

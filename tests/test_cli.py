@@ -1,6 +1,7 @@
 """The command line, end to end on real data, and its errors."""
 
 import json
+import re
 
 import pytest
 
@@ -121,6 +122,9 @@ def test_graph_and_explain_commands_run_to_the_end(tmp_path, model_0288, capsys)
     assert nodes and "taken by greedy" in capsys.readouterr().out
     assert main(["explain", str(seq), "--ids", "1,2", "--reid-model", str(model_0288), "-q"]) == 0
     assert "tracks 1 and 2" in capsys.readouterr().out
+    assert main(["explain", str(seq), "--ids", "1", "--reid-model", str(model_0288), "-q"]) == 0
+    said = capsys.readouterr().out  # one track: why its tracklets were merged, and what filled its gaps
+    assert "of track 1" in said and re.search(r"^track 1( has no gap|: \d+ gap)", said, re.M), said
 
 
 def test_weak_boxes_with_a_missing_detector_fail_before_tracking(tmp_path, model_0288, capsys):

@@ -94,3 +94,31 @@ def test_off_the_line_a_long_gap_is_filled_where_a_detection_in_front_could_hide
                        PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=1.0, smooth_window=0),
                        frame_rate=10, occluders=occluders)
     assert tracks.frames[tracks.interpolated].tolist() == list(range(15, 25))
+
+
+def test_each_gap_says_what_was_written_in_it_and_which_rule_decided():
+    """sotmot.postprocess.gaps_of (what `sotmot explain --ids N` prints): the counts are expand's, the words name
+    the rule."""
+    from sotmot.postprocess import Occluders, expand, gaps_of
+    from sotmot.types import Tracklet
+
+    person = walker(x_after=-150.0)
+    line = expand(person, PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=None), 10)
+    at = {int(f): b for f, b in zip(line.frames, line.boxes)}
+    front = [(f, at[f] + [3.0, 5.0, 0.0, 0.0]) for f in range(15, 25)]
+    f, b = zip(*front)
+    occluders = Occluders(Detections(np.array(f), np.array(b), np.ones(len(f))))
+    checked = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=1.0)
+    (gap,) = gaps_of(person, checked, 10, occluders)
+    assert (gap.after, gap.before, gap.written, gap.left_out) == (10, 41, 10, 20)
+    assert gap.agreement < 0.5 and "off the walk's line" in gap.why
+    assert gap.written == expand(person, checked, 10, occluders).filled.sum()
+    (trusted,) = gaps_of(walker(x_after=80.0), checked, 10, occluders)
+    assert (trusted.written, trusted.left_out) == (30, 0) and "on trust" in trusted.why
+    (empty,) = gaps_of(person, PostprocessConfig(interpolate_max_seconds=2.0), 10, occluders)
+    assert (empty.written, empty.left_out) == (0, 0) and "longer than" in empty.why
+    short = Tracklet(id=1, frames=np.array([1, 2, 5, 6]), boxes=np.tile([0.0, 0.0, 20.0, 50.0], (4, 1)),
+                     scores=np.ones(4), det_index=np.arange(4), feature=np.zeros(0), n_features=4)
+    (small,) = gaps_of(short, checked, 10, occluders)
+    assert (small.after, small.before, small.written, small.why) == (2, 5, 2, "interpolated")
+    assert gaps_of(walker(x_after=80.0), PostprocessConfig(interpolate=False), 10)[0].why.startswith("interpolation")

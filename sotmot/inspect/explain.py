@@ -241,6 +241,29 @@ def _explain_members(graph: nx.DiGraph, first: list[int], second: list[int], con
     return "\n".join(out)
 
 
+def explain_gaps(result: TrackResult, config: TrackerConfig, track: int) -> str:
+    """Plain words on the gaps of output track ``track``: for each, the frames without a box, how many boxes
+    post-processing wrote there and the rule that decided (:func:`sotmot.postprocess.gaps_of`). Boxes confirmation
+    dropped afterwards are not counted here (``<name>.flags.csv`` has every written box's confidence)."""
+    from sotmot.postprocess import gaps_of
+
+    found = [t for t, i in zip(result.trajectories, result.track_ids) if i == track]
+    if not found:
+        return f"track {track}: no trajectory of this run has that id"
+    rate = result.info.frame_rate
+    gaps = gaps_of(found[0], config.postprocess, rate, result.occluders)
+    if not gaps:
+        return f"track {track} has no gap: a box in every frame from {found[0].start} to {found[0].end}"
+    out = [f"track {track}: {len(gaps)} gap(s) between its boxes"]
+    for g in gaps:
+        missing = g.before - g.after - 1
+        seconds = f", {missing / rate:.2f} s" if rate else ""
+        left = f", {g.left_out} left out" if g.left_out else ""
+        out.append(f"  frames {g.after + 1}-{g.before - 1} ({missing} frame(s){seconds}): {g.written} box(es) "
+                   f"written{left}; {g.why}")
+    return "\n".join(out)
+
+
 def parse_frames(text: str | None, length: int | None = None) -> tuple[int, int] | None:
     """``"A:B"`` -> ``(A, B)`` (1-based, inclusive); None stays None.
 
