@@ -1,9 +1,10 @@
 """The tracker's stages wired together; each stage is also callable on its own.
 
-    detect (a model) or read (a det.txt) -> preprocess (score threshold, NMS) -> embed
-         -> camera motion (``sotmot.motion``) -> tracklets
+    plan (``sotmot.plan.resolve``: every "auto" decided once)
+         -> detect (a model) or read (a det.txt) -> preprocess (score threshold, NMS, scores as confidences)
+         -> embed -> camera motion (``sotmot.motion``) -> [Algorithm 1, ``sotmot.sot``] -> tracklets
          -> long-term association (a solver named in ``sotmot.plugins.SOLVERS``)
-         -> post-processing -> confirmation (``sotmot.confidence``) -> results
+         -> post-processing -> confirmation (``sotmot.confirm``) -> trajectory ends (``[ends]``) -> results
 
 Boxes are ``x, y, w, h`` pixels, frames 1-based throughout. With a moving
 camera (``[motion]``), tracklets, association and post-processing see the
@@ -402,9 +403,8 @@ def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.n
     if config.ends.seconds > 0:
         before = len(tracks)
         tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, config.sot,
-                             config.ends, progress=lambda items: as_progress(progress)(items, f"{info.name}: extend "
-                                                                                                "ends"),
-                             support=support, motion=prepared.motion)
+                             config.ends, support=support, motion=prepared.motion,
+                             progress=lambda items: as_progress(progress)(items, f"{info.name}: extend ends"))
         log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
     if support is not None:
         log.info("%s: the detector's boxes checked the SOT boxes (%d frames detected for it alone)", info.name,
