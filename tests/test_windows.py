@@ -163,3 +163,44 @@ def test_switches_at_joins_are_those_in_an_overlap_or_the_frame_after(tmp_path):
     assert script.join_switches(results, gt, 20, "SYN", [(1, 10), (7, 20)]) == 1  # the frame after the overlap
     assert script.join_switches(results, gt, 20, "SYN", [(1, 6), (4, 16), (14, 20)]) == 0  # away from both joins
     assert script.join_switches(results, gt, 20, "SYN", [(1, 20)]) == 0  # one window: no join
+
+
+def test_a_run_killed_hard_mid_video_resumes_to_the_uninterrupted_results(tmp_path):
+    """SIGKILL (no handler runs, nothing is tidied) while the windows are being committed: what is on disk is a
+    whole number of windows and a record that says so, and --resume ends with the results of an uninterrupted run.
+    The child sleeps before committing each window after the first, so the kill lands while the video is half
+    done."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    seq = _walkers(tmp_path, {1: (64, 70)})
+    reference = _track(seq, tmp_path / "ref", "--window", "8")
+    slow = tmp_path / "slow"
+    slow.mkdir()
+    (slow / "sitecustomize.py").write_text(
+        "import time\nimport sotmot.windows as w\nadd = w.Stitcher.add\n"
+        "def slowly(self, k, result):\n    if k:\n        time.sleep(0.5)\n    return add(self, k, result)\n"
+        "w.Stitcher.add = slowly\n")
+    out = tmp_path / "run"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(slow), *sys.path])}
+    child = subprocess.Popen([sys.executable, "-m", "sotmot", "track", str(seq), "--out", str(out), "--appearance",
+                              "none", "--unconfirmed", "keep", "-q", "--window", "8"], env=env)
+    record = out / "SYN.run.json"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and child.poll() is None:
+        done = json.loads(record.read_text())["windows"]["done"] if record.exists() else 0
+        if done >= 2:
+            break
+        time.sleep(0.02)
+    assert child.poll() is None, "the run ended before it could be killed"
+    os.kill(child.pid, signal.SIGKILL)
+    child.wait(timeout=30)
+    state = json.loads(record.read_text())["windows"]
+    assert state["complete"] is False and 2 <= state["done"] < len(state["plan"])
+    committed = (out / "SYN.txt").read_text().splitlines()
+    assert committed == reference[:len(committed)]  # whole lines of the final results, nothing half-written
+    assert _track(seq, out, "--window", "8", "--resume") == reference
+    assert json.loads(record.read_text())["windows"]["complete"] is True
