@@ -184,6 +184,9 @@ class Prepared:
     features: np.ndarray
     tracklets: list[Tracklet]
     timings: dict[str, float]
+    plan: Plan
+    # the detections in the reference frame's pixels (the trajectories' coordinates), as the tracklets hold them
+    in_ref: Detections
     sot_links: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))
     sot_steps: int = 0
     confidence: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -192,24 +195,18 @@ class Prepared:
     motion: CameraMotion | None = None
     # the detector's weak boxes (the plan's weak_boxes): they checked Algorithm 1 and serve the trajectory ends
     support: DetectorSupport | None = None
-    plan: Plan | None = None
-    # the detections in the reference frame's pixels (the trajectories' coordinates), as the tracklets hold them
-    in_ref: Detections | None = None
 
     @functools.cached_property
     def occluders(self) -> Occluders:
         """The detections as what could hide a person in a long gap, in the trajectories' coordinates (the
         reference frame when the camera moves); built once per prepared sequence."""
-        if self.in_ref is not None:
-            return Occluders(self.in_ref)
-        return Occluders(self.detections if self.motion is None else self.motion.to_ref_detections(self.detections))
+        return Occluders(self.in_ref)
 
     def finishing(self, config: TrackerConfig) -> Plan:
         """The plan that finishes this sequence with ``config`` (:func:`finish_sequence`): the preparation's own
         when ``config`` is the one it was prepared with; else its decisions on the detections kept (where they
         came from, whether the weak boxes are at hand) with ``config``'s association and trajectory ends."""
-        plan = self.plan if self.plan is not None else resolve(config, self.info)
-        return plan if config is plan.config else plan.finishing(config)
+        return self.plan if config is self.plan.config else self.plan.finishing(config)
 
 
 class _Clock:
@@ -321,8 +318,8 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
     in_ref = motion.to_ref_detections(dets)
     tracklets = build_tracklets(in_ref, features, info.frame_rate, config.tracklets)
     clock.lap("tracklets")
-    return Prepared(info, dets, features, tracklets, timings, links, steps, confidence, method, detected, motion,
-                    support, plan, in_ref)
+    return Prepared(info, dets, features, tracklets, timings, plan, in_ref, links, steps, confidence, method, detected,
+                    motion, support)
 
 
 def with_self_confidence(prepared: Prepared, trajectories: list[Tracklet]) -> Prepared:

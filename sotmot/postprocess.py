@@ -157,6 +157,15 @@ class Occluders:
         return np.bincount(owner[hit], minlength=len(near)) > 0
 
 
+def judged_gaps(trajectory: Tracklet, config: PostprocessConfig, frame_rate: float | None,
+                occluders: Occluders | None) -> np.ndarray:
+    """Indices ``k`` of the gaps (after box ``k``) of ``trajectory`` that ``[postprocess] occlusion_seconds`` judges:
+    those longer than it; none when there is no check, no frame rate or no ``occluders``."""
+    if config.occlusion_seconds is None or frame_rate is None or occluders is None:
+        return _NONE
+    return np.flatnonzero(np.diff(trajectory.frames) > max(1, int(round(config.occlusion_seconds * frame_rate))))
+
+
 def unhidden(trajectory: Tracklet, frames: np.ndarray, boxes: np.ndarray, filled: np.ndarray,
              config: PostprocessConfig, frame_rate: float | None, occluders: Occluders | None) -> np.ndarray:
     """``(L,)`` True for each interpolated box of ``trajectory`` (expanded to ``frames``, ``boxes``, ``filled``) that
@@ -164,12 +173,10 @@ def unhidden(trajectory: Tracklet, frames: np.ndarray, boxes: np.ndarray, filled
     does not lead along (:func:`gap_agreement` below ``min_agreement``), with nothing in front that could hide the
     person (:meth:`Occluders.hide`). All False when there is no check, no frame rate or no ``occluders``."""
     out = np.zeros(len(frames), dtype=bool)
-    if config.occlusion_seconds is None or frame_rate is None or occluders is None or not filled.any():
-        return out
-    t = trajectory
-    long = np.flatnonzero(np.diff(t.frames) > max(1, int(round(config.occlusion_seconds * frame_rate))))
+    long = judged_gaps(trajectory, config, frame_rate, occluders) if filled.any() else _NONE
     if not len(long):
         return out
+    t = trajectory
     off_line = long[gap_agreement(t.frames, t.boxes, long) < config.min_agreement]
     gap = np.searchsorted(t.frames, frames) - 1  # the gap each interpolated box lies in (after box ``gap``)
     candidates = np.flatnonzero(filled & np.isin(gap, off_line))
@@ -235,17 +242,16 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
     out = expand(t, config, frame_rate, occluders)
     written = np.bincount(np.searchsorted(t.frames, out.frames[out.filled]) - 1, minlength=len(t))
     limit = max_interpolated_gap(config, frame_rate)
-    check = None if config.occlusion_seconds is None or frame_rate is None or occluders is None \
-        else max(1, int(round(config.occlusion_seconds * frame_rate)))
-    judged = gaps[np.diff(t.frames)[gaps] > check] if check is not None else gaps[:0]
+    judged = judged_gaps(t, config, frame_rate, occluders)
     agreement = dict(zip(judged.tolist(), gap_agreement(t.frames, t.boxes, judged).tolist()))
     report = []
     for k in gaps.tolist():
         length, n = int(t.frames[k + 1] - t.frames[k]) - 1, int(written[k])
         a = agreement.get(k)
+        filled = config.interpolate and (limit is None or length + 1 <= limit)  # as interpolate's max_gap decides
         if not config.interpolate:
             why = "interpolation is off ([postprocess] interpolate)"
-        elif limit is not None and length + 1 > limit:
+        elif not filled:
             why = (f"left empty: longer than [postprocess] interpolate_max_seconds = "
                    f"{config.interpolate_max_seconds:g} s ({limit} frames)")
         elif a is None:
@@ -256,8 +262,7 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
         else:
             why = (f"off the walk's line (motion agreement {a:.3f} < {config.min_agreement:g}): a box is written only "
                    f"where a detection stands in front and could hide the person")
-        report.append(Gap(int(t.frames[k]), int(t.frames[k + 1]), n, length - n if config.interpolate and
-                          (limit is None or length + 1 <= limit) else 0, a, why))
+        report.append(Gap(int(t.frames[k]), int(t.frames[k + 1]), n, length - n if filled else 0, a, why))
     return report
 
 

@@ -31,9 +31,8 @@ class DetectorSupport:
     """The person detector as a verifier of SOT boxes: its boxes scoring at least :data:`WEAK_MIN_SCORE` in a
     frame, detected once per frame the search visits."""
 
-    def __init__(self, detector, min_score: float = WEAK_MIN_SCORE) -> None:
+    def __init__(self, detector) -> None:
         self.detector = detector
-        self.min_score = min_score
         self._boxes: dict[int, np.ndarray] = {}
         self.frames_detected = 0
 
@@ -64,7 +63,7 @@ class DetectorSupport:
             if self.detector is None:
                 return np.zeros((0, 4))
             boxes, scores = self.detector.detect(image)
-            keep = np.asarray(scores) >= self.min_score
+            keep = np.asarray(scores) >= WEAK_MIN_SCORE
             self._boxes[frame] = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)[keep]
             self.frames_detected += 1
         return self._boxes[frame]
