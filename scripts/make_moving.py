@@ -103,6 +103,71 @@ def map_rows(rows: np.ndarray, path: np.ndarray, out_w: int, out_h: int, min_ins
     return out[(inside >= min_inside) & (inside > 0)]
 
 
+def read_path(seq: Path, length: int) -> np.ndarray:
+    """``(length + 1, 2, 3)``: the ``path.txt`` of a window made by this script (row ``f`` maps the source frame's
+    pixels to the window's; row 0 unused)."""
+    path = np.zeros((length + 1, 2, 3))
+    for row in np.loadtxt(seq / "path.txt", delimiter=",", ndmin=2):
+        path[int(row[0])] = row[1:].reshape(2, 3)
+    return path
+
+
+def to_source(rows: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """MOTChallenge rows of a window (frame, id, x, y, w, h, ...) back in the source frame's pixels (the inverse
+    of :func:`map_rows`, nothing dropped)."""
+    if not len(rows):
+        return rows
+    a = path[rows[:, 0].astype(np.int64)]
+    inverse = np.linalg.inv(a[:, :, :2])
+    scale = np.hypot(a[:, 0, 0], a[:, 1, 0])
+    centre = np.einsum("nij,nj->ni", inverse, rows[:, 2:4] + rows[:, 4:6] / 2 - a[:, :, 2])
+    out = rows.copy()
+    out[:, 4:6] = rows[:, 4:6] / scale[:, None]
+    out[:, 2:4] = centre - out[:, 4:6] / 2
+    return out
+
+
+def same_view(still: Path, moving: Path, out: Path) -> None:
+    """The still window ``still`` given only the detections the moving window ``moving`` keeps (both made by this
+    script from one source), written to ``out`` (frames linked, not copied).
+
+    A moving window sees less than the still one where it narrows (a zoom) or moves off: people near its edges
+    lose their detections and leave the view. Tracking this folder and seeing its results through the moving
+    window (:func:`through`) gives what the still camera scores with the same detections in view: the moving
+    window's score minus this one is what the motion itself costs the tracker.
+    """
+    still_info, moving_info = read_seqinfo(still), read_seqinfo(moving)
+    detections = read_rows(moving / "det" / "det.txt")
+    source = to_source(detections, read_path(moving, moving_info.length))
+    kept = map_rows(source, read_path(still, still_info.length), still_info.width, still_info.height,
+                    DETECTION_INSIDE)
+    partial = out.with_name(out.name + ".partial")
+    (partial / "det").mkdir(parents=True)
+    try:
+        (partial / "gt").mkdir()
+        (partial / "img1").symlink_to((still / "img1").resolve(), target_is_directory=True)
+        write_text_atomic(partial / "det" / "det.txt", format_rows(kept, 2))
+        write_text_atomic(partial / "gt" / "gt.txt", (still / "gt" / "gt.txt").read_text())
+        write_text_atomic(partial / "path.txt", (still / "path.txt").read_text())
+        write_text_atomic(partial / "seqinfo.ini",
+                          (still / "seqinfo.ini").read_text().replace(f"name={still_info.name}\n",
+                                                                       f"name={out.name}\n"))
+        partial.rename(out)
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        raise
+
+
+def through(results: Path, still: Path, moving: Path, out: Path) -> None:
+    """Results tracked on the still window ``still`` (MOTChallenge text) as the moving window ``moving`` would show
+    them, written to ``out``: every box mapped into the moving window, boxes wholly outside it dropped (the
+    rule of its ground truth)."""
+    moving_info = read_seqinfo(moving)
+    source = to_source(read_rows(results), read_path(still, read_seqinfo(still).length))
+    mapped = map_rows(source, read_path(moving, moving_info.length), moving_info.width, moving_info.height, 0.0)
+    write_text_atomic(out, format_rows(mapped, 2))
+
+
 def format_rows(rows: np.ndarray, integer_columns: int) -> str:
     """Rows as MOTChallenge text: the first ``integer_columns`` as integers, the rest with up to 6 decimals."""
     lines = []

@@ -9,7 +9,11 @@ decoded small, the detections masked out, a similarity model fitted by
 RANSAC); :class:`CameraMotion` composes the pair estimates into a transform
 from each frame to the first (the reference) and maps boxes into it and back.
 The pipeline builds tracklets, associates and interpolates in the reference
-frame and writes results in each frame's own pixels.
+frame and writes results in each frame's own pixels. Every rule that compares
+positions (IoU, speeds against the boxes' width, the interpolated line) is
+unchanged by a similarity, so two frames compared in frame 1's pixels are
+compared as in either frame's own, however far the camera has moved in
+between (a test tracks a sequence in a reference of another scale and offset).
 
 ``[motion] compensation = "auto"`` first looks at pairs of frames half a
 second apart; when none moved more than ``still_pixels`` the camera is still,

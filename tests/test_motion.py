@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import GeometryEmbedder
+from conftest import DATA, GeometryEmbedder, require
 from sotmot.config import MotionConfig, TrackerConfig
 from sotmot.errors import InputError
 from sotmot.io import read_detections, read_seqinfo
@@ -249,3 +249,59 @@ def test_make_moving_drives_forward_zooming_and_turning_and_refuses_a_path_out_o
     far = subprocess.run(script[:3] + [str(tmp_path / "far"), "--turn", "60", "--quiet"], capture_output=True,
                          text=True)
     assert far.returncode != 0 and "leaves the frame" in far.stderr
+
+
+def test_the_same_view_reference_sees_the_still_window_through_the_moving_one(tmp_path):
+    """make_moving.same_view keeps the still window's frames with only the detections the moving window kept, and
+    through() shows results of the still window as the moving window would: the still ground truth seen through
+    the forward window is the forward window's own ground truth."""
+    import subprocess
+    import sys
+
+    from conftest import ROOT, write_sequence
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    import make_moving
+
+    dets = ["1,-1,40,30,12,24,0.9,-1,-1,-1", "3,-1,8,30,12,24,0.7,-1,-1,-1", "6,-1,44,32,12,24,0.8,-1,-1,-1"]
+    truth = ["1,1,40,30,12,24,1,1,1", "3,2,8,30,12,24,1,1,1", "6,1,44,32,12,24,1,1,1"]
+    seq = write_sequence(tmp_path, dets, length=6, frame_rate=2, width=96, height=72, gt_lines=truth)
+    common = [sys.executable, str(ROOT / "scripts" / "make_moving.py"), str(seq), "--quiet"]
+    forward, still = tmp_path / "forward", tmp_path / "still"
+    for out, extra in ((forward, ["--forward", "1.5", "--pan-x", "0", "--pan-y", "0", "--jitter", "0"]),
+                       (still, ["--still"])):
+        run = subprocess.run(common[:3] + [str(out)] + common[3:] + extra, capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
+    view = tmp_path / "view"
+    make_moving.same_view(still, forward, view)
+    kept = make_moving.read_rows(view / "det" / "det.txt")
+    assert len(make_moving.read_rows(still / "det" / "det.txt")) == 3 and len(kept) == 2  # frame 3's left the view
+    assert read_seqinfo(view).name == "view" and (view / "img1").resolve() == (still / "img1").resolve()
+    seen = tmp_path / "seen.txt"
+    make_moving.through(still / "gt" / "gt.txt", still, forward, seen)
+    np.testing.assert_allclose(make_moving.read_rows(seen), make_moving.read_rows(forward / "gt" / "gt.txt"),
+                               atol=2e-6)
+
+
+def test_positions_compared_in_any_similar_reference_give_the_same_tracks(monkeypatch):
+    """Every rule that compares positions (tracklet IoU, association's IoU, velocity against the boxes' width and gap,
+    the interpolated line, the occlusion check) is unchanged by a similarity: comparing two frames in frame 1's
+    pixels is comparing them in either frame's own, once the camera's motion is a similarity (issue #41, item 2).
+    A reference 0.4 times the image's size and shifted must track a real sequence exactly as the image itself."""
+    import sotmot.pipeline
+
+    seq = require(DATA / "TUD-Stadtmitte")
+    config = TrackerConfig().replace("appearance", backend="none")
+    still = track_sequence(seq, config, None)
+
+    def smaller(info, detections, motion_config, progress=False):
+        reference = np.tile(np.array([[0.4, 0.0, 130.0], [0.0, 0.4, -70.0]]), (info.length + 1, 1, 1))
+        return CameraMotion(reference, reference.copy(), np.ones(info.length + 1), True)
+
+    monkeypatch.setattr(sotmot.pipeline, "estimate_motion", smaller)
+    scaled = track_sequence(seq, config, None)
+    assert scaled.motion.moving and [t.det_index.tolist() for t in scaled.tracklets] == \
+        [t.det_index.tolist() for t in still.tracklets]
+    np.testing.assert_array_equal(scaled.tracks.ids, still.tracks.ids)
+    np.testing.assert_array_equal(scaled.tracks.frames, still.tracks.frames)
+    np.testing.assert_allclose(scaled.tracks.boxes, still.tracks.boxes, atol=1e-9)
