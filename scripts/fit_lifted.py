@@ -73,7 +73,8 @@ def main(argv: list[str] | None = None) -> int:
         for seq_dir in seq_dirs:
             features = cached_features(seq_dir, config, args.cache, embedder_box)
             prepared = prepare_sequence(seq_dir, config, features=features)
-            identities = tracklet_identities(prepared.tracklets, prepared.info, Path(tmp) / "identities")
+            identities = tracklet_identities(prepared.tracklets, prepared.info, Path(tmp) / "identities",
+                                             prepared.motion)
             samples[prepared.info.name] = lifted_pair_samples(prepared.tracklets, identities,
                                                               config.association.at(prepared.info.frame_rate))
             prepared_all.append(prepared)

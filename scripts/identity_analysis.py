@@ -160,7 +160,8 @@ def main(argv: list[str] | None = None) -> int:
             row = {"sotmot": counts(errors), "sotmot_by_stage": {k: dict(v) for k, v in
                                                                 explain(result, errors, config).items()},
                    "sotmot_scores": scores(path, info)}
-            persons = tracklet_identities(prepared.tracklets, info, Path(tmp) / "persons" / info.name)
+            persons = tracklet_identities(prepared.tracklets, info, Path(tmp) / "persons" / info.name,
+                                          prepared.motion)
             _PERSON.clear()
             _PERSON.update({t.id: int(p) for t, p in zip(prepared.tracklets, persons)})
             ceiling = results_path(Path(tmp) / "ceiling", info.name)

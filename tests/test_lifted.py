@@ -157,6 +157,15 @@ def test_tracklet_identities_and_the_learned_costs_fit(tmp_path):
     ids = tracklet_identities(ts, read_seqinfo(seq), tmp_path / "work")
     assert ids[0] >= 0 and ids[1] >= 0 and ids[0] != ids[1]
     assert ids[2] == ids[1] and ids[3] == -1  # the majority: 3 of 5 boxes
+    # on a moving camera tracklets hold reference-frame boxes: matched in each frame's own pixels through the motion
+    from sotmot.motion import CameraMotion
+
+    reference = np.tile(np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), (9, 1, 1))
+    reference[:, 0, 2] = -6.0 * np.arange(9)  # the camera pans right 6 px a frame: frame f's x is 6 f further on
+    motion = CameraMotion(reference, reference.copy(), np.ones(9), True)
+    moved = tuple(tk(t.id, t.frames.tolist(), motion.to_ref(t.frames, t.boxes)) for t in ts)
+    assert tracklet_identities(moved, read_seqinfo(seq), tmp_path / "moved", motion).tolist() == ids.tolist()
+    assert tracklet_identities(moved, read_seqinfo(seq), tmp_path / "unmapped").tolist() != ids.tolist()
     features, same = lifted_pair_samples(ts, ids, AssociationConfig())
     # 1-3 and 2-3 (one person); 1-2 overlap in time, 4 is nobody's
     assert same.tolist() == [0.0, 1.0] and features.shape == (2, 3)

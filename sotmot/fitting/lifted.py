@@ -18,21 +18,27 @@ from sotmot.fitting.logistic import fit_logistic
 from sotmot.config import AssociationConfig
 from sotmot.fitting.confidence import clear_matching
 from sotmot.io import SeqInfo
+from sotmot.motion import CameraMotion
 from sotmot.types import Tracklet, Tracks
 
 
-def tracklet_identities(tracklets: Sequence[Tracklet], info: SeqInfo, workdir: Path) -> np.ndarray:
+def tracklet_identities(tracklets: Sequence[Tracklet], info: SeqInfo, workdir: Path,
+                        motion: CameraMotion | None = None) -> np.ndarray:
     """``(T,)`` ground-truth identity of each tracklet, or -1 when fewer than half its boxes are one identity's.
 
     Each tracklet is written as a track of its own and matched by the CLEAR
     rule (:func:`sotmot.scoring.frame_errors`); a box on a distractor or on
-    no one counts against every identity.
+    no one counts against every identity. Tracklets hold reference-frame
+    boxes: on a moving camera pass its ``motion`` (``Prepared.motion``) so
+    they are matched in each frame's own pixels, as the ground truth is.
     """
     if not tracklets:
         return np.zeros(0, dtype=np.int64)
-    tracks = Tracks(np.concatenate([t.frames for t in tracklets]),
-                    np.concatenate([np.full(len(t.frames), k + 1) for k, t in enumerate(tracklets)]),
-                    np.concatenate([t.boxes for t in tracklets]), np.concatenate([t.scores for t in tracklets]))
+    frames = np.concatenate([t.frames for t in tracklets])
+    boxes = np.concatenate([t.boxes for t in tracklets])
+    tracks = Tracks(frames, np.concatenate([np.full(len(t.frames), k + 1) for k, t in enumerate(tracklets)]),
+                    boxes if motion is None else motion.from_ref(frames, boxes),
+                    np.concatenate([t.scores for t in tracklets]))
     matched = clear_matching(tracks, info, workdir).identities
     out = np.full(len(tracklets), -1, dtype=np.int64)
     for k, t in enumerate(tracklets):
