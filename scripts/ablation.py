@@ -9,9 +9,7 @@ scoring at least 0.1, and an extension ends where none supports it, the
 paper's box regression on SOT results); after association, "+ends"
 (trajectory ends extended by SOT, ``[ends] seconds`` as configured; every other
 row extends nothing) and "+weak ends" (by the detector's weak boxes, no SOT:
-ByteTrack's second association at trajectory ends); "+gaps" (interpolated
-boxes replaced by boxes SOT finds in the frames, ``[ends] refine_gaps``) and
-"+weak gaps" (replaced by the detector's weak boxes); every row also
+ByteTrack's second association at trajectory ends); every row also
 "no-interp", without interpolation, to see whether SOT boxes only fill gaps
 that interpolation fills anyway. A row without "verified" or "weak" runs with
 the weak boxes off, under both protocols.
@@ -54,13 +52,9 @@ ROWS: dict[str, dict] = {
     "SOT(deep)+MOT": {"sot": {"variant": "deep"}, **OFF},
     "SOT(template)+MOT verified": {"sot": {"variant": "template"}, **WEAK},
     "SOT(deep)+MOT verified": {"sot": {"variant": "deep"}, **WEAK},
-    # after association: trajectory ends and gaps, by SOT or by the weak boxes
+    # after association: trajectory ends, by SOT or by the weak boxes
     "MOT+ends": {"sot": {"variant": "none"}, "ends": {"seconds": ENDS}, **OFF},
     "MOT+weak ends": {"sot": {"variant": "none"}, "ends": {"seconds": ENDS}, **WEAK},
-    "MOT+gaps": {"sot": {"variant": "none"}, "ends": {"refine_gaps": True}, **OFF},
-    "MOT+weak gaps": {"sot": {"variant": "none"}, "ends": {"refine_gaps": True}, **WEAK},
-    "MOT+ends+gaps": {"sot": {"variant": "none"}, "ends": {"seconds": ENDS, "refine_gaps": True}, **OFF},
-    "MOT+weak ends+gaps": {"sot": {"variant": "none"}, "ends": {"seconds": ENDS, "refine_gaps": True}, **WEAK},
     "SOT(deep)+MOT+ends": {"sot": {"variant": "deep"}, "ends": {"seconds": ENDS}, **OFF},
     "SOT(deep)+MOT verified+weak ends": {"sot": {"variant": "deep"}, "ends": {"seconds": ENDS}, **WEAK},
 }

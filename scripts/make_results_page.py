@@ -351,20 +351,6 @@ def misses_section(public: dict | None, private: dict | None) -> list[str]:
     return lines
 
 
-def gaps_section(public: dict | None, private: dict | None) -> list[str]:
-    """Interpolated boxes replaced by SOT or by the detector's boxes (``scripts/ablation.py`` gap rows)."""
-    if public is None and private is None:
-        return []
-    lines = ["## Inside gaps: SOT or the detector's boxes over interpolated ones", "",
-             "`scripts/ablation.py --rows \"MOT,MOT+gaps,MOT+weak gaps,MOT+weak ends,MOT+weak ends+gaps\"`: each "
-             "interpolated box searched for by SOT around itself (`+gaps`, `[ends] refine_gaps`) or replaced by the "
-             "detector's weak box overlapping it at IoU >= 0.5 (`+weak gaps`, no SOT); beside the weak-box ends. "
-             "Only trajectories' boxes "
-             "that exist are touched, so public rows the detector checks are \"public, refined\". Columns as in "
-             "the Table 3 above.", ""]
-    return lines + ablation_tables(public, private, "###")
-
-
 def forward_words(data: dict) -> str:
     """What the forward rows of ``motion.json`` are (issue #41), or nothing for a file without them."""
     if not data.get("forward"):
@@ -623,7 +609,6 @@ def page() -> str:
     lines += flip_section(("public", load("accuracy_public.json"), load("accuracy_public_noflip.json")),
                           ("private", load("accuracy_private.json"), load("accuracy_private_noflip.json")))
     lines += ablation_section(load("ablation_public.json"), load("ablation_private.json"))
-    lines += gaps_section(load("gaps_public.json"), load("gaps_private.json"))
     lines += ends_section()
     lines += misses_section(load("misses_public.json"), load("misses_private.json"))
     lines += long_section(load("long.json"))

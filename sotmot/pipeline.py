@@ -367,7 +367,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
     clock.lap("confirm")
     motion_only = prepared.features.shape[1] == 0
     if motion_only and config.ends.enabled:
-        log.info("%s: no re-ID (motion only): trajectory ends are not extended, gaps not refined", prepared.info.name)
+        log.info("%s: no re-ID (motion only): trajectory ends are not extended", prepared.info.name)
     elif config.ends.enabled and len(tracks):
         identity = {i: t.feature for t, i in zip(trajectories, ids) if i is not None}
         tracks = extend_trajectories(prepared, plan, identity, tracks, embedder, progress)
@@ -383,9 +383,9 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
 def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.ndarray], tracks: Tracks,
                         embedder: Embedder | None = None, progress: "bool | Progress" = False) -> Tracks:
     """SOT after association (:mod:`sotmot.sot.extend`) on the output ``tracks`` (``identity``: track id -> mean
-    feature): interpolated boxes replaced by boxes found in the frames (``[ends] refine_gaps``), then the ends
-    extended (``[ends] seconds``), by the detector's weak boxes when the plan has them, else by SOT."""
-    from sotmot.sot.extend import extend_ends, refine_gaps
+    feature): the ends extended (``[ends] seconds``), by the detector's weak boxes when the plan has them, else by
+    SOT."""
+    from sotmot.sot.extend import extend_ends
 
     info, config = prepared.info, plan.config
     reader, embedder = FrameReader(info, cache_size=8), embedder_for(plan.appearance, embedder)
@@ -393,10 +393,6 @@ def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.n
     if plan.weak_boxes:  # the preparation's, or the detector at the weak boxes' threshold on the frames searched
         support = prepared.support if prepared.support is not None else DetectorSupport.from_config(
             plan.weak_detector)
-    if config.ends.refine_gaps:
-        tracks = refine_gaps(tracks, identity, reader, embedder, config.sot, config.ends,
-                             progress=lambda items: as_progress(progress)(items, f"{info.name}: refine gaps"),
-                             support=support)
     if config.ends.seconds > 0:
         before = len(tracks)
         tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, config.sot,

@@ -107,6 +107,13 @@ def test_a_key_that_left_the_sot_section_says_where_it_went(tmp_path, old, says)
     assert str(path) in str(failure.value)
 
 
+def test_gap_refinement_is_gone_and_an_old_file_is_told_why(tmp_path):
+    path = tmp_path / "old.toml"
+    path.write_text("[ends]\nseconds = 1.0\nrefine_gaps = true\n")
+    with pytest.raises(ConfigError, match=re.escape("removed: SOT or the weak boxes inside gaps gained nothing")):
+        load_config(path)
+
+
 def test_the_plan_decides_the_weak_boxes_once(tmp_path):
     """[detection] weak_boxes "auto": on when the detections come from the detector, off for a det.txt; "on"
     refines a public run with the detector at the weak boxes' threshold; the gap limit is in frames."""

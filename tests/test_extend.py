@@ -7,7 +7,7 @@ import numpy as np
 from conftest import GeometryEmbedder
 from sotmot.config import EndsConfig, SotConfig, TrackerConfig
 from sotmot.boxes import inside_share
-from sotmot.sot.extend import end_velocity, extend_ends, refine_gaps
+from sotmot.sot.extend import end_velocity, extend_ends
 from sotmot.sot.support import SUPPORTED_AFFINITY, SUPPORTED_STOP_IOU, WEAK_MIN_SCORE, DetectorSupport
 from sotmot.types import Tracks
 
@@ -111,21 +111,6 @@ def test_doubtful_trajectories_are_not_extended():
 
     assert extended(0.9) >= 7 and extended(0.6) == 0
     assert extended(float("nan")) >= 7  # confirmation off: no confidence to judge by
-
-
-def test_an_interpolated_box_off_the_person_is_replaced_by_the_box_found_there():
-    images = frames_with_walker()
-    frames = list(range(1, 21))
-    boxes = np.array([[walker_x(f), 40, 20, 40] for f in frames])
-    interpolated = np.isin(frames, [9, 10, 11])
-    boxes[interpolated, 0] -= 7  # interpolation put the box 7 px behind the person (they sped up)
-    tracks = Tracks(frames, [1] * 20, boxes, [0.9] * 20, interpolated=interpolated)
-    out = refine_gaps(tracks, {1: LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig(), EndsConfig())
-    assert out.from_sot.tolist() == interpolated.tolist() and not out.interpolated.any()
-    assert np.abs(out.boxes[interpolated, 0] - [walker_x(f) for f in (9, 10, 11)]).max() <= 1.0
-    assert np.array_equal(out.boxes[~interpolated], tracks.boxes[~interpolated])
-    kept = refine_gaps(tracks, {1: -LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig(), EndsConfig())
-    assert np.array_equal(kept.boxes, tracks.boxes) and kept.interpolated.tolist() == interpolated.tolist()
 
 
 class StubDetector:
@@ -292,24 +277,6 @@ def test_the_run_record_says_whether_the_detector_checked_the_sot_boxes(tmp_path
     assert (record["plan"]["weak_boxes"], record["plan"]["ends_from"]) == (True, "detections")
     assert record["plan"]["detector_min_score"] == WEAK_MIN_SCORE  # one pass: the tracked boxes and the weak ones
     assert record["detector_model"]["path"] == str(model) and "plan" in IGNORED
-
-
-def test_the_weak_box_baseline_inside_gaps_takes_the_detector_box_over_an_interpolated_one():
-    """[ends] refine_gaps with the weak boxes (the ablation's "+weak gaps"): an interpolated box is replaced by a
-    detector box overlapping it at SUPPORT_IOU or more, and stays where the detector saw nothing."""
-    images = frames_with_walker()
-    frames = list(range(1, 21))
-    boxes = np.array([[walker_x(f), 40, 20, 40] for f in frames])
-    interpolated = np.isin(frames, [9, 10, 11])
-    boxes[interpolated, 0] -= 3  # interpolation put the box 3 px behind the person (IoU 0.58 with the detector's)
-    tracks = Tracks(frames, [1] * 20, boxes, [0.9] * 20, interpolated=interpolated)
-    support = DetectorSupport(StubDetector(images, [9, 10]))  # nothing seen in frame 11
-    out = refine_gaps(tracks, {1: LOOK}, images.__getitem__, GeometryEmbedder(), SotConfig(),
-                      EndsConfig(refine_gaps=True), support=support)
-    assert out.from_sot.tolist() == np.isin(frames, [9, 10]).tolist()
-    np.testing.assert_allclose(out.boxes[[8, 9]], [[walker_x(f) + 2.0, 41.0, 20.0, 40.0] for f in (9, 10)])
-    assert out.interpolated.tolist() == np.isin(frames, [11]).tolist()
-    np.testing.assert_array_equal(out.boxes[10], tracks.boxes[10])
 
 
 def test_a_detector_box_beside_another_trajectory_extends_an_end_where_a_template_box_would_stop(monkeypatch):

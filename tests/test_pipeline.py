@@ -118,7 +118,7 @@ def test_the_gap_limit_in_seconds_follows_the_frame_rate(tmp_path):
     assert config_from_dict({"association": {"min_affinity": 0.5}}).association.at(30.0).l_max == 120
 
 
-@pytest.mark.parametrize("case", ["defaults", "sot template", "weak boxes at ends and gaps", "detector"])
+@pytest.mark.parametrize("case", ["defaults", "sot template", "weak boxes at ends", "detector"])
 def test_once_the_plan_is_made_no_stage_replaces_configuration(case, model_0288, monkeypatch):
     """Issue #40: every "auto" is decided by sotmot.plan.resolve; the stages read the plan, so nothing builds a
     changed copy of a configuration section (dataclasses.replace, TrackerConfig.replace) while the run goes on."""
@@ -134,10 +134,10 @@ def test_once_the_plan_is_made_no_stage_replaces_configuration(case, model_0288,
     config = TrackerConfig().replace("appearance", model=str(model_0288))
     if case == "sot template":
         config = config.replace("sot", variant="template")
-    elif case == "weak boxes at ends and gaps":  # public, refined: the detector on the frames the searches visit
+    elif case == "weak boxes at ends":  # public, refined: the detector on the frames the searches visit
         pytest.importorskip("openvino")
         detector = require(MODELS / "person-detection-0202" / "person-detection-0202.FP16-INT8.xml")
-        config = config.replace("detection", weak_boxes="on", model=str(detector)).replace("ends", refine_gaps=True)
+        config = config.replace("detection", weak_boxes="on", model=str(detector))
     elif case == "detector":
         pytest.importorskip("openvino")
         detector = require(MODELS / "person-detection-0202" / "person-detection-0202.FP16-INT8.xml")

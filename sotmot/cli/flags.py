@@ -120,7 +120,6 @@ FLAGS: tuple[Flag, ...] = (
               "(file), or keep them (keep: [confirm] enabled = false)."),
     Flag(("--weak-boxes",), "detection", "weak_boxes"),
     Flag(("--sot",), "sot", "variant"),
-    Flag(("--refine-gaps",), "ends", "refine_gaps", switch=True),
     Flag(("--extend-ends",), "ends", "seconds", metavar="SECONDS"),
     Flag(("--camera-motion",), "motion", "compensation"),
     Flag(("--window",), "windows", "seconds", metavar="SECONDS", commands=frozenset({"track"})),

@@ -114,19 +114,12 @@ class EndsConfig:
         (another trajectory, another detection) at IoU above this: a lagging
         duplicate of a detection overlaps it at 0.3-0.5. A detector's box is a
         detection of its own and stops an end only above 0.7.
-    refine_gaps
-        SOT inside gaps too: search for each interpolated box around itself
-        with the track's template and re-ID identity, and replace it by the box
-        found when the evidence passes the same gates as an end extension
-        (else the interpolated box stays). Off: it gained nothing held out
-        (docs/results.md, "Inside gaps").
     """
 
     seconds: float = 1.0
     min_confidence: float = 0.8
     min_affinity: float = 0.5
     stop_iou: float = 0.3
-    refine_gaps: bool = False
 
     def __post_init__(self) -> None:
         _check(0.0 <= self.seconds <= 60.0, "ends", "seconds must be in [0, 60]")
@@ -135,5 +128,5 @@ class EndsConfig:
 
     @property
     def enabled(self) -> bool:
-        """Whether anything runs after confirmation: the ends extended or the gaps refined."""
-        return self.seconds > 0 or self.refine_gaps
+        """Whether anything runs after confirmation: the ends extended."""
+        return self.seconds > 0

@@ -67,7 +67,7 @@ class DetectionConfig:
     weak_boxes
         The detector's weak boxes (scoring from 0.1 up to ``min_score``; never
         tracked themselves) as evidence after tracking: ``"on"``: every box SOT
-        finds (Algorithm 1, gap refinement) is checked by them (a found box that
+        finds (Algorithm 1) is checked by them (a found box that
         overlaps a weak box at IoU 0.5 or more is replaced by it, the paper's box
         regression on SOT results; in Algorithm 1 an unsupported candidate ends
         its extension), and trajectory ends (``[ends]``) grow by weak boxes

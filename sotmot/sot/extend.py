@@ -1,4 +1,4 @@
-"""SOT after association: extend confirmed trajectories past their ends, and check their interpolated boxes.
+"""SOT after association: extend confirmed trajectories past their ends.
 
 Interpolation fills gaps inside a trajectory but cannot reach before its
 first or after its last box, where a person is often still visible and only
@@ -22,9 +22,7 @@ With the detector's weak boxes (``[detection] weak_boxes``) the candidates
 are the weak boxes near the prior instead of template proposals (no SOT),
 judged by the values of :mod:`sotmot.sot.support`. Only trajectories the
 confirmation stage trusts (mean confidence at least ``[ends]
-min_confidence``) are extended. :func:`refine_gaps` uses the same
-search inside a trajectory's gaps, where it replaces an interpolated box by
-the box found around it when the evidence passes the same gates.
+min_confidence``) are extended.
 
 Added boxes are flagged ``from_sot`` in the output. Boxes are ``x, y, w, h``
 pixels, frames 1-based.
@@ -271,41 +269,3 @@ def with_added(tracks: Tracks, added: list[tuple[int, int, np.ndarray]]) -> Trac
                    np.zeros(n, bool), np.ones(n, bool), np.full(n, np.nan))
     both = Tracks.concatenate([tracks, extra])
     return both.subset(np.lexsort((both.frames, both.ids)))
-
-
-def refine_gaps(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Callable[[int], np.ndarray],
-                embedder: Embedder, search: SotConfig, config: EndsConfig, progress: Callable | None = None,
-                support: DetectorSupport | None = None) -> Tracks:
-    """``tracks`` with interpolated boxes replaced by boxes found in the frames where the evidence supports them.
-
-    Interpolation puts a box on the straight line between the two detector
-    boxes around a gap; a person who turned, stopped or sped up is elsewhere.
-    Each interpolated box is searched for around itself (the interpolation is
-    the motion prior, known from both sides), with the template of the
-    nearer real box of the track, and re-ranked by re-ID against the track's
-    identity (``features``); it is replaced (flagged ``from_sot``, no longer
-    ``interpolated``) only when :meth:`_Finder.find` accepts a candidate, else
-    the interpolated box stays. Boxes are ``x, y, w, h`` pixels, frames 1-based.
-    """
-    finder = _Finder(tracks, read_frame, embedder, search, config, support)
-    boxes = tracks.boxes.copy()
-    interpolated, from_sot = tracks.interpolated.copy(), tracks.from_sot.copy()
-    ids = np.unique(tracks.ids[tracks.interpolated]).tolist()
-    templates: dict[int, np.ndarray] = {}
-    for track_id in (progress(ids) if progress else ids):
-        identity = features.get(track_id)
-        if identity is None:
-            continue
-        rows = _track_rows(tracks, track_id)
-        real = rows[~tracks.interpolated[rows]]
-        for r in rows[tracks.interpolated[rows]]:
-            f = int(tracks.frames[r])
-            nearest = int(real[np.argmin(np.abs(tracks.frames[real] - f))])
-            if nearest not in templates:
-                templates[nearest] = finder.template(int(tracks.frames[nearest]), tracks.boxes[nearest])
-            found, _, _ = finder.find(templates[nearest], f, tracks.boxes[r], identity, track_id)
-            if found is not None:
-                boxes[r], interpolated[r], from_sot[r] = found, False, True
-    log.info("gap refinement replaced %d of %d interpolated boxes", int((from_sot & tracks.interpolated).sum()),
-             int(tracks.interpolated.sum()))
-    return Tracks(tracks.frames, tracks.ids, boxes, tracks.scores, interpolated, from_sot, tracks.confidence)
