@@ -89,8 +89,10 @@ def folder_bytes(folder: Path) -> int:
 
 
 def measure(command: list[str], tmpdir: Path) -> dict[str, float]:
-    """Wall seconds, peak RSS (MB, :func:`common.run_timed`) and peak size of ``tmpdir`` (MB, the child's
-    ``TMPDIR``) of one run."""
+    """Wall seconds, CPU seconds of the run and its children, the share of the cores they kept busy (CPU seconds
+    over wall seconds times the cores: with two cores, a run already at 0.9 can go no more than 1 / 0.9 times
+    faster on more processes), peak RSS (MB, :func:`common.run_timed`) and peak size of ``tmpdir`` (MB, the
+    child's ``TMPDIR``) of one run."""
     peak = [0]
     done = threading.Event()
 
@@ -106,7 +108,9 @@ def measure(command: list[str], tmpdir: Path) -> dict[str, float]:
     finally:
         done.set()
         watcher.join()
-    return {"seconds": got["seconds"], "peak_rss_mb": got["peak_rss_mb"], "peak_tmp_mb": peak[0] / 2**20}
+    return {"seconds": got["seconds"], "cpu_seconds": got["cpu_seconds"],
+            "busy": got["cpu_seconds"] / (got["seconds"] * (os.cpu_count() or 1)), "peak_rss_mb": got["peak_rss_mb"],
+            "peak_tmp_mb": peak[0] / 2**20}
 
 
 def repeated_gt(seq: Path, factor: int, cache: Path) -> Path:
@@ -176,15 +180,17 @@ def windows_experiment(args, factors: list[int]) -> int:
                        "joined": sum(j["joined"] for j in joins),
                        **{k: scores[k] for k in ("HOTA", "IDF1", "MOTA", "IDSW")}, "IDSW_joins": at_joins}
                 rows.append(row)
-                print(f"{name} x{factor} {mode}: {got['seconds']:.0f} s ({row['fps']:.1f} frames/s), peak RSS "
+                print(f"{name} x{factor} {mode}: {got['seconds']:.0f} s ({row['fps']:.1f} frames/s, cores "
+                      f"{100 * got['busy']:.0f} % busy), peak RSS "
                       f"{got['peak_rss_mb']:.0f} MB, HOTA {row['HOTA']:.2f} IDF1 {row['IDF1']:.2f} MOTA "
                       f"{row['MOTA']:.2f} IDSW {row['IDSW']:.0f}", flush=True)
             parallel = modes[-1][0]
             rows[-1]["equals_serial"] = texts[parallel] == texts[f"W={seconds[0]:g}s"]
-    print("\n| video | mode | wall s | frames/s | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | at joins | windows |\n"
-          "|---|---|---|---|---|---|---|---|---|---|---|")
+    print("\n| video | mode | wall s | frames/s | busy | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | at joins | windows |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['sequence']} x{r['factor']} | {r['mode']} | {r['seconds']:.0f} | {r['fps']:.1f} | "
+              f"{100 * r['busy']:.0f} % | "
               f"{r['peak_rss_mb']:.0f} | {r['HOTA']:.2f} | {r['IDF1']:.2f} | {r['MOTA']:.2f} | {r['IDSW']:.0f} | "
               f"{r['IDSW_joins']} | {r['windows']} |")
     print(f"machine: {machine()}")
@@ -277,7 +283,7 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(row)
             seq_rows.append(row)
             print(f"{name} x{factor}: {frames} frames {row['size']}, {got['seconds']:.0f} s ({row['fps']:.1f} "
-                  f"frames/s), peak RSS {got['peak_rss_mb']:.0f} MB, peak temporary disk {got['peak_tmp_mb']:.1f} MB",
+                  f"frames/s, cores {100 * got['busy']:.0f} % busy), peak RSS {got['peak_rss_mb']:.0f} MB, peak temporary disk {got['peak_tmp_mb']:.1f} MB",
                   flush=True)
         growth[name] = {"time": exponent([r["frames"] for r in seq_rows], [r["seconds"] for r in seq_rows]),
                         "memory": exponent([r["frames"] for r in seq_rows], [r["peak_rss_mb"] for r in seq_rows])}

@@ -193,15 +193,18 @@ def windows_section(data: dict | None) -> list[str]:
              "tracked window by window, windows overlapping by the 4-s association gap, tracks joined where their "
              "boxes agree in the overlap; against the whole video at once. Long videos: MOT16-09 played k times "
              "as one MPEG-4 video, its ground truth repeated with new ids for each copy; peak resident memory "
-             "from `/usr/bin/time` (with workers: the largest process).", "",
+             "from `/usr/bin/time` (with workers: the largest process); `busy`: the CPU seconds of the run and its "
+             "children over its wall seconds times the cores (a run already keeping both cores busy can gain "
+             "little from more processes).", "",
              "`at joins`: ID switches in an overlap of two windows or the frame after it (TrackEval's CLEAR "
              "matching, frame by frame).", "",
-             "| video | mode | windows | wall s | fps | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | at joins |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| video | mode | windows | wall s | fps | busy | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | at joins |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
         same = {True: " (= serial)", False: " (differs from serial)"}.get(r.get("equals_serial"), "")
+        busy = f"{100 * r['busy']:.0f} %" if "busy" in r else "–"
         lines.append(f"| {r['sequence']} x{r['factor']} | {r['mode']}{same} | {r['windows']} | {r['seconds']:.0f} | "
-                     f"{r['fps']:.1f} | {r['peak_rss_mb']:.0f} | {r['HOTA']:.2f} | {r['IDF1']:.2f} | "
+                     f"{r['fps']:.1f} | {busy} | {r['peak_rss_mb']:.0f} | {r['HOTA']:.2f} | {r['IDF1']:.2f} | "
                      f"{r['MOTA']:.2f} | {r['IDSW']:.0f} | {r.get('IDSW_joins', '–')} |")
     rows = data.get("full_length", [])
     if rows:
