@@ -587,7 +587,7 @@ def ceiling_table(data: dict, peer: str) -> list[str]:
 
 #: Sections whose benchmarks ran before issue #39's occlusion check became the default (it changes only the boxes
 #: interpolated in gaps over 1 s); a title leaves this list when its benchmark is rerun.
-BEFORE_OCCLUSION_CHECK = ("Long videos", "Confidence and confirmation, held out")
+BEFORE_OCCLUSION_CHECK = ("Confidence and confirmation, held out",)
 
 
 def page() -> str:
