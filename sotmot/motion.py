@@ -11,7 +11,8 @@ from each frame to the first (the reference) and maps boxes into it and back.
 The pipeline builds tracklets, associates and interpolates in the reference
 frame and writes results in each frame's own pixels. Every rule that compares
 positions (IoU, speeds against the boxes' width, the interpolated line) is
-unchanged by a similarity, so two frames compared in frame 1's pixels are
+unchanged by a change of scale and offset (and nearly so by a camera's small
+rotations: boxes stay upright), so two frames compared in frame 1's pixels are
 compared as in either frame's own, however far the camera has moved in
 between (a test tracks a sequence in a reference of another scale and offset).
 
