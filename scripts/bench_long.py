@@ -186,8 +186,8 @@ def windows_experiment(args, factors: list[int]) -> int:
                       f"{row['MOTA']:.2f} IDSW {row['IDSW']:.0f}", flush=True)
             parallel = modes[-1][0]
             rows[-1]["equals_serial"] = texts[parallel] == texts[f"W={seconds[0]:g}s"]
-    print("\n| video | mode | wall s | frames/s | busy | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | at joins | windows |\n"
-          "|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("\n| video | mode | wall s | frames/s | busy | peak RSS MB | HOTA | IDF1 | MOTA | IDSW | at joins | "
+          "windows |\n|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['sequence']} x{r['factor']} | {r['mode']} | {r['seconds']:.0f} | {r['fps']:.1f} | "
               f"{100 * r['busy']:.0f} % | "
@@ -283,7 +283,8 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(row)
             seq_rows.append(row)
             print(f"{name} x{factor}: {frames} frames {row['size']}, {got['seconds']:.0f} s ({row['fps']:.1f} "
-                  f"frames/s, cores {100 * got['busy']:.0f} % busy), peak RSS {got['peak_rss_mb']:.0f} MB, peak temporary disk {got['peak_tmp_mb']:.1f} MB",
+                  f"frames/s, cores {100 * got['busy']:.0f} % busy), peak RSS {got['peak_rss_mb']:.0f} MB, "
+                  f"peak temporary disk {got['peak_tmp_mb']:.1f} MB",
                   flush=True)
         growth[name] = {"time": exponent([r["frames"] for r in seq_rows], [r["seconds"] for r in seq_rows]),
                         "memory": exponent([r["frames"] for r in seq_rows], [r["peak_rss_mb"] for r in seq_rows])}

@@ -142,6 +142,9 @@ def same_view(still: Path, moving: Path, out: Path) -> None:
     kept = map_rows(source, read_path(still, still_info.length), still_info.width, still_info.height,
                     DETECTION_INSIDE)
     partial = out.with_name(out.name + ".partial")
+    for path in (out, partial):
+        if path.exists():
+            raise FileExistsError(f"{path} exists; give a new folder (or remove a .partial a failed run left)")
     (partial / "det").mkdir(parents=True)
     try:
         (partial / "gt").mkdir()

@@ -274,6 +274,8 @@ def test_the_same_view_reference_sees_the_still_window_through_the_moving_one(tm
         assert run.returncode == 0, run.stderr
     view = tmp_path / "view"
     make_moving.same_view(still, forward, view)
+    with pytest.raises(FileExistsError, match="exists"):
+        make_moving.same_view(still, forward, view)
     kept = make_moving.read_rows(view / "det" / "det.txt")
     assert len(make_moving.read_rows(still / "det" / "det.txt")) == 3 and len(kept) == 2  # frame 3's left the view
     assert read_seqinfo(view).name == "view" and (view / "img1").resolve() == (still / "img1").resolve()
@@ -283,10 +285,10 @@ def test_the_same_view_reference_sees_the_still_window_through_the_moving_one(tm
                                atol=2e-6)
 
 
-def test_positions_compared_in_any_similar_reference_give_the_same_tracks(monkeypatch):
+def test_positions_compared_in_a_reference_of_another_scale_and_offset_give_the_same_tracks(monkeypatch):
     """Every rule that compares positions (tracklet IoU, association's IoU, velocity against the boxes' width and gap,
-    the interpolated line, the occlusion check) is unchanged by a similarity: comparing two frames in frame 1's
-    pixels is comparing them in either frame's own, once the camera's motion is a similarity (issue #41, item 2).
+    the interpolated line, the occlusion check) is unchanged by a change of scale and offset: comparing two frames
+    in frame 1's pixels is comparing them in either frame's own, however far the camera moved (issue #41, item 2).
     A reference 0.4 times the image's size and shifted must track a real sequence exactly as the image itself."""
     import sotmot.pipeline
 
