@@ -35,6 +35,8 @@ from __future__ import annotations
 import argparse
 import shutil
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -103,6 +105,26 @@ def map_rows(rows: np.ndarray, path: np.ndarray, out_w: int, out_h: int, min_ins
     return out[(inside >= min_inside) & (inside > 0)]
 
 
+@contextmanager
+def new_sequence(out: Path) -> Iterator[Path]:
+    """A folder to write a new sequence into: ``out`` with ``.partial`` added, with ``det/`` and ``gt/`` made,
+    renamed to ``out`` when the block completes and removed again if it fails. Raises FileExistsError, naming
+    the folder, when ``out`` or a failed run's ``.partial`` exists (nothing is written over or removed then)."""
+    partial = out.with_name(out.name + ".partial")
+    if out.exists():
+        raise FileExistsError(f"{out} exists; give a new folder")
+    if partial.exists():
+        raise FileExistsError(f"{partial} exists (a run that did not finish?); remove it or give another folder")
+    (partial / "det").mkdir(parents=True)  # made by this run: removed again if it fails
+    try:
+        (partial / "gt").mkdir()
+        yield partial
+        partial.rename(out)
+    except BaseException:
+        shutil.rmtree(partial, ignore_errors=True)
+        raise
+
+
 def read_path(seq: Path, length: int) -> np.ndarray:
     """``(length + 1, 2, 3)``: the ``path.txt`` of a window made by this script (row ``f`` maps the source frame's
     pixels to the window's; row 0 unused)."""
@@ -141,13 +163,7 @@ def same_view(still: Path, moving: Path, out: Path) -> None:
     source = to_source(detections, read_path(moving, moving_info.length))
     kept = map_rows(source, read_path(still, still_info.length), still_info.width, still_info.height,
                     DETECTION_INSIDE)
-    partial = out.with_name(out.name + ".partial")
-    for path in (out, partial):
-        if path.exists():
-            raise FileExistsError(f"{path} exists; give a new folder (or remove a .partial a failed run left)")
-    (partial / "det").mkdir(parents=True)
-    try:
-        (partial / "gt").mkdir()
+    with new_sequence(out) as partial:
         (partial / "img1").symlink_to((still / "img1").resolve(), target_is_directory=True)
         write_text_atomic(partial / "det" / "det.txt", format_rows(kept, 2))
         write_text_atomic(partial / "gt" / "gt.txt", (still / "gt" / "gt.txt").read_text())
@@ -155,10 +171,6 @@ def same_view(still: Path, moving: Path, out: Path) -> None:
         write_text_atomic(partial / "seqinfo.ini",
                           (still / "seqinfo.ini").read_text().replace(f"name={still_info.name}\n",
                                                                        f"name={out.name}\n"))
-        partial.rename(out)
-    except BaseException:
-        shutil.rmtree(partial, ignore_errors=True)
-        raise
 
 
 def through(results: Path, still: Path, moving: Path, out: Path) -> None:
@@ -232,10 +244,8 @@ def main(argv: list[str] | None = None) -> int:
     partial = args.out.with_name(args.out.name + ".partial")
     if partial.exists():
         raise SystemExit(f"{partial} exists (a run that did not finish?); remove it or give another folder")
-    (partial / "img1").mkdir(parents=True)  # made by this run: removed again if it fails
-    try:
-        (partial / "det").mkdir()
-        (partial / "gt").mkdir()
+    with new_sequence(args.out) as partial:
+        (partial / "img1").mkdir()
         reader = FrameReader(info, cache_size=1)
         for f in as_progress(not args.quiet)(range(1, info.length + 1), f"{info.name}: frames"):
             image = cv2.warpAffine(reader(f), path[f], (out_w, out_h), flags=cv2.INTER_LINEAR,
@@ -255,10 +265,6 @@ def main(argv: list[str] | None = None) -> int:
             f"seqLength={info.length}", f"imWidth={out_w}", f"imHeight={out_h}", "imExt=.jpg", ""]))
         lines = [f"{f}," + ",".join(f"{v:.6f}" for v in path[f].ravel()) for f in range(1, info.length + 1)]
         write_text_atomic(partial / "path.txt", "\n".join(lines) + "\n")
-        partial.rename(args.out)
-    except BaseException:
-        shutil.rmtree(partial, ignore_errors=True)
-        raise
     shifts = np.linalg.norm(np.diff(path[1:, :, 2], axis=0), axis=1)
     print(f"{args.out}: {info.length} frames {out_w} x {out_h}, {kind}; camera shift per frame median "
           f"{np.median(shifts):.1f} px, max {shifts.max():.1f} px")
