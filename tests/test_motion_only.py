@@ -45,6 +45,20 @@ def test_motion_affinity_of_meeting_spans_is_their_iou_in_the_later_start():
     assert motion_affinities([a, b], np.array([[1, 0]]))[0] == pytest.approx(20 * 100 / (60 * 100))
 
 
+def test_a_tracklet_inside_a_gap_scores_by_the_walk_it_fills():
+    # one person walking right at 5 px a frame, seen in frames 1-10 and 41-50; gap 11-40
+    first, second = walker(1, range(1, 11), 0.0, 5.0), walker(1, range(41, 51), 200.0, 5.0)
+    a = Tracklet(id=1, frames=np.r_[first.frames, second.frames], boxes=np.r_[first.boxes, second.boxes],
+                 scores=np.ones(20), det_index=np.arange(20), feature=np.zeros(0, np.float32), n_features=20)
+    on_the_walk = walker(2, range(21, 31), 100.0, 5.0)  # where the walk is in frames 21-30
+    off_the_walk = walker(3, range(21, 31), 100.0, 0.0, y=400.0)  # someone standing elsewhere meanwhile
+    past_the_gap = walker(4, range(21, 46), 100.0, 5.0)  # starts in the gap, runs past it
+    aff = motion_affinities([a, on_the_walk, off_the_walk, past_the_gap], np.array([[0, 1], [2, 0], [0, 3]]))
+    assert aff[0] > 0.9  # both joins land: it fills the gap
+    assert aff[1] < 0.45  # below the association gate
+    assert aff[2] == 0.0  # the IoU rule's case, with no box of the first where it starts
+
+
 def test_link_affinities_use_appearance_whenever_features_exist():
     a, b = walker(1, range(1, 5), 0.0, 1.0), walker(2, range(8, 12), 300.0, 1.0)
     units = np.array([[1.0, 0.0], [1.0, 0.0]])

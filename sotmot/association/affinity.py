@@ -56,7 +56,14 @@ def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray) -> np.nd
     their size across a gap); the gate ``min_affinity = 0.45`` passes errors
     up to about 0.8 ``s``. For a pair whose spans meet, the affinity is the
     IoU of the later one's first box with the earlier one's box in that frame
-    (0 where it has none): the IoU rule judges the rest.
+    (the IoU rule judges the rest); where the earlier one has no box there
+    because the later one lies wholly inside one of its gaps, the later one
+    would fill that gap, and the affinity is the lower agreement of the two
+    joins it makes, as for a pair one after the other (a merged trajectory
+    whose gap another tracklet walks through could otherwise never take it
+    in, and both would be written there: on the label-only validation
+    sequences most false boxes were such pairs). A later one that starts in a
+    gap and runs past it scores 0.
     """
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     out = np.zeros(len(pairs))
@@ -80,7 +87,22 @@ def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray) -> np.nd
     out[apart] = motion_agreement(last[e_], v_last[e_], first[l_], v_first[l_], starts[l_] - ends[e_])
     for k in np.flatnonzero(~apart).tolist():
         a, b = chosen[early[k]], chosen[late[k]]
-        row = int(np.searchsorted(a.frames, b.start))
-        if row < len(a) and a.frames[row] == b.start:
+        row = int(np.searchsorted(a.frames, b.start))  # b starts at or before a's end: row < len(a)
+        if a.frames[row] == b.start:
             out[k] = float(iou_aligned(a.boxes[row:row + 1], b.boxes[:1])[0])
+        elif b.end < a.frames[row]:  # b lies wholly inside a's gap between rows row - 1 and row
+            out[k] = float(np.min(_gap_fill_agreement(a, row, b)))
     return out
+
+
+def _gap_fill_agreement(a: Tracklet, row: int, b: Tracklet) -> np.ndarray:
+    """The motion agreement of the two joins ``b`` makes when it fills ``a``'s gap before row ``row``: ``a``'s
+    boxes up to the gap into ``b``'s start, ``b``'s end into ``a``'s boxes after it."""
+    before = slice(max(0, row - VELOCITY_BOXES), row)
+    after = slice(row, row + VELOCITY_BOXES)
+    return motion_agreement(
+        np.stack([a.boxes[row - 1], b.boxes[-1]]),
+        np.stack([end_velocity(a.frames[before], a.boxes[before]), _end_velocity(b, last=True)]),
+        np.stack([b.boxes[0], a.boxes[row]]),
+        np.stack([_end_velocity(b, last=False), end_velocity(a.frames[after], a.boxes[after])]),
+        np.array([b.start - a.frames[row - 1], a.frames[row] - b.end]))
