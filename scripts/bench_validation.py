@@ -21,6 +21,12 @@ reference, the **worst sequence** of each change (the selection rule: a new
 default loses at most 0.5 HOTA and 0.5 MOTA on any sequence), and combined rows
 per group.
 
+With ``--peers`` (names of the ``trackers`` package's SORT, ByteTrack,
+OC-SORT), each also tracks the label-only sequences from the same cleaned
+detections, as it comes and given sotmot's memory (``+GSI 4s``: a lost track
+kept ``[association] l_max_seconds`` and boxmot's GSI filling gaps as long):
+motion-only peers beside sotmot's motion-only mode, scored the same way.
+
     python scripts/bench_validation.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --config defaults= --config paper-gap=gap60.toml --json docs/results/validation.json
 """
@@ -34,12 +40,16 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from common import DEFAULT_DATA
 from sotmot.benchmarks import cached_features, machine, sequences, subsampled_sequence
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import evaluate_files
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
+from sotmot.peers import TRACKERS_PACKAGE, SeqInput, gsi, peer_scores, run_trackers_package
 from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.types import Tracks
 
 COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 #: The sections a preparation reads: configurations that agree on them share one preparation of a sequence.
@@ -73,6 +83,21 @@ def motion_only(config: TrackerConfig) -> TrackerConfig:
             .replace("ends", seconds=0.0))
 
 
+def peer_runs(prepared, peers: list[str]) -> dict[str, Tracks]:
+    """Each motion-only peer's tracks of a prepared sequence, from its cleaned detections: as it comes, and given
+    sotmot's memory (``+GSI 4s``)."""
+    info, dets = prepared.info, prepared.detections
+    seq = SeqInput(info.path, info, dets,
+                   np.zeros((len(dets), 0), np.float32), peer_scores(dets.scores), 0.0)
+    memory = TrackerConfig().association.l_max_seconds
+    out: dict[str, Tracks] = {}
+    for name in peers:
+        out[name] = run_trackers_package(name, seq)[0]
+        out[f"{name} +GSI {memory:g}s"] = gsi(run_trackers_package(name, seq, memory)[0],
+                                              interval=max(1, int(round(memory * info.frame_rate))))
+    return out
+
+
 def named_config(spec: str) -> tuple[str, tuple[TrackerConfig, str]]:
     """``NAME=FILE`` -> ``(NAME, (configuration, what it is))``: the file's first line if it is a comment."""
     name, _, path = spec.partition("=")
@@ -99,8 +124,14 @@ def main(argv: list[str] | None = None) -> int:
                         help="which parts of the set: frames, rates, labels (default: %(default)s)")
     parser.add_argument("--cache", type=Path, default=Path(".cache/validation"),
                         help="frame-rate variants and re-ID features kept between runs (default: %(default)s)")
+    parser.add_argument("--peers", default="",
+                        help=f"motion-only peers on the label-only sequences, comma-separated, of "
+                             f"{', '.join(TRACKERS_PACKAGE)} (default: none)")
     parser.add_argument("--json", type=Path, help="write the report here")
     args = parser.parse_args(argv)
+    peers = [p for p in args.peers.split(",") if p]
+    if any(p not in TRACKERS_PACKAGE for p in peers):
+        parser.error(f"--peers: choose from {', '.join(TRACKERS_PACKAGE)}")
 
     described = dict(args.config or [named_config("defaults=")])
     configs = {name: cfg for name, (cfg, _) in described.items()}
@@ -116,6 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     pairs: dict[str, list[tuple[Path, Path, int, str]]] = {name: [] for name in configs}
     group_of: dict[str, str] = {}
     seconds: dict[str, float] = {}
+    peer_pairs: dict[str, list[tuple[Path, Path, int, str]]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         for group, seq in members:
             start = time.perf_counter()
@@ -133,10 +165,17 @@ def main(argv: list[str] | None = None) -> int:
                 write_results(path, result.tracks)
                 pairs[name].append((path, result.info.gt_path, result.info.length, result.info.name))
             group_of[prepared.info.name] = group
+            if group == "labels":
+                for name, tracks in peer_runs(prepared, peers).items():
+                    path = results_path(Path(tmp) / name, prepared.info.name)
+                    write_results(path, tracks)
+                    peer_pairs.setdefault(name, []).append((path, prepared.info.gt_path, prepared.info.length,
+                                                            prepared.info.name))
             seconds[prepared.info.name] = time.perf_counter() - start
             print(f"{prepared.info.name}: {seconds[prepared.info.name]:.1f} s", file=sys.stderr)
         by_group = {name: {g: evaluate_files([p for p in pairs[name] if group_of[p[3]] == g])
                            for g in sorted(set(group_of.values()))} for name in configs}
+        by_peer = {name: evaluate_files(p) for name, p in peer_pairs.items()}
     # per sequence: each group's own rows (a sequence's scores do not depend on what it is scored beside)
     per_seq = {name: {s: row for rep in by_group[name].values() for s, row in rep.sequences.items()}
                for name in configs}
@@ -165,6 +204,10 @@ def main(argv: list[str] | None = None) -> int:
             lines.append(f"  {name:<16}{metric}: mean {worst[name][metric]['mean']:+6.2f}, worst "
                          f"{delta[low]:+6.2f} ({low}), {len(worst[name][metric]['sequences_below_-0.5'])} of "
                          f"{len(delta)} sequences below -0.5")
+    if by_peer:
+        lines += ["", "motion-only peers on the label-only sequences (combined), beside the reference:"]
+        lines.append(f"{'combined labels':<28}{reference:<16}" + cells(by_group[reference]["labels"].combined))
+        lines += [f"{'combined labels':<28}{name:<16}" + cells(rep.combined) for name, rep in by_peer.items()]
     print("\n".join(lines))
     print(f"frames: public detections, re-ID {Path(args.model).name}; labels: motion only (no frames)")
     print(f"machine: {machine()}")
@@ -177,6 +220,7 @@ def main(argv: list[str] | None = None) -> int:
             "sequences": per_seq,
             "combined": {name: {g: rep.combined for g, rep in by_group[name].items()} for name in configs},
             "worst": worst,
+            "peers": {name: {"sequences": rep.sequences, "combined": rep.combined} for name, rep in by_peer.items()},
         }, indent=2, default=float) + "\n")
     return 0
 

@@ -531,7 +531,29 @@ def validation_section(data: dict | None) -> list[str]:
     for seq in groups:
         lines.append(f"| {seq} | " + " | ".join(
             "{HOTA:.1f} / {MOTA:.1f} / {FP:.0f}".format(**data["sequences"][n][seq]) for n in names) + " |")
-    lines += ["", f"Machine: {data['machine']}.", ""]
+    return lines + validation_peers(data, ref, shown) + ["", f"Machine: {data['machine']}.", ""]
+
+
+def validation_peers(data: dict, ref: str, shown: tuple[str, ...]) -> list[str]:
+    """The motion-only peers on the label-only sequences beside sotmot's motion-only mode (``--peers``)."""
+    peers = data.get("peers") or {}
+    if not peers:
+        return []
+    labels = [s for s, g in data["groups"].items() if g == "labels"]
+    lines = ["", "### Motion-only peers on the label-only sequences", "",
+             "The `trackers` package's " + ", ".join(p for p in peers if "+GSI" not in p) + " on the same cleaned "
+             "detections, no frames, no re-ID (as sotmot's motion-only mode tracks these sequences): each as it "
+             "comes (a lost track kept 1 s) and given sotmot's memory (`+GSI 4s`: a lost track kept 4 s, boxmot's "
+             "GSI filling gaps up to 4 s). Combined:", "",
+             "| tracker | " + " | ".join(shown) + " |", "|" + "---|" * (len(shown) + 1),
+             f"| sotmot `{ref}`, motion only | " + cells(data["combined"][ref]["labels"], shown) + " |"]
+    lines += [f"| {name} | " + cells(row["combined"], shown) + " |" for name, row in peers.items()]
+    lines += ["", "Per sequence, HOTA / MOTA / FP:", "", f"| sequence | sotmot `{ref}` | " + " | ".join(peers) + " |",
+              "|" + "---|" * (len(peers) + 2)]
+    for seq in labels:
+        lines.append(f"| {seq} | " + " | ".join("{HOTA:.1f} / {MOTA:.1f} / {FP:.0f}".format(**row) for row in
+                                                [data["sequences"][ref][seq]]
+                                                + [p["sequences"][seq] for p in peers.values()]) + " |")
     return lines
 
 

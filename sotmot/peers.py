@@ -77,13 +77,22 @@ def frames_of(seq: SeqInput) -> list[np.ndarray]:
     return [order[bounds[f]:bounds[f + 1]] for f in range(seq.info.length)]
 
 
-def run_trackers_package(name: str, seq: SeqInput) -> tuple[Tracks, float]:
-    """SORT, ByteTrack or OC-SORT from ``trackers``: boxes of detections given a track id, per frame."""
+#: The motion-only peers of the ``trackers`` package (they read neither frames nor embeddings).
+TRACKERS_PACKAGE = ("SORT", "ByteTrack", "OC-SORT")
+
+
+def run_trackers_package(name: str, seq: SeqInput, memory_seconds: float | None = None) -> tuple[Tracks, float]:
+    """SORT, ByteTrack or OC-SORT from ``trackers``: boxes of detections given a track id, per frame.
+
+    ``memory_seconds``: keep a lost track that long (its ``lost_track_buffer``, which counts frames at 30 fps
+    and is scaled by the frame rate) instead of the package's default second; None keeps the default.
+    """
     import supervision as sv
     from trackers import ByteTrackTracker, OCSORTTracker, SORTTracker
 
     cls = {"SORT": SORTTracker, "ByteTrack": ByteTrackTracker, "OC-SORT": OCSORTTracker}[name]
-    tracker = cls(frame_rate=float(seq.info.frame_rate))
+    memory = {} if memory_seconds is None else {"lost_track_buffer": max(1, int(round(30 * memory_seconds)))}
+    tracker = cls(frame_rate=float(seq.info.frame_rate), **memory)
     per_frame = frames_of(seq)
     xyxy = xywh_to_xyxy(seq.detections.boxes)
     inputs = [sv.Detections(xyxy=xyxy[rows], confidence=seq.peer_scores[rows],
