@@ -34,6 +34,7 @@ motion-only peers beside sotmot's motion-only mode, scored the same way.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import sys
 import tempfile
@@ -132,6 +133,12 @@ def main(argv: list[str] | None = None) -> int:
     peers = [p for p in args.peers.split(",") if p]
     if any(p not in TRACKERS_PACKAGE for p in peers):
         parser.error(f"--peers: choose from {', '.join(TRACKERS_PACKAGE)}")
+    if peers:
+        try:  # before any sequence is tracked: the peers and boxmot's GSI come with the benchmark extras
+            for module in ("trackers", "boxmot"):
+                importlib.import_module(module)
+        except ImportError as exc:
+            parser.error(f"--peers needs the benchmark extras ({exc}); run: bash scripts/bootstrap.sh --bench")
 
     described = dict(args.config or [named_config("defaults=")])
     configs = {name: cfg for name, (cfg, _) in described.items()}
