@@ -99,6 +99,53 @@ def peer_runs(prepared, peers: list[str]) -> dict[str, Tracks]:
     return out
 
 
+def worst_of(per_seq: dict[str, dict[str, dict]], reference: str, names: list[str]) -> dict[str, dict]:
+    """Per configuration but the reference, per metric: the mean change against the reference over the
+    sequences ``names``, the worst one and which sequences lose more than 0.5 (the selection rule)."""
+    worst: dict[str, dict] = {}
+    for name in [n for n in per_seq if n != reference]:
+        worst[name] = {}
+        for metric in ("HOTA", "MOTA", "IDF1"):
+            delta = {s: per_seq[name][s][metric] - per_seq[reference][s][metric] for s in names}
+            low = min(delta, key=delta.get)
+            worst[name][metric] = {"worst_sequence": low, "worst": delta[low],
+                                   "mean": sum(delta.values()) / len(delta),
+                                   "sequences_below_-0.5": sorted(s for s, d in delta.items() if d < -0.5)}
+    return worst
+
+
+def merge_reports(old: dict, new: dict) -> dict:
+    """``old`` updated by ``new`` (two reports of this script): each configuration's rows of the sequences and
+    groups ``new`` measured replace ``old``'s, the rest are kept; ``new``'s peers replace ``old``'s when it has
+    any; the worst sequences are recomputed over every sequence. Both must share the reference, and a
+    configuration ``old`` lacks must come with every sequence ``old`` has.
+
+    Raises
+    ------
+    ValueError
+        For another reference, or a new configuration that would leave sequences without rows.
+    """
+    if new["reference"] != old["reference"]:
+        raise ValueError(f"--merge: the reference is {new['reference']!r} here and {old['reference']!r} in the "
+                         "old report")
+    groups = {**old["groups"], **new["groups"]}
+    machine = old["machine"] if old["machine"] == new["machine"] else \
+        f"{old['machine']} (rows not rerun); {new['machine']} (this run's rows)"
+    merged = {**old, "machine": machine, "groups": groups, "seconds": {**old["seconds"], **new["seconds"]}}
+    for key in ("configs", "configs_described"):
+        merged[key] = {**old[key], **new[key]}
+    merged["sequences"] = {name: {**old["sequences"].get(name, {}), **new["sequences"].get(name, {})}
+                           for name in merged["configs"]}
+    merged["combined"] = {name: {**old["combined"].get(name, {}), **new["combined"].get(name, {})}
+                          for name in merged["configs"]}
+    short = [name for name, rows in merged["sequences"].items() if set(rows) != set(groups)]
+    if short:
+        raise ValueError(f"--merge: {', '.join(short)} would lack rows of some sequences; run them on every group")
+    merged["peers"] = new.get("peers") or old.get("peers") or {}
+    merged["worst"] = worst_of(merged["sequences"], merged["reference"], list(groups))
+    return merged
+
+
 def named_config(spec: str) -> tuple[str, tuple[TrackerConfig, str]]:
     """``NAME=FILE`` -> ``(NAME, (configuration, what it is))``: the file's first line if it is a comment."""
     name, _, path = spec.partition("=")
@@ -129,7 +176,22 @@ def main(argv: list[str] | None = None) -> int:
                         help=f"motion-only peers on the label-only sequences, comma-separated, of "
                              f"{', '.join(TRACKERS_PACKAGE)} (default: none)")
     parser.add_argument("--json", type=Path, help="write the report here")
+    parser.add_argument("--merge", type=Path, metavar="OLD.json",
+                        help="a previous report to update: the rows this run measures (its configurations on its "
+                             "groups, its peers) replace the old ones, the rest are kept, and the worst sequences "
+                             "are recomputed over all of them; written to --json, another file")
     args = parser.parse_args(argv)
+    previous = None
+    if args.merge:
+        try:
+            previous = json.loads(args.merge.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            parser.error(f"--merge: cannot read a report from {args.merge}: {exc}")
+    if args.merge and not args.json:
+        parser.error("--merge writes the merged report to --json: give both")
+    if args.merge and args.json.resolve() == args.merge.resolve():
+        parser.error("--json must name another file than --merge (a run never writes over what it read); "
+                     "replace the old report with the new one afterwards")
     peers = [p for p in args.peers.split(",") if p]
     if any(p not in TRACKERS_PACKAGE for p in peers):
         parser.error(f"--peers: choose from {', '.join(TRACKERS_PACKAGE)}")
@@ -143,6 +205,13 @@ def main(argv: list[str] | None = None) -> int:
     described = dict(args.config or [named_config("defaults=")])
     configs = {name: cfg for name, (cfg, _) in described.items()}
     reference = next(iter(configs))
+    if previous is not None:  # what merge_reports would refuse, said before any work
+        fresh = [n for n in configs if n not in previous["configs"]]
+        if previous["reference"] != reference:
+            parser.error(f"--merge: the first --config is {reference!r}, the old report's reference "
+                         f"{previous['reference']!r}")
+        if fresh and not set(previous["groups"].values()) <= set(args.groups.split(",")):
+            parser.error(f"--merge: {', '.join(fresh)} not in the old report: run them on every group it has")
     # configurations that agree on every section a preparation reads share one preparation of each sequence
     preparation = {name: json.dumps({s: cfg.to_dict()[s] for s in PREPARATION}, sort_keys=True, default=str)
                    for name, cfg in configs.items()}
@@ -197,20 +266,14 @@ def main(argv: list[str] | None = None) -> int:
     for g in sorted(set(group_of.values())):
         for name in configs:
             lines.append(f"{'combined ' + g:<28}{name:<16}" + cells(by_group[name][g].combined))
-    worst: dict[str, dict] = {}
+    worst = worst_of(per_seq, reference, names)
     lines += ["", f"change against {reference!r}, per sequence: mean and worst (the selection rule: a new default "
                   f"loses at most 0.5 HOTA and 0.5 MOTA on any sequence)"]
-    for name in list(configs)[1:]:
-        worst[name] = {}
-        for metric in ("HOTA", "MOTA", "IDF1"):
-            delta = {s: per_seq[name][s][metric] - per_seq[reference][s][metric] for s in names}
-            low = min(delta, key=delta.get)
-            worst[name][metric] = {"worst_sequence": low, "worst": delta[low],
-                                   "mean": sum(delta.values()) / len(delta),
-                                   "sequences_below_-0.5": sorted(s for s, d in delta.items() if d < -0.5)}
-            lines.append(f"  {name:<16}{metric}: mean {worst[name][metric]['mean']:+6.2f}, worst "
-                         f"{delta[low]:+6.2f} ({low}), {len(worst[name][metric]['sequences_below_-0.5'])} of "
-                         f"{len(delta)} sequences below -0.5")
+    for name, metrics in worst.items():
+        for metric, w in metrics.items():
+            lines.append(f"  {name:<16}{metric}: mean {w['mean']:+6.2f}, worst {w['worst']:+6.2f} "
+                         f"({w['worst_sequence']}), {len(w['sequences_below_-0.5'])} of {len(names)} sequences "
+                         f"below -0.5")
     if by_peer:
         lines += ["", "motion-only peers on the label-only sequences (combined), beside the reference:"]
         lines.append(f"{'combined labels':<28}{reference:<16}" + cells(by_group[reference]["labels"].combined))
@@ -219,7 +282,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"frames: public detections, re-ID {Path(args.model).name}; labels: motion only (no frames)")
     print(f"machine: {machine()}")
     if args.json:
-        write_text_atomic(args.json, json.dumps({
+        report = {
             "machine": machine(), "model": args.model, "reference": reference,
             "configs": {name: cfg.to_dict() for name, cfg in configs.items()},
             "configs_described": {name: about for name, (_, about) in described.items()},
@@ -228,7 +291,10 @@ def main(argv: list[str] | None = None) -> int:
             "combined": {name: {g: rep.combined for g, rep in by_group[name].items()} for name in configs},
             "worst": worst,
             "peers": {name: {"sequences": rep.sequences, "combined": rep.combined} for name, rep in by_peer.items()},
-        }, indent=2, default=float) + "\n")
+        }
+        if args.merge:
+            report = merge_reports(previous, report)
+        write_text_atomic(args.json, json.dumps(report, indent=2, default=float) + "\n")
     return 0
 
 

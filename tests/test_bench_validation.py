@@ -1,0 +1,46 @@
+"""scripts/bench_validation.py: updating a report with a rerun of some of its groups (``--merge``)."""
+
+from __future__ import annotations
+
+import pytest
+
+from helpers import load_script
+
+
+def row(hota: float, mota: float) -> dict:
+    return {"HOTA": hota, "MOTA": mota, "IDF1": hota}
+
+
+def report(configs: dict[str, dict[str, tuple[float, float]]], groups: dict[str, str], peers=None) -> dict:
+    """A report as the script writes it, with only what the merge reads."""
+    return {"machine": "m", "model": "r", "reference": "defaults",
+            "configs": {n: {} for n in configs}, "configs_described": {n: n for n in configs},
+            "groups": groups, "seconds": {s: 1.0 for s in groups},
+            "sequences": {n: {s: row(*v) for s, v in rows.items()} for n, rows in configs.items()},
+            "combined": {n: {g: row(0, 0) for g in set(groups.values())} for n in configs},
+            "worst": {}, "peers": peers or {}}
+
+
+def test_a_rerun_group_replaces_its_rows_and_the_worst_sequence_is_recomputed_over_all():
+    script = load_script("bench_validation")
+    groups = {"A": "frames", "L": "labels"}
+    old = report({"defaults": {"A": (60, 70), "L": (40, 40)}, "x": {"A": (59, 70), "L": (41, 41)}}, groups)
+    new = report({"defaults": {"L": (45, 45)}, "x": {"L": (43, 46)}}, {"L": "labels"}, peers={"SORT": {}})
+    merged = script.merge_reports(old, new)
+    assert merged["sequences"]["defaults"] == {"A": row(60, 70), "L": row(45, 45)}  # frames kept, labels rerun
+    assert (merged["worst"]["x"]["HOTA"]["worst_sequence"], merged["worst"]["x"]["HOTA"]["worst"]) == ("L", -2)
+    assert merged["worst"]["x"]["HOTA"]["sequences_below_-0.5"] == ["A", "L"]  # -1 on the kept row, -2 on the new
+    assert merged["worst"]["x"]["MOTA"]["mean"] == pytest.approx(0.5)  # (0 + 1) / 2
+    assert merged["peers"] == {"SORT": {}}
+    assert merged["groups"] == groups
+
+
+def test_a_new_configuration_must_cover_every_sequence_and_the_reference_must_agree():
+    script = load_script("bench_validation")
+    old = report({"defaults": {"A": (60, 70), "L": (40, 40)}}, {"A": "frames", "L": "labels"})
+    partial = report({"defaults": {"L": (45, 45)}, "y": {"L": (46, 46)}}, {"L": "labels"})
+    with pytest.raises(ValueError, match="y would lack rows"):
+        script.merge_reports(old, partial)
+    other = dict(report({"defaults": {"L": (45, 45)}}, {"L": "labels"}), reference="other")
+    with pytest.raises(ValueError, match="reference"):
+        script.merge_reports(old, other)
