@@ -74,7 +74,7 @@ from sotmot.benchmarks import machine, private_config, sequences
 from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
-from sotmot.peers import BOXMOT, BOXMOT_CMC, BOXMOT_ROWS, TRACKERS_PACKAGE, SeqInput, load, run_boxmot, run_peer
+from sotmot.peers import BOXMOT, BOXMOT_CMC, BOXMOT_ROWS, TRACKERS_ROWS, SeqInput, load, run_boxmot, run_peer
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracks
 
@@ -88,7 +88,7 @@ SOTMOT = {  # name -> (SOT variant, solver)
     "sotmot SOT-deep": ("deep", "greedy"),
     "sotmot SOT-deep flow": ("deep", "flow"),
 }
-PEERS = (*TRACKERS_PACKAGE, "DeepSORT", *BOXMOT_ROWS)
+PEERS = (*TRACKERS_ROWS, "DeepSORT", *BOXMOT_ROWS)
 GROUPS = {"full-length": lambda name: "clip" not in name, "MOT16 clips": lambda name: "clip" in name}
 
 
@@ -182,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         parser.error(f"unknown trackers {unknown}; choose from {[*SOTMOT, *PEERS]}")
     try:
-        if any(t in TRACKERS_PACKAGE for t in trackers):
+        if any(t in TRACKERS_ROWS for t in trackers):
             import trackers as _trackers  # noqa: F401
         if "DeepSORT" in trackers:
             import deep_sort_realtime  # noqa: F401

@@ -48,7 +48,7 @@ from sotmot.benchmarks import cached_features, machine, sequences, subsampled_se
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import evaluate_files
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
-from sotmot.peers import TRACKERS_PACKAGE, SeqInput, gsi, peer_scores, run_trackers_package
+from sotmot.peers import TRACKERS_PACKAGE, TRACKERS_ROWS, SeqInput, peer_scores, run_peer
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracks
 
@@ -90,13 +90,7 @@ def peer_runs(prepared, peers: list[str]) -> dict[str, Tracks]:
     info, dets = prepared.info, prepared.detections
     seq = SeqInput(info.path, info, dets,
                    np.zeros((len(dets), 0), np.float32), peer_scores(dets.scores), 0.0)
-    memory = TrackerConfig().association.l_max_seconds
-    out: dict[str, Tracks] = {}
-    for name in peers:
-        out[name] = run_trackers_package(name, seq)[0]
-        out[f"{name} +GSI {memory:g}s"] = gsi(run_trackers_package(name, seq, memory)[0],
-                                              interval=max(1, int(round(memory * info.frame_rate))))
-    return out
+    return {row: run_peer(row, seq, 0.0)[0] for row, (tracker, _) in TRACKERS_ROWS.items() if tracker in peers}
 
 
 def worst_of(per_seq: dict[str, dict[str, dict]], reference: str, names: list[str]) -> dict[str, dict]:

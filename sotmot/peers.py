@@ -79,6 +79,10 @@ def frames_of(seq: SeqInput) -> list[np.ndarray]:
 
 #: The motion-only peers of the ``trackers`` package (they read neither frames nor embeddings).
 TRACKERS_PACKAGE = ("SORT", "ByteTrack", "OC-SORT")
+#: Each of them as it comes and given sotmot's memory (``+GSI 4s``: a lost track kept :data:`MEMORY_SECONDS`, boxmot's
+#: GSI filling gaps as long): display name -> (tracker, memory in seconds or None).
+TRACKERS_ROWS = {**{name: (name, None) for name in TRACKERS_PACKAGE},
+                 **{f"{name} +GSI {MEMORY_SECONDS:g}s": (name, MEMORY_SECONDS) for name in TRACKERS_PACKAGE}}
 
 
 def run_trackers_package(name: str, seq: SeqInput, memory_seconds: float | None = None) -> tuple[Tracks, float]:
@@ -216,9 +220,13 @@ def load(path: Path, config: TrackerConfig, embedder) -> SeqInput:
 
 
 def run_peer(name: str, seq: SeqInput, min_affinity: float) -> tuple[Tracks, float]:
-    """Any peer by its display name (SORT, ByteTrack, OC-SORT, DeepSORT, or a row of :data:`BOXMOT_ROWS`)."""
+    """Any peer by its display name (a row of :data:`TRACKERS_ROWS`, DeepSORT, or a row of :data:`BOXMOT_ROWS`)."""
     if name in BOXMOT_ROWS:
         return run_boxmot(name, seq)
     if name == "DeepSORT":
         return run_deepsort(seq, min_affinity)
-    return run_trackers_package(name, seq)
+    tracker, memory = TRACKERS_ROWS[name]
+    tracks, seconds = run_trackers_package(tracker, seq, memory)
+    if memory is None:
+        return tracks, seconds
+    return gsi(tracks, interval=max(1, int(round(memory * float(seq.info.frame_rate))))), seconds
