@@ -103,12 +103,14 @@ def accuracy_section(title: str, accuracy: dict | None, peers: dict | None, how:
         names = sorted(t for t in peers["table"] if not t.startswith("sotmot"))
         lines.append(f"Peers (`scripts/bench_peers.py`, {peers['detections']} detections; "
                      f"machine: {peers['machine']}): "
-                     f"{', '.join(names)}, each fed the same boxes and the same re-ID embeddings; the best on each "
-                     f"metric is named, which may be a different tracker per metric.")
+                     f"{', '.join(names)}, each fed the same boxes (and, those that read appearance, the same "
+                     f"re-ID embeddings); the best on each metric is named, which may be a different tracker per "
+                     f"metric.")
         if any(t.endswith("+GSI 4s") for t in names):
             lines.append("The `+GSI 4s` rows are the peers given sotmot's memory: a lost track is kept 4 s "
-                         "(boxmot's `max_age` or `track_buffer`, in frames at the sequence's rate) and boxmot's "
-                         "GSI fills gaps up to 4 s, as sotmot's association gap and interpolation bound do.")
+                         "(boxmot's `max_age` or `track_buffer`, or the `trackers` package's `lost_track_buffer`, "
+                         "at the sequence's rate) and boxmot's GSI fills gaps up to 4 s, as sotmot's association "
+                         "gap and interpolation bound do.")
         if "kept" in peers:
             fresh = sorted(t for t in peers["table"] if t not in peers["kept"]["rows"])
             lines.append(f"The other peers' rows were measured in an earlier run (`--keep`, machine: "
