@@ -56,3 +56,18 @@ def test_gsi_over_seconds_writes_one_box_per_track_and_frame():
     tracks = Tracks(frames=np.array([2, 25]), ids=np.array([1, 1]), boxes=boxes, scores=np.ones(2))
     out = gsi(tracks, interval=120)
     assert sorted(out.frames.tolist()) == list(range(2, 26))  # every frame once
+
+
+def test_trackers_given_sotmot_memory_keep_a_lost_person_and_fill_the_gap():
+    """A person walking 2 px a frame is missed for 2 s at 10 fps: SORT as it comes (a lost track kept 1 s) starts
+    a new track; ``SORT +GSI 4s`` keeps the same one and boxmot's GSI fills the gap."""
+    pytest.importorskip("trackers")
+    pytest.importorskip("boxmot")
+    seen = [f for f in range(1, 51) if not 11 <= f <= 30]
+    info = SeqInfo(path=Path("toy"), name="toy", frame_rate=10.0, length=50, width=400, height=200)
+    dets = Detections(seen, [[10 + 2 * f, 50, 30, 80] for f in seen], [0.9] * len(seen))
+    seq = SeqInput(None, info, dets, np.zeros((len(seen), 0), np.float32), peer_scores(dets.scores), 0.0)
+    plain, _ = run_peer("SORT", seq, min_affinity=0.5)
+    kept, _ = run_peer("SORT +GSI 4s", seq, min_affinity=0.5)
+    assert len(set(plain.ids.tolist())) == 2
+    assert len(set(kept.ids.tolist())) == 1 and {20, 25} <= set(kept.frames.tolist())
