@@ -105,16 +105,23 @@ def map_rows(rows: np.ndarray, path: np.ndarray, out_w: int, out_h: int, min_ins
     return out[(inside >= min_inside) & (inside > 0)]
 
 
-@contextmanager
-def new_sequence(out: Path) -> Iterator[Path]:
-    """A folder to write a new sequence into: ``out`` with ``.partial`` added, with ``det/`` and ``gt/`` made,
-    renamed to ``out`` when the block completes and removed again if it fails. Raises FileExistsError, naming
-    the folder, when ``out`` or a failed run's ``.partial`` exists (nothing is written over or removed then)."""
+def refuse_existing(out: Path) -> Path:
+    """The ``.partial`` folder a new sequence ``out`` is written into; raises FileExistsError, naming the folder,
+    when ``out`` or a failed run's ``.partial`` exists."""
     partial = out.with_name(out.name + ".partial")
     if out.exists():
         raise FileExistsError(f"{out} exists; give a new folder")
     if partial.exists():
         raise FileExistsError(f"{partial} exists (a run that did not finish?); remove it or give another folder")
+    return partial
+
+
+@contextmanager
+def new_sequence(out: Path) -> Iterator[Path]:
+    """A folder to write a new sequence into: ``out`` with ``.partial`` added, with ``det/`` and ``gt/`` made,
+    renamed to ``out`` when the block completes and removed again if it fails. Raises FileExistsError, naming
+    the folder, when ``out`` or a failed run's ``.partial`` exists (nothing is written over or removed then)."""
+    partial = refuse_existing(out)
     (partial / "det").mkdir(parents=True)  # made by this run: removed again if it fails
     try:
         (partial / "gt").mkdir()
@@ -234,16 +241,15 @@ def main(argv: list[str] | None = None) -> int:
         info = read_seqinfo(args.sequence)
     except InputError as exc:
         raise SystemExit(str(exc))
-    if args.out.exists():
-        raise SystemExit(f"{args.out} exists; give a new folder")
+    try:
+        refuse_existing(args.out)
+    except FileExistsError as exc:
+        raise SystemExit(str(exc))
     out_w, out_h = round(info.width * args.window), round(info.height * args.window)
     margin_x, margin_y = (info.width - out_w) / 2, (info.height - out_h) / 2
     args.pan_x = 0.8 * margin_x if args.pan_x is None else args.pan_x
     args.pan_y = 0.4 * margin_y if args.pan_y is None else args.pan_y
     path = window_path(info.length, info.frame_rate, info.width, info.height, args)
-    partial = args.out.with_name(args.out.name + ".partial")
-    if partial.exists():
-        raise SystemExit(f"{partial} exists (a run that did not finish?); remove it or give another folder")
     with new_sequence(args.out) as partial:
         (partial / "img1").mkdir()
         reader = FrameReader(info, cache_size=1)

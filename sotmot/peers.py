@@ -41,6 +41,11 @@ BOXMOT_MEMORY = {"BoT-SORT": "track_buffer", "StrongSORT": "max_age", "DeepOCSOR
 #: ``+GSI 4s`` rows: a peer given sotmot's memory, its lost-track buffer and its GSI interval both
 #: ``[association] l_max_seconds`` (4 s) at the sequence's frame rate (issue #38: a fair comparison).
 MEMORY_SECONDS = TrackerConfig().association.l_max_seconds
+
+
+def memory_frames(seconds: float, seq: "SeqInput") -> int:
+    """``seconds`` of a sequence in frames at its rate (at least one): a peer's lost-track buffer or GSI interval."""
+    return max(1, int(round(seconds * float(seq.info.frame_rate))))
 BOXMOT_CMC = {"BoT-SORT": "SOF", "DeepOCSORT": "SOF", "BoostTrack++": "ECC", "HybridSORT": "ECC", "OccluBoost": "SOF"}
 #: Every boxmot tracker with its defaults, with boxmot's GSI post-processing, and without CMC where it can be off.
 BOXMOT_ROWS = {**{name: (name, "default") for name in BOXMOT},
@@ -152,7 +157,7 @@ def run_boxmot(row: str, seq: SeqInput, shuffle: bool = False) -> tuple[Tracks, 
     name, mode = BOXMOT_ROWS[row]
     boxmot_name, cmc_off = BOXMOT[name]
     options = tuple(sorted((cmc_off or {}).items())) if mode == "no-cmc" else ()
-    memory = max(1, int(round(MEMORY_SECONDS * float(seq.info.frame_rate)))) if mode == "memory" else None
+    memory = memory_frames(MEMORY_SECONDS, seq) if mode == "memory" else None
     if memory is not None:
         options = ((BOXMOT_MEMORY[name], memory),)
     tracker = create_tracker(TrackerSpec(name=boxmot_name, options=options))
@@ -229,4 +234,4 @@ def run_peer(name: str, seq: SeqInput, min_affinity: float) -> tuple[Tracks, flo
     tracks, seconds = run_trackers_package(tracker, seq, memory)
     if memory is None:
         return tracks, seconds
-    return gsi(tracks, interval=max(1, int(round(memory * float(seq.info.frame_rate))))), seconds
+    return gsi(tracks, interval=memory_frames(memory, seq)), seconds

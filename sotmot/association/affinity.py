@@ -91,18 +91,20 @@ def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray) -> np.nd
         if a.frames[row] == b.start:
             out[k] = float(iou_aligned(a.boxes[row:row + 1], b.boxes[:1])[0])
         elif b.end < a.frames[row]:  # b lies wholly inside a's gap between rows row - 1 and row
-            out[k] = float(np.min(_gap_fill_agreement(a, row, b)))
+            out[k] = float(np.min(_gap_fill_agreement(a, row, b, v_first[late[k]], v_last[late[k]])))
     return out
 
 
-def _gap_fill_agreement(a: Tracklet, row: int, b: Tracklet) -> np.ndarray:
+def _gap_fill_agreement(a: Tracklet, row: int, b: Tracklet, b_start_velocity: np.ndarray,
+                        b_end_velocity: np.ndarray) -> np.ndarray:
     """The motion agreement of the two joins ``b`` makes when it fills ``a``'s gap before row ``row``: ``a``'s
-    boxes up to the gap into ``b``'s start, ``b``'s end into ``a``'s boxes after it."""
+    boxes up to the gap into ``b``'s start, ``b``'s end into ``a``'s boxes after it (``b``'s velocities at its two
+    ends as :func:`_end_velocity` gives them)."""
     before = slice(max(0, row - VELOCITY_BOXES), row)
     after = slice(row, row + VELOCITY_BOXES)
     return motion_agreement(
         np.stack([a.boxes[row - 1], b.boxes[-1]]),
-        np.stack([end_velocity(a.frames[before], a.boxes[before]), _end_velocity(b, last=True)]),
+        np.stack([end_velocity(a.frames[before], a.boxes[before]), b_end_velocity]),
         np.stack([b.boxes[0], a.boxes[row]]),
-        np.stack([_end_velocity(b, last=False), end_velocity(a.frames[after], a.boxes[after])]),
+        np.stack([b_start_velocity, end_velocity(a.frames[after], a.boxes[after])]),
         np.array([b.start - a.frames[row - 1], a.frames[row] - b.end]))
