@@ -98,16 +98,21 @@ def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
     as ``[detection] file`` it gives the very run the detector would (tested),
     so benchmarks detect each sequence once and hand sotmot and the peers the
     same boxes. The cache key holds the sequence, the detector file's SHA-256
-    and the detector settings that change boxes.
+    and the detector settings that change boxes (the input size as the
+    detector resolves it for the sequence's frames).
     """
     from sotmot.detection import format_detections, make_detector, resolve_detector_path
     from sotmot.passes import detect_sequence
     from sotmot.provenance import file_sha256
 
+    from sotmot.detection.openvino import input_size
+
     info = read_seqinfo(seq)
     detection = config.detection
+    size = (detection.input_height, detection.input_width) if detection.input_height else input_size(info.width,
+                                                                                                      info.height)
     settings = [info.name, str(info.frames_dir.resolve()), file_sha256(resolve_detector_path(detection.model)),
-                detection.backend, detection.min_score, detection.input_height, detection.input_width]
+                detection.backend, detection.min_score, *size]
     key = hashlib.sha256(json.dumps(settings).encode()).hexdigest()[:16]
     path = cache / f"{info.name}-{key}.det.txt"
     if not path.is_file():

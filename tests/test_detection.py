@@ -57,11 +57,13 @@ def test_the_detector_finds_the_people_of_three_pets_frames(detector):
     assert recall == pytest.approx(1.0, abs=0.08) and precision == pytest.approx(1.0, abs=0.08)
 
 
-def test_input_size_keeps_the_aspect_ratio_at_the_model_cards_sizes():
+def test_input_size_keeps_the_aspect_ratio_and_shrinks_large_frames_at_most_twice():
     from sotmot.detection.openvino import input_size
 
-    assert input_size(1920, 1080) == (448, 768)
-    assert input_size(640, 480) == (512, 672)
+    assert input_size(1280, 720) == (448, 768)
+    assert input_size(640, 480) == (512, 672) == input_size(768, 576)
+    assert input_size(1920, 1080) == (544, 960)  # never shrunk more than 2x: small people stay findable
+    assert input_size(3840, 2160) == (672, 1152)  # up to 1.5x the sides: a 4K frame does not cost 5x the time
     assert all(side % 32 == 0 for side in input_size(1000, 333))
 
 

@@ -30,20 +30,30 @@ from sotmot.models import openvino_cpu_options
 
 log = logging.getLogger(__name__)
 
-#: The input area the automatic size keeps (512 x 672 = 448 x 768): what the model card's sizes share.
+#: The least input area of the automatic size (512 x 672 = 448 x 768): what the model card's sizes share.
 INPUT_AREA = 512 * 672
+#: The automatic size shrinks a frame's sides at most this much while the area stays under :data:`MAX_INPUT_AREA`:
+#: a 1080p frame squeezed to 448 x 768 (2.4x) left the detector missing small people (issue #41).
+MAX_SHRINK = 2.0
+#: The largest input area of the automatic size (1.5x the model card's sides): a 4K frame is shrunk more than
+#: :data:`MAX_SHRINK` rather than cost the detector over twice its time.
+MAX_INPUT_AREA = INPUT_AREA * 1.5 ** 2
 #: Input sides are multiples of this (the network's stride).
 STRIDE = 32
 
 
 def input_size(width: int, height: int) -> tuple[int, int]:
-    """The network input ``(height, width)`` for a ``width x height`` frame: aspect kept, area :data:`INPUT_AREA`.
+    """The network input ``(height, width)`` for a ``width x height`` frame: aspect kept, each side a multiple
+    of :data:`STRIDE`, the area :data:`INPUT_AREA` or, for a frame that would be shrunk more than
+    :data:`MAX_SHRINK` to it, the frame's area shrunk by that much (at most :data:`MAX_INPUT_AREA`).
 
-    Gives 448 x 768 for 16:9 frames and 512 x 672 for 4:3 ones, each side a
-    multiple of :data:`STRIDE`.
+    Gives 448 x 768 for 16:9 frames up to 1536 x 864, 544 x 960 for 1080p (issue #41: far people on 1080p
+    video; held out on MOT16-09 and the 1080p clips, docs/benchmarks.md), and 512 x 672 for 4:3 frames up to
+    1344 x 1008 (PETS09-S2L1's 768 x 576, TUD-Stadtmitte's 640 x 480).
     """
-    side = max(STRIDE, round(math.sqrt(INPUT_AREA * height / width) / STRIDE) * STRIDE)
-    return side, max(STRIDE, round(INPUT_AREA / side / STRIDE) * STRIDE)
+    area = min(max(INPUT_AREA, width * height / MAX_SHRINK ** 2), MAX_INPUT_AREA)
+    side = max(STRIDE, round(math.sqrt(area * height / width) / STRIDE) * STRIDE)
+    return side, max(STRIDE, round(area / side / STRIDE) * STRIDE)
 
 
 class OpenVinoDetector:
