@@ -3,8 +3,9 @@
 
 Issue #41, item 4. The person detector (person-detection-0202, or
 ``--detector-model``) runs on every frame of each ``--sequences`` entry at its
-default input size (:func:`sotmot.detection.openvino.input_size`: 448 x 768
-for 16:9 frames, 512 x 672 for 4:3) and at that size's sides multiplied by
+default input size (:func:`sotmot.detection.openvino.input_size`: 512 x 672
+for 4:3 frames, 448 x 768 for 16:9 ones up to 1536 x 864, 544 x 960 for
+1080p) and at that size's sides multiplied by
 each ``--scales`` factor (rounded to multiples of 32): a larger input sees
 small people at more pixels, at a cost in time that grows with the area.
 
@@ -107,8 +108,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="sequence folders with ground truth, comma-separated (default: %(default)s)")
     parser.add_argument("--detector-model", metavar="PATH.xml",
                         help="the detector (default: the bundled person-detection-0202)")
-    parser.add_argument("--scales", default="1,1.25,1.5",
-                        help="input sides as multiples of the default size, comma-separated (default: %(default)s)")
+    parser.add_argument("--scales", default="0.8,1,1.25",
+                        help="input sides as multiples of the default size, comma-separated (default: %(default)s; "
+                             "0.8 of 1080p's 544 x 960 is the 448 x 768 it had before issue #41)")
     parser.add_argument("--entry", default="0.4,0.1",
                         help="entry scores to report, comma-separated (default: %(default)s; 0.4 is [detection] "
                              "min_score)")
