@@ -428,7 +428,8 @@ def detector_section(data: dict | None) -> list[str]:
         return []
     lines = ["## The built-in detector on small people", "",
              "`scripts/bench_detector.py` (issue #41): the person detector on every frame at its default input "
-             "size (marked; 544 x 960 for 1080p frames, 448 x 768 before issue #41) and others; its boxes matched to the ground truth by TrackEval's CLEAR matching; recall by "
+             "size (marked; 544 x 960 for 1080p frames, 448 x 768 before issue #41) and others; its boxes matched "
+             "to the ground truth by TrackEval's CLEAR matching; recall by "
              "box height as a share of the frame's (far < 0.1, mid 0.1-0.25, near >= 0.25), precision (a detection "
              "on a box the ground truth does not count is not a false one), and the time of `detect` (resize and "
              "inference) a frame. Entry 0.4 is `[detection] min_score`, the score below which boxes never enter "

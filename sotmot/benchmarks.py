@@ -102,10 +102,9 @@ def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
     detector resolves it for the sequence's frames).
     """
     from sotmot.detection import format_detections, make_detector, resolve_detector_path
+    from sotmot.detection.openvino import input_size
     from sotmot.passes import detect_sequence
     from sotmot.provenance import file_sha256
-
-    from sotmot.detection.openvino import input_size
 
     info = read_seqinfo(seq)
     detection = config.detection

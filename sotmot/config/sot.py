@@ -92,8 +92,9 @@ class EndsConfig:
         default since issue #12. Its gates chosen held out on the full-length
         sequences (docs/results.md, "Trajectory ends"), combined HOTA / MOTA
         against no extension: public, by SOT +0.05 / +0.2, by the weak boxes
-        ("public, refined") +0.55 / +0.9; private, by the weak boxes +0.1 /
-        +0.1.
+        ("public, refined") +0.55 / +0.9; private, by the weak boxes +0.0 /
+        +0.0 (+0.1 / +0.1 before 1080p frames went to the detector at 544 x
+        960).
     min_confidence
         Only trajectories whose boxes' mean confirmation confidence
         (``[confirm]``, ``sotmot.confidence``) is at least this are extended:

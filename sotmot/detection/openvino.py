@@ -48,7 +48,7 @@ def input_size(width: int, height: int) -> tuple[int, int]:
     :data:`MAX_SHRINK` to it, the frame's area shrunk by that much (at most :data:`MAX_INPUT_AREA`).
 
     Gives 448 x 768 for 16:9 frames up to 1536 x 864, 544 x 960 for 1080p (issue #41: far people on 1080p
-    video; held out on MOT16-09 and the 1080p clips, docs/benchmarks.md), and 512 x 672 for 4:3 frames up to
+    video, measured on MOT16-09 and the 1080p clips: docs/benchmarks.md), and 512 x 672 for 4:3 frames up to
     1344 x 1008 (PETS09-S2L1's 768 x 576, TUD-Stadtmitte's 640 x 480).
     """
     area = min(max(INPUT_AREA, width * height / MAX_SHRINK ** 2), MAX_INPUT_AREA)
