@@ -57,6 +57,20 @@ def test_the_detector_finds_the_people_of_three_pets_frames(detector):
     assert recall == pytest.approx(1.0, abs=0.08) and precision == pytest.approx(1.0, abs=0.08)
 
 
+def test_the_detector_says_which_input_size_it_uses_once_per_size(caplog):
+    import logging
+
+    pytest.importorskip("openvino")
+    from sotmot.detection import make_detector
+
+    fresh = make_detector(DetectionConfig(model=str(require(DETECTOR)), min_score=0.5))  # no size compiled yet
+    with caplog.at_level(logging.INFO, logger="sotmot.detection.openvino"):
+        for _ in range(2):
+            fresh.detect(np.zeros((1080, 1920, 3), np.uint8))
+    said = [r.getMessage() for r in caplog.records if "input" in r.getMessage()]
+    assert said == ["person detector input 544 x 960 for 1080 x 1920 frames (automatic)"]
+
+
 def test_input_size_keeps_the_aspect_ratio_and_shrinks_large_frames_at_most_twice():
     from sotmot.detection.openvino import input_size
 

@@ -96,8 +96,10 @@ class OpenVinoDetector:
         self._compiled: dict[tuple[int, int], tuple] = {}  # input size -> (request, output port)
         log.info("person detector %s (OpenVINO %s)", self.path, ov.__version__)
 
-    def _request(self, size: tuple[int, int]):
+    def _request(self, size: tuple[int, int], frame: tuple[int, int]):
         if size not in self._compiled:
+            log.info("person detector input %d x %d for %d x %d frames (%s)", size[0], size[1], frame[0], frame[1],
+                     "[detection] input_height, input_width" if self._fixed else "automatic")
             self._model.reshape({self._model.inputs[0]: ov.PartialShape([1, 3, *size])})
             compiled = self._core.compile_model(self._model, "CPU", self._options)
             self._compiled[size] = (compiled.create_infer_request(), compiled.outputs[0])
@@ -109,7 +111,7 @@ class OpenVinoDetector:
 
         height, width = frame.shape[:2]
         size = self._fixed or input_size(width, height)
-        request, output = self._request(size)
+        request, output = self._request(size, (height, width))
         tensor = cv2.resize(frame, (size[1], size[0]), interpolation=cv2.INTER_LINEAR)
         tensor = np.ascontiguousarray(tensor.transpose(2, 0, 1)[None], dtype=np.float32)
         rows = np.asarray(request.infer({0: tensor})[output]).reshape(-1, 7)
