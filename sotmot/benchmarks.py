@@ -102,16 +102,14 @@ def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
     detector resolves it for the sequence's frames).
     """
     from sotmot.detection import format_detections, make_detector, resolve_detector_path
-    from sotmot.detection.openvino import input_size
+    from sotmot.detection.openvino import network_input
     from sotmot.passes import detect_sequence
     from sotmot.provenance import file_sha256
 
     info = read_seqinfo(seq)
     detection = config.detection
-    size = (detection.input_height, detection.input_width) if detection.input_height else input_size(info.width,
-                                                                                                      info.height)
     settings = [info.name, str(info.frames_dir.resolve()), file_sha256(resolve_detector_path(detection.model)),
-                detection.backend, detection.min_score, *size]
+                detection.backend, detection.min_score, *network_input(detection, info.width, info.height)]
     key = hashlib.sha256(json.dumps(settings).encode()).hexdigest()[:16]
     path = cache / f"{info.name}-{key}.det.txt"
     if not path.is_file():

@@ -41,11 +41,6 @@ BOXMOT_MEMORY = {"BoT-SORT": "track_buffer", "StrongSORT": "max_age", "DeepOCSOR
 #: ``+GSI 4s`` rows: a peer given sotmot's memory, its lost-track buffer and its GSI interval both
 #: ``[association] l_max_seconds`` (4 s) at the sequence's frame rate (issue #38: a fair comparison).
 MEMORY_SECONDS = TrackerConfig().association.l_max_seconds
-
-
-def memory_frames(seconds: float, seq: "SeqInput") -> int:
-    """``seconds`` of a sequence in frames at its rate (at least one): a peer's lost-track buffer or GSI interval."""
-    return max(1, int(round(seconds * float(seq.info.frame_rate))))
 BOXMOT_CMC = {"BoT-SORT": "SOF", "DeepOCSORT": "SOF", "BoostTrack++": "ECC", "HybridSORT": "ECC", "OccluBoost": "SOF"}
 #: Every boxmot tracker with its defaults, with boxmot's GSI post-processing, and without CMC where it can be off.
 BOXMOT_ROWS = {**{name: (name, "default") for name in BOXMOT},
@@ -72,6 +67,11 @@ def peer_scores(scores: np.ndarray) -> np.ndarray:
     from scipy.stats import rankdata
 
     return rankdata(scores, method="average") / len(scores)
+
+
+def memory_frames(seconds: float, seq: SeqInput) -> int:
+    """``seconds`` of a sequence in frames at its rate (at least one): a peer's lost-track buffer or GSI interval."""
+    return max(1, int(round(seconds * float(seq.info.frame_rate))))
 
 
 def frames_of(seq: SeqInput) -> list[np.ndarray]:

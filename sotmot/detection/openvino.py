@@ -56,6 +56,12 @@ def input_size(width: int, height: int) -> tuple[int, int]:
     return side, max(STRIDE, round(area / side / STRIDE) * STRIDE)
 
 
+def network_input(config: DetectionConfig, width: int, height: int) -> tuple[int, int]:
+    """The input ``(height, width)`` the detector runs a ``width x height`` frame at: ``[detection] input_height``
+    and ``input_width`` when given, else :func:`input_size`."""
+    return (config.input_height, config.input_width) if config.input_height else input_size(width, height)
+
+
 class OpenVinoDetector:
     """An SSD-style person detector run by OpenVINO on the CPU.
 
@@ -75,7 +81,7 @@ class OpenVinoDetector:
     def __init__(self, config: DetectionConfig) -> None:
         self.path = resolve_detector_path(config.model)
         self.min_score = config.min_score
-        self._fixed = (config.input_height, config.input_width) if config.input_height else None
+        self._config = config
         self._core = ov.Core()
         try:
             self._model = self._core.read_model(str(self.path))
@@ -99,7 +105,7 @@ class OpenVinoDetector:
     def _request(self, size: tuple[int, int], frame: tuple[int, int]):
         if size not in self._compiled:
             log.info("person detector input %d x %d for %d x %d frames (%s)", size[0], size[1], frame[0], frame[1],
-                     "[detection] input_height, input_width" if self._fixed else "automatic")
+                     "[detection] input_height, input_width" if self._config.input_height else "automatic")
             self._model.reshape({self._model.inputs[0]: ov.PartialShape([1, 3, *size])})
             compiled = self._core.compile_model(self._model, "CPU", self._options)
             self._compiled[size] = (compiled.create_infer_request(), compiled.outputs[0])
@@ -110,7 +116,7 @@ class OpenVinoDetector:
         import cv2
 
         height, width = frame.shape[:2]
-        size = self._fixed or input_size(width, height)
+        size = network_input(self._config, width, height)
         request, output = self._request(size, (height, width))
         tensor = cv2.resize(frame, (size[1], size[0]), interpolation=cv2.INTER_LINEAR)
         tensor = np.ascontiguousarray(tensor.transpose(2, 0, 1)[None], dtype=np.float32)
