@@ -21,6 +21,16 @@ reference, the **worst sequence** of each change (the selection rule: a new
 default loses at most 0.5 HOTA and 0.5 MOTA on any sequence), and combined rows
 per group.
 
+With ``--noise`` the reference is tracked again under changes that should change
+nothing (:data:`NOISE`): re-ID in the other runtime (OpenVINO, bf16 on CPUs that
+have it, against onnxruntime in float32; the sequences with frames) and every
+detection box moved by a seeded offset of under half a pixel (two seeds; every
+sequence). Each sequence's **noise floor** is the largest change they make to
+its HOTA, MOTA and IDF1; a candidate's loss on a sequence is then reported
+beside it, and counted against the rule only where it is larger than both 0.5
+and the floor (one run of one configuration cannot tell a smaller loss from
+chance).
+
 With ``--peers`` (names of the ``trackers`` package's SORT, ByteTrack,
 OC-SORT), each also tracks the label-only sequences from the same cleaned
 detections, as it comes and given sotmot's memory (``+GSI 4s``: a lost track
@@ -44,7 +54,8 @@ from pathlib import Path
 import numpy as np
 
 from common import DEFAULT_DATA
-from sotmot.benchmarks import cached_features, machine, sequences, subsampled_sequence
+from sotmot.appearance import resolve_backend
+from sotmot.benchmarks import cached_features, jittered_sequence, machine, sequences, subsampled_sequence
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import evaluate_files
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
@@ -60,6 +71,15 @@ FULL_LENGTH = 100
 #: Frame-rate variants are made of sequences at this frame rate or above.
 VARIANT_MIN_FPS = 20.0
 LABELS = ("MOT16-labels/*", "MOT17-labels/*")
+#: The changes ``--noise`` makes to the reference: ``runtime`` (re-ID in the other runtime; sequences with
+#: frames) and ``jitter<seed>`` (every detection box moved by under :data:`JITTER_PIXELS` in x and y).
+NOISE = ("runtime", "jitter1", "jitter2")
+#: The largest offset of a jittered box, pixels: below a ``det.txt``'s own rounding to whole pixels.
+JITTER_PIXELS = 0.5
+#: The other re-ID runtime of each: the same network, other arithmetic.
+OTHER_RUNTIME = {"openvino": "onnx", "onnx": "openvino"}
+#: The selection rule: a new default loses at most this much HOTA and MOTA on any sequence.
+RULE = 0.5
 
 
 def validation_set(data: Path, cache: Path, groups: set[str]) -> list[tuple[str, Path]]:
@@ -84,6 +104,34 @@ def motion_only(config: TrackerConfig) -> TrackerConfig:
             .replace("ends", seconds=0.0))
 
 
+def features_of(seq: Path, config: TrackerConfig, group: str, cache: Path, embedders: dict[str, list]
+                ) -> np.ndarray | None:
+    """Re-ID features of ``seq``'s detections, kept under ``cache`` (none for the label-only group).
+    ``embedders`` holds one embedder box (:func:`~sotmot.benchmarks.cached_features`) per ``[appearance]``
+    setting, so that a configuration's missing features come from its own runtime and flip."""
+    if group == "labels":
+        return None
+    box = embedders.setdefault(json.dumps(config.to_dict()["appearance"], sort_keys=True, default=str), [])
+    return cached_features(seq, config, cache, box)
+
+
+def noise_runs(seq: Path, group: str, reference: TrackerConfig, model: str, cache: Path
+               ) -> dict[str, tuple[Path, TrackerConfig, Path]]:
+    """The ``--noise`` runs of one validation sequence (:data:`NOISE`): name -> (the folder tracked, its
+    configuration, its feature cache). ``runtime`` only where re-ID runs; the jittered folders are made once
+    under ``cache`` and keep the sequence's name, their features in a cache of their own."""
+    config = reference.replace("appearance", model=model)
+    config = motion_only(config) if group == "labels" else config
+    runs = {}
+    other = OTHER_RUNTIME.get(resolve_backend(config.appearance).backend)
+    if group != "labels" and other:
+        runs["runtime"] = (seq, config.replace("appearance", backend=other), cache / "features")
+    for run in (r for r in NOISE if r.startswith("jitter")):
+        runs[run] = (jittered_sequence(seq, int(run.removeprefix("jitter")), cache, JITTER_PIXELS), config,
+                     cache / f"features-{run}")
+    return runs
+
+
 def peer_runs(prepared, peers: list[str]) -> dict[str, Tracks]:
     """Each motion-only peer's tracks of a prepared sequence, from its cleaned detections: as it comes, and given
     sotmot's memory (``+GSI 4s``)."""
@@ -93,18 +141,35 @@ def peer_runs(prepared, peers: list[str]) -> dict[str, Tracks]:
     return {row: run_peer(row, seq, 0.0)[0] for row, (tracker, _) in TRACKERS_ROWS.items() if tracker in peers}
 
 
-def worst_of(per_seq: dict[str, dict[str, dict]], reference: str, names: list[str]) -> dict[str, dict]:
+def noise_floor(noise: dict[str, dict[str, dict]], reference: dict[str, dict]) -> dict[str, dict[str, float]]:
+    """Per sequence and metric (HOTA, MOTA, IDF1): the largest absolute change any ``--noise`` run of the
+    reference (``noise``: run -> sequence -> scores) made to ``reference``'s scores (sequence -> scores)."""
+    floor: dict[str, dict[str, float]] = {}
+    for run in noise.values():
+        for seq, row in run.items():
+            for metric in ("HOTA", "MOTA", "IDF1"):
+                change = abs(row[metric] - reference[seq][metric])
+                floor.setdefault(seq, {})[metric] = max(floor.get(seq, {}).get(metric, 0.0), change)
+    return floor
+
+
+def worst_of(per_seq: dict[str, dict[str, dict]], reference: str, names: list[str],
+             floor: dict[str, dict[str, float]] | None = None) -> dict[str, dict]:
     """Per configuration but the reference, per metric: the mean change against the reference over the
-    sequences ``names``, the worst one and which sequences lose more than 0.5 (the selection rule)."""
+    sequences ``names``, the worst one and which sequences lose more than :data:`RULE` (the selection rule);
+    with a noise ``floor`` (:func:`noise_floor`), also which of them lose more than their floor too."""
     worst: dict[str, dict] = {}
     for name in [n for n in per_seq if n != reference]:
         worst[name] = {}
         for metric in ("HOTA", "MOTA", "IDF1"):
             delta = {s: per_seq[name][s][metric] - per_seq[reference][s][metric] for s in names}
             low = min(delta, key=delta.get)
+            below = sorted(s for s, d in delta.items() if d < -RULE)
             worst[name][metric] = {"worst_sequence": low, "worst": delta[low],
-                                   "mean": sum(delta.values()) / len(delta),
-                                   "sequences_below_-0.5": sorted(s for s, d in delta.items() if d < -0.5)}
+                                   "mean": sum(delta.values()) / len(delta), "sequences_below_-0.5": below}
+            if floor:
+                worst[name][metric]["below_noise_floor"] = [s for s in below
+                                                            if delta[s] < -floor.get(s, {}).get(metric, 0.0)]
     return worst
 
 
@@ -136,7 +201,11 @@ def merge_reports(old: dict, new: dict) -> dict:
     if short:
         raise ValueError(f"--merge: {', '.join(short)} would lack rows of some sequences; run them on every group")
     merged["peers"] = new.get("peers") or old.get("peers") or {}
-    merged["worst"] = worst_of(merged["sequences"], merged["reference"], list(groups))
+    noise = {run: {**old.get("noise", {}).get(run, {}), **new.get("noise", {}).get(run, {})}
+             for run in {**old.get("noise", {}), **new.get("noise", {})}}
+    floor = noise_floor(noise, merged["sequences"][merged["reference"]])
+    merged.update(noise=noise, noise_floor=floor)
+    merged["worst"] = worst_of(merged["sequences"], merged["reference"], list(groups), floor)
     return merged
 
 
@@ -169,6 +238,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--peers", default="",
                         help=f"motion-only peers on the label-only sequences, comma-separated, of "
                              f"{', '.join(TRACKERS_PACKAGE)} (default: none)")
+    parser.add_argument("--noise", action="store_true",
+                        help="also track the reference under changes that should change nothing (re-ID in the other "
+                             "runtime; boxes moved by under half a pixel, two seeds): each sequence's noise floor, "
+                             "beside which a candidate's losses are judged")
     parser.add_argument("--json", type=Path, help="write the report here")
     parser.add_argument("--merge", type=Path, metavar="OLD.json",
                         help="a previous report to update: the rows this run measures (its configurations on its "
@@ -213,8 +286,9 @@ def main(argv: list[str] | None = None) -> int:
     if not members:
         print(f"no validation sequences under {args.data}", file=sys.stderr)
         return 1
-    embedder: list = []
+    embedders: dict[str, list] = {}  # one box per [appearance]: a box's embedder computes the features not cached
     pairs: dict[str, list[tuple[Path, Path, int, str]]] = {name: [] for name in configs}
+    noise_pairs: dict[str, list[tuple[Path, Path, int, str]]] = {}
     group_of: dict[str, str] = {}
     seconds: dict[str, float] = {}
     peer_pairs: dict[str, list[tuple[Path, Path, int, str]]] = {}
@@ -226,14 +300,21 @@ def main(argv: list[str] | None = None) -> int:
                 cfg = cfg.replace("appearance", model=args.model)
                 cfg = motion_only(cfg) if group == "labels" else cfg
                 if preparation[name] not in made:
-                    features = None if group == "labels" else cached_features(seq, cfg, args.cache / "features",
-                                                                               embedder)
-                    made[preparation[name]] = prepare_sequence(seq, cfg, features=features)
+                    made[preparation[name]] = prepare_sequence(
+                        seq, cfg, features=features_of(seq, cfg, group, args.cache / "features", embedders))
                 prepared = made[preparation[name]]
                 result = finish_sequence(prepared, cfg)
                 path = results_path(Path(tmp) / name, result.info.name)
                 write_results(path, result.tracks)
                 pairs[name].append((path, result.info.gt_path, result.info.length, result.info.name))
+            runs = noise_runs(seq, group, configs[reference], args.model, args.cache) if args.noise else {}
+            for run, (run_seq, cfg, cache) in runs.items():
+                result = finish_sequence(prepare_sequence(run_seq, cfg, features=features_of(run_seq, cfg, group,
+                                                                                             cache, embedders)), cfg)
+                path = results_path(Path(tmp) / f"noise-{run}", result.info.name)
+                write_results(path, result.tracks)
+                noise_pairs.setdefault(run, []).append((path, result.info.gt_path, result.info.length,
+                                                        result.info.name))
             group_of[prepared.info.name] = group
             if group == "labels":
                 for name, tracks in peer_runs(prepared, peers).items():
@@ -246,9 +327,13 @@ def main(argv: list[str] | None = None) -> int:
         by_group = {name: {g: evaluate_files([p for p in pairs[name] if group_of[p[3]] == g])
                            for g in sorted(set(group_of.values()))} for name in configs}
         by_peer = {name: evaluate_files(p) for name, p in peer_pairs.items()}
+        by_noise = {run: [evaluate_files([p for p in runs if group_of[p[3]] == g])
+                          for g in sorted({group_of[p[3]] for p in runs})] for run, runs in noise_pairs.items()}
     # per sequence: each group's own rows (a sequence's scores do not depend on what it is scored beside)
     per_seq = {name: {s: row for rep in by_group[name].values() for s, row in rep.sequences.items()}
                for name in configs}
+    noise = {run: {s: row for rep in reps for s, row in rep.sequences.items()} for run, reps in by_noise.items()}
+    floor = noise_floor(noise, per_seq[reference])
 
     names = list(group_of)
     head = f"{'sequence':<28}{'config':<16}" + "".join(f"{c:>8}" for c in COLUMNS)
@@ -260,14 +345,20 @@ def main(argv: list[str] | None = None) -> int:
     for g in sorted(set(group_of.values())):
         for name in configs:
             lines.append(f"{'combined ' + g:<28}{name:<16}" + cells(by_group[name][g].combined))
-    worst = worst_of(per_seq, reference, names)
+    worst = worst_of(per_seq, reference, names, floor)
+    if floor:
+        lines += ["", f"noise floor of {reference!r} (the largest change of {', '.join(noise)}), HOTA / MOTA / IDF1:"]
+        lines += [f"  {seq:<26}" + " / ".join(f"{floor[seq][m]:.2f}" for m in ("HOTA", "MOTA", "IDF1"))
+                  for seq in names if seq in floor]
     lines += ["", f"change against {reference!r}, per sequence: mean and worst (the selection rule: a new default "
-                  f"loses at most 0.5 HOTA and 0.5 MOTA on any sequence)"]
+                  f"loses at most {RULE} HOTA and {RULE} MOTA on any sequence)"]
     for name, metrics in worst.items():
         for metric, w in metrics.items():
+            beyond = (f", {len(w['below_noise_floor'])} beyond their noise floor" if "below_noise_floor" in w
+                      else "")
             lines.append(f"  {name:<16}{metric}: mean {w['mean']:+6.2f}, worst {w['worst']:+6.2f} "
                          f"({w['worst_sequence']}), {len(w['sequences_below_-0.5'])} of {len(names)} sequences "
-                         f"below -0.5")
+                         f"below -{RULE}{beyond}")
     if by_peer:
         lines += ["", "motion-only peers on the label-only sequences (combined), beside the reference:"]
         lines.append(f"{'combined labels':<28}{reference:<16}" + cells(by_group[reference]["labels"].combined))
@@ -283,7 +374,7 @@ def main(argv: list[str] | None = None) -> int:
             "groups": group_of, "seconds": seconds,
             "sequences": per_seq,
             "combined": {name: {g: rep.combined for g, rep in by_group[name].items()} for name in configs},
-            "worst": worst,
+            "worst": worst, "noise": noise, "noise_floor": floor,
             "peers": {name: {"sequences": rep.sequences, "combined": rep.combined} for name, rep in by_peer.items()},
         }
         if args.merge:

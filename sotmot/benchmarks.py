@@ -19,7 +19,7 @@ import numpy as np
 from sotmot.appearance import resolve_backend
 from sotmot.config import TrackerConfig
 from sotmot.errors import InputError
-from sotmot.io import atomic_path, read_detections, read_seqinfo, write_text_atomic
+from sotmot.io import SeqInfo, atomic_path, read_detections, read_seqinfo, write_text_atomic
 
 def machine() -> str:
     """One line: CPU model, logical CPUs, OS and Python version (benchmarks report what they ran on)."""
@@ -187,24 +187,56 @@ def subsampled_sequence(seq: Path, step: int, root: Path) -> Path:
     Folders under ``root`` are written by this function only; a complete one
     (its ``seqinfo.ini`` is written last) is reused.
     """
+    info = read_seqinfo(seq)
+    length = (info.length - 1) // step + 1
+    texts = {path: _every_nth_lines(path.read_text(encoding="utf-8-sig"), step)
+             for path in (info.det_path, info.gt_path)}
+    return _derived_sequence(info, root / subsampled_name(info.name, step), texts, step, length)
+
+
+def jittered_sequence(seq: Path, seed: int, root: Path, pixels: float = 0.5) -> Path:
+    """``seq`` with every detection box moved by a seeded offset of at most ``pixels`` in x and in y (its size
+    kept): a change that should change nothing, less than a ``det.txt``'s own rounding to whole pixels.
+
+    Made once under ``root / f"jitter{seed}"`` with the sequence's own name (its results are scored and
+    compared as the sequence's), ``gt/gt.txt`` and ``seqinfo.ini`` as they are, and ``img1/`` (where the
+    sequence has frames) holding links to the original frames; written last, ``seqinfo.ini`` marks a complete
+    folder, which is reused. Boxes are ``x, y, w, h`` in pixels.
+    """
+    info = read_seqinfo(seq)
+    lines = [line for line in info.det_path.read_text(encoding="utf-8-sig").splitlines() if line.strip()]
+    offsets = np.random.default_rng(seed).uniform(-pixels, pixels, size=(len(lines), 2))
+    moved = []
+    for line, (dx, dy) in zip(lines, offsets):
+        fields = line.split(",")
+        fields[2], fields[3] = f"{float(fields[2]) + dx:.3f}", f"{float(fields[3]) + dy:.3f}"
+        moved.append(",".join(fields))
+    texts = {info.det_path: "\n".join(moved) + "\n", info.gt_path: info.gt_path.read_text(encoding="utf-8-sig")}
+    return _derived_sequence(info, root / f"jitter{seed}" / info.name, texts, 1, info.length, name=info.name)
+
+
+def _derived_sequence(info: SeqInfo, out: Path, texts: dict[Path, str], step: int, length: int, name: str | None = None
+                      ) -> Path:
+    """A MOTChallenge folder ``out`` made from ``info``'s: frame ``n`` links to the original frame ``(n - 1) *
+    step + 1`` (where the original has frames), ``texts`` maps each original ``det``/``gt`` file to the text its
+    copy holds, and ``seqinfo.ini`` (named ``name``, else ``out``'s folder name; ``frameRate / step``) is
+    written last. A folder whose ``seqinfo.ini`` exists is complete and returned as it is."""
     import configparser
 
-    info = read_seqinfo(seq)
-    out = root / subsampled_name(info.name, step)
     if (out / "seqinfo.ini").is_file():
         return out
-    length = (info.length - 1) // step + 1
-    (out / "img1").mkdir(parents=True, exist_ok=True)
-    for new in range(1, length + 1):
-        link = out / "img1" / f"{new:06d}{info.im_ext}"
-        if not link.is_symlink():
-            link.symlink_to(info.frame_path((new - 1) * step + 1).resolve())
-    for sub, path in (("det", info.det_path), ("gt", info.gt_path)):
-        (out / sub).mkdir(exist_ok=True)
-        write_text_atomic(out / sub / path.name, _every_nth_lines(path.read_text(encoding="utf-8-sig"), step))
+    if info.frames_dir.is_dir():
+        (out / info.im_dir).mkdir(parents=True, exist_ok=True)
+        for new in range(1, length + 1):
+            link = out / info.im_dir / f"{new:06d}{info.im_ext}"
+            if not link.is_symlink():
+                link.symlink_to(info.frame_path((new - 1) * step + 1).resolve())
+    for path, text in texts.items():
+        (out / path.parent.name).mkdir(parents=True, exist_ok=True)
+        write_text_atomic(out / path.parent.name / path.name, text)
     parser = configparser.ConfigParser(interpolation=None)
     parser.optionxform = str
-    parser["Sequence"] = {"name": out.name, "imDir": "img1", "frameRate": f"{info.frame_rate / step:g}",
+    parser["Sequence"] = {"name": name or out.name, "imDir": info.im_dir, "frameRate": f"{info.frame_rate / step:g}",
                           "seqLength": str(length), "imWidth": str(info.width), "imHeight": str(info.height),
                           "imExt": info.im_ext}
     with atomic_path(out / "seqinfo.ini") as tmp:

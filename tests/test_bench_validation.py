@@ -44,3 +44,29 @@ def test_a_new_configuration_must_cover_every_sequence_and_the_reference_must_ag
     other = dict(report({"defaults": {"L": (45, 45)}}, {"L": "labels"}), reference="other")
     with pytest.raises(ValueError, match="reference"):
         script.merge_reports(old, other)
+
+
+def test_a_loss_counts_against_the_rule_only_beyond_the_sequence_noise_floor():
+    script = load_script("bench_validation")
+    reference = {"A": row(60, 70), "B": row(50, 50)}
+    noise = {"runtime": {"A": row(61.5, 70), "B": row(50.2, 50)}, "jitter1": {"A": row(59, 69), "B": row(50, 50)}}
+    floor = script.noise_floor(noise, reference)
+    assert floor["A"] == {"HOTA": 1.5, "MOTA": 1.0, "IDF1": 1.5} and floor["B"]["HOTA"] == pytest.approx(0.2)
+    per_seq = {"defaults": reference, "x": {"A": row(59, 70), "B": row(49.2, 50)}}  # -1.0 on A, -0.8 on B
+    worst = script.worst_of(per_seq, "defaults", ["A", "B"], floor)["x"]["HOTA"]
+    assert worst["sequences_below_-0.5"] == ["A", "B"]
+    assert worst["below_noise_floor"] == ["B"]  # A's loss is within what a neutral change did to it
+    assert "below_noise_floor" not in script.worst_of(per_seq, "defaults", ["A", "B"])["x"]["HOTA"]
+
+
+def test_a_merge_keeps_the_noise_runs_and_recomputes_the_floor():
+    script = load_script("bench_validation")
+    groups = {"A": "frames", "L": "labels"}
+    old = dict(report({"defaults": {"A": (60, 70), "L": (40, 40)}, "x": {"A": (59, 70), "L": (41, 41)}}, groups),
+               noise={"jitter1": {"A": row(61, 70), "L": row(40, 40)}})
+    new = dict(report({"defaults": {"L": (40, 40)}, "x": {"L": (38, 40)}}, {"L": "labels"}),
+               noise={"jitter1": {"L": row(37, 40)}})
+    merged = script.merge_reports(old, new)
+    assert merged["noise"]["jitter1"] == {"A": row(61, 70), "L": row(37, 40)}
+    assert merged["noise_floor"]["A"]["HOTA"] == 1 and merged["noise_floor"]["L"]["HOTA"] == 3
+    assert merged["worst"]["x"]["HOTA"]["below_noise_floor"] == []  # -1 on A (floor 1), -2 on L (floor 3)

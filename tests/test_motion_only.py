@@ -127,3 +127,27 @@ def test_subsampled_sequences_keep_every_nth_frame_and_say_their_rate(tmp_path):
     assert dets.frames.tolist() == [1, 2, 3] and dets.boxes[:, 0].tolist() == [1, 4, 7]
     assert info.frame_path(3).resolve() == (seq / "img1" / "000007.jpg").resolve()
     assert subsampled_sequence(seq, 3, tmp_path / "rates") == out  # made once
+
+
+def test_jittered_sequences_move_each_box_by_under_half_a_pixel_and_keep_the_rest(tmp_path):
+    from sotmot.benchmarks import jittered_sequence
+    from sotmot.io import read_detections, read_seqinfo
+
+    gt = [f"{f},1,{f},10,10,20,1,1,1" for f in range(1, 8)]
+    seq = write_sequence(tmp_path, [f"{f},-1,{10 * f},10.5,10,20,0.{f}" for f in range(1, 8)], length=7,
+                         frame_rate=30, name="SYN-SDP", gt_lines=gt)
+    out = jittered_sequence(seq, 1, tmp_path / "noise")
+    info, original = read_seqinfo(out), read_seqinfo(seq)
+    assert out == tmp_path / "noise" / "jitter1" / "SYN-SDP"
+    assert (info.name, info.frame_rate, info.length) == (original.name, original.frame_rate, original.length)
+    moved, before = read_detections(info.det_path, 7), read_detections(original.det_path, 7)
+    shift = moved.boxes[:, :2] - before.boxes[:, :2]
+    assert 0 < np.abs(shift).max() <= 0.5 and np.abs(shift).min() > 0
+    assert np.array_equal(moved.boxes[:, 2:], before.boxes[:, 2:]) and np.array_equal(moved.scores, before.scores)
+    assert np.array_equal(moved.frames, before.frames)
+    assert info.gt_path.read_text() == original.gt_path.read_text()
+    assert info.frame_path(7).resolve() == (seq / "img1" / "000007.jpg").resolve()
+    assert jittered_sequence(seq, 1, tmp_path / "noise") == out  # made once
+    again = read_detections(read_seqinfo(jittered_sequence(seq, 1, tmp_path / "again")).det_path, 7)
+    other = read_detections(read_seqinfo(jittered_sequence(seq, 2, tmp_path / "noise")).det_path, 7)
+    assert np.array_equal(again.boxes, moved.boxes) and not np.array_equal(other.boxes, moved.boxes)  # by seed
