@@ -158,7 +158,10 @@ def flip_section(*runs: tuple[str, dict | None, dict | None]) -> list[str]:
         return []
     lines = ["### The flip", "", "`bench_accuracy.py` with the defaults (each crop embedded with its mirror image, "
              "the two averaged: the paper's eq. 1) and with `[appearance] flip = false` (`--no-flip`, half the "
-             "re-ID work), everything else the default's, confirmation as packaged (fitted with the flip).", "",
+             "re-ID work), everything else the default's, confirmation as packaged (fitted with the flip). One run "
+             "each: a single sequence's difference may be chance (its noise floor, \"The validation set\" above); "
+             "the flip's systematic part, from several runs that differ only by chance, is in "
+             "[benchmarks.md](benchmarks.md) (\"Speed on two cores\").", "",
              "| sequence | detections | HOTA flip / no flip | IDF1 flip / no flip | MOTA flip / no flip | "
              "MOTA before confirmation |", "|---|---|---|---|---|---|"]
     for label, flip, noflip in runs:
@@ -520,22 +523,42 @@ def validation_section(data: dict | None) -> list[str]:
     for group in [g for g in what if g in set(groups.values())]:
         for name in names:
             lines.append(f"| {what[group]} | {name} | " + cells(data["combined"][name][group], shown) + " |")
+    floor = data.get("noise_floor") or {}
     lines += ["", f"Change against `{ref}` per sequence (the selection rule: a new default loses at most 0.5 HOTA "
-              "and 0.5 MOTA on any sequence):", "",
+              "and 0.5 MOTA on any sequence)" + (noise_words(data, ref) if floor else "") + ":", "",
               "| configuration | HOTA mean / worst (sequence) | MOTA mean / worst (sequence) | sequences below -0.5 "
-              "HOTA / MOTA |", "|---|---|---|---|"]
+              "HOTA / MOTA |" + (" beyond their noise floor HOTA / MOTA |" if floor else ""),
+              "|---|---|---|---|" + ("---|" if floor else "")]
     for name in names[1:]:
         w = data["worst"][name]
+        beyond = (f" {len(w['HOTA']['below_noise_floor'])} / {len(w['MOTA']['below_noise_floor'])} |"
+                  if floor else "")
         lines.append(f"| {name} | {w['HOTA']['mean']:+.2f} / {w['HOTA']['worst']:+.2f} ({w['HOTA']['worst_sequence']})"
                      f" | {w['MOTA']['mean']:+.2f} / {w['MOTA']['worst']:+.2f} ({w['MOTA']['worst_sequence']}) | "
                      f"{len(w['HOTA']['sequences_below_-0.5'])} / {len(w['MOTA']['sequences_below_-0.5'])} of "
-                     f"{len(groups)} |")
-    lines += ["", "Per sequence, HOTA / MOTA / FP:", "",
-              "| sequence | " + " | ".join(names) + " |", "|" + "---|" * (len(names) + 1)]
+                     f"{len(groups)} |" + beyond)
+    lines += ["", "Per sequence, HOTA / MOTA / FP" + (f"; the noise floor of `{ref}`, HOTA / MOTA" if floor else "")
+              + ":", "", "| sequence | " + " | ".join(names) + (" | noise floor" if floor else "") + " |",
+              "|" + "---|" * (len(names) + 1 + bool(floor))]
     for seq in groups:
+        noise = (f" | {floor[seq]['HOTA']:.2f} / {floor[seq]['MOTA']:.2f}" if seq in floor
+                 else " | –" if floor else "")
         lines.append(f"| {seq} | " + " | ".join(
-            "{HOTA:.1f} / {MOTA:.1f} / {FP:.0f}".format(**data["sequences"][n][seq]) for n in names) + " |")
+            "{HOTA:.1f} / {MOTA:.1f} / {FP:.0f}".format(**data["sequences"][n][seq]) for n in names) + noise + " |")
     return lines + validation_peers(data, ref, shown) + ["", f"Machine: {data['machine']}.", ""]
+
+
+def noise_words(data: dict, ref: str) -> str:
+    """What the noise floor is, for the validation section's sentence on the selection rule."""
+    runs = list(data.get("noise", {}))
+    seeds = sum(run.startswith("jitter") for run in runs)
+    made = (["re-ID in the other runtime (onnxruntime in float32 for OpenVINO in bf16, or back; the sequences with "
+             "frames)"] if "runtime" in runs else []) + \
+        ([f"every detection box moved by a seeded offset of under half a pixel ({seeds} seed{'s' * (seeds > 1)})"]
+         if seeds else [])
+    return (f". A sequence's noise floor is the largest change to `{ref}`'s HOTA, MOTA or IDF1 made by changes that "
+            f"should change nothing: {'; '.join(made)} (`--noise`). A loss within it cannot be told from chance by "
+            "one run")
 
 
 def validation_peers(data: dict, ref: str, shown: tuple[str, ...]) -> list[str]:

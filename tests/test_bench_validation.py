@@ -70,3 +70,19 @@ def test_a_merge_keeps_the_noise_runs_and_recomputes_the_floor():
     assert merged["noise"]["jitter1"] == {"A": row(61, 70), "L": row(37, 40)}
     assert merged["noise_floor"]["A"]["HOTA"] == 1 and merged["noise_floor"]["L"]["HOTA"] == 3
     assert merged["worst"]["x"]["HOTA"]["below_noise_floor"] == []  # -1 on A (floor 1), -2 on L (floor 3)
+
+
+def test_the_results_page_shows_each_sequence_noise_floor_and_the_losses_beyond_it():
+    script, page = load_script("bench_validation"), load_script("make_results_page")
+    groups = {"A": "frames", "L": "labels"}
+    data = dict(report({"defaults": {"A": (60, 70), "L": (40, 40)}, "x": {"A": (59, 70), "L": (38, 40)}}, groups),
+                noise={"runtime": {"A": row(61.5, 70)}, "jitter1": {"A": row(60, 70), "L": row(40, 40)}})
+    data = script.merge_reports(data, report({"defaults": {"L": (40, 40)}, "x": {"L": (38, 40)}}, {"L": "labels"}))
+    for rows in [*data["sequences"].values(), *data["combined"].values()]:
+        for r in rows.values():
+            r.update(FP=7, FN=0)
+    text = "\n".join(page.validation_section(data))
+    assert "| A | 60.0 / 70.0 / 7 | 59.0 / 70.0 / 7 | 1.50 / 0.00 |" in text
+    assert "| L | 40.0 / 40.0 / 7 | 38.0 / 40.0 / 7 | 0.00 / 0.00 |" in text
+    assert "| x | -1.50 / -2.00 (L) |" in text and "| 2 / 0 of 2 | 1 / 0 |" in text  # A's -1 is within its floor
+    assert "re-ID in the other runtime" in text and "(1 seed)" in text

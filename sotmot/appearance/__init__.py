@@ -52,7 +52,7 @@ def embedder_for(config: AppearanceConfig, embedder: Embedder | None = None) -> 
 
 def resolve_backend(config: AppearanceConfig) -> AppearanceConfig:
     """``config`` as a run uses it: ``backend = "auto"`` made concrete (``"openvino"`` where the OpenVINO runtime is
-    installed and the device is the CPU: the same tracking scores as onnxruntime, about twice as fast; else
+    installed and the device is the CPU: the same network as onnxruntime runs, about twice as fast; else
     ``"onnx"``), and ``threads`` no more than the machine's CPUs. ``config`` itself when nothing changes."""
     import importlib.util
 

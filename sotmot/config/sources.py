@@ -180,8 +180,10 @@ class AppearanceConfig:
         (needs the ``torch`` extra: ``torch==2.13.0`` and ``onnx``);
         ``"openvino"``: the same ONNX file (or an OpenVINO IR ``.xml``) run by
         the OpenVINO runtime on the CPU, about twice as fast as onnxruntime here
-        with the same tracking scores (within 0.1 HOTA and IDF1 on each
-        full-length sequence; needs the ``openvino`` extra); ``"none"``: no
+        (bf16 where the CPU has it: the features agree to a cosine of 0.999,
+        and the scores differ only as much as any change that should change
+        nothing does: combined within 0.4 on the full-length sequences, one
+        sequence by up to 0.8 HOTA; docs/benchmarks.md); ``"none"``: no
         re-ID at all, the **motion-only mode** (``sotmot.appearance.none``): no
         model and no frame read for appearance (a folder of detections and
         ground truth without ``img1/`` is tracked), tracklets matched by IoU,
