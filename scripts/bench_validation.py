@@ -31,6 +31,12 @@ beside it, and counted against the rule only where it is larger than both 0.5
 and the floor (one run of one configuration cannot tell a smaller loss from
 chance).
 
+With ``--seeds K`` every configuration also tracks K copies of each sequence whose
+boxes moved as ``--noise`` moves them (seeds 1 to K): its row of a sequence is the
+mean over the K + 1 runs, and a loss counts against the rule only where it is
+larger than 0.5 in every run, the copies paired with the reference's (a report of
+its own: not merged, no noise floor needed).
+
 With ``--peers`` (names of the ``trackers`` package's SORT, ByteTrack,
 OC-SORT), each also tracks the label-only sequences from the same cleaned
 detections, as it comes and given sotmot's memory (``+GSI 4s``: a lost track
@@ -154,10 +160,13 @@ def noise_floor(noise: dict[str, dict[str, dict]], reference: dict[str, dict]) -
 
 
 def worst_of(per_seq: dict[str, dict[str, dict]], reference: str, names: list[str],
-             floor: dict[str, dict[str, float]] | None = None) -> dict[str, dict]:
+             floor: dict[str, dict[str, float]] | None = None,
+             runs: dict[str, list[dict[str, dict]]] | None = None) -> dict[str, dict]:
     """Per configuration but the reference, per metric: the mean change against the reference over the
     sequences ``names``, the worst one and which sequences lose more than :data:`RULE` (the selection rule);
-    with a noise ``floor`` (:func:`noise_floor`), also which of them lose more than their floor too."""
+    with a noise ``floor`` (:func:`noise_floor`), also which of them lose more than their floor too; with
+    ``runs`` (configuration -> its rows of each ``--seeds`` run, paired in order), which lose more than
+    :data:`RULE` in every run."""
     worst: dict[str, dict] = {}
     for name in [n for n in per_seq if n != reference]:
         worst[name] = {}
@@ -170,7 +179,16 @@ def worst_of(per_seq: dict[str, dict[str, dict]], reference: str, names: list[st
             if floor:
                 worst[name][metric]["below_noise_floor"] = [s for s in below
                                                             if delta[s] < -floor.get(s, {}).get(metric, 0.0)]
+            if runs:
+                worst[name][metric]["below_in_every_run"] = [
+                    s for s in names if all(mine[s][metric] - ref[s][metric] < -RULE
+                                            for mine, ref in zip(runs[name], runs[reference]))]
     return worst
+
+
+def mean_rows(rows: list[dict[str, float]]) -> dict[str, float]:
+    """The mean of score rows (one per run), metric by metric."""
+    return {k: sum(r[k] for r in rows) / len(rows) for k in rows[0]}
 
 
 def merge_reports(old: dict, new: dict) -> dict:
@@ -242,12 +260,21 @@ def main(argv: list[str] | None = None) -> int:
                         help="also track the reference under changes that should change nothing (re-ID in the other "
                              "runtime; boxes moved by under half a pixel, two seeds): each sequence's noise floor, "
                              "beside which a candidate's losses are judged")
+    parser.add_argument("--seeds", type=int, default=0, metavar="K",
+                        help="also track K copies of every sequence whose boxes moved by under half a pixel (seeds "
+                             "1 to K): rows are means over the K + 1 runs, and a loss counts only where it shows in "
+                             "every run (default: %(default)s, one run)")
     parser.add_argument("--json", type=Path, help="write the report here")
     parser.add_argument("--merge", type=Path, metavar="OLD.json",
                         help="a previous report to update: the rows this run measures (its configurations on its "
                              "groups, its peers) replace the old ones, the rest are kept, and the worst sequences "
                              "are recomputed over all of them; written to --json, another file")
     args = parser.parse_args(argv)
+    if args.seeds < 0:
+        parser.error("--seeds takes a count, 0 or more")
+    if args.seeds and (args.merge or args.noise):
+        parser.error("--seeds makes a report of its own: not with --merge (its rows are means over runs) or --noise "
+                     "(the runs of every configuration already pair each with chance)")
     previous = None
     if args.merge:
         try:
@@ -295,18 +322,24 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for group, seq in members:
             start = time.perf_counter()
-            made: dict[str, object] = {}
-            for name, cfg in configs.items():
-                cfg = cfg.replace("appearance", model=args.model)
-                cfg = motion_only(cfg) if group == "labels" else cfg
-                if preparation[name] not in made:
-                    made[preparation[name]] = prepare_sequence(
-                        seq, cfg, features=features_of(seq, cfg, group, args.cache / "features", embedders))
-                prepared = made[preparation[name]]
-                result = finish_sequence(prepared, cfg)
-                path = results_path(Path(tmp) / name, result.info.name)
-                write_results(path, result.tracks)
-                pairs[name].append((path, result.info.gt_path, result.info.length, result.info.name))
+            copies = [(seq, args.cache / "features", "")] + [
+                (jittered_sequence(seq, k, args.cache, JITTER_PIXELS), args.cache / f"features-jitter{k}", f"@{k}")
+                for k in range(1, args.seeds + 1)]
+            for copy, cache, suffix in copies:
+                made: dict[str, object] = {}
+                for name, cfg in configs.items():
+                    cfg = cfg.replace("appearance", model=args.model)
+                    cfg = motion_only(cfg) if group == "labels" else cfg
+                    if preparation[name] not in made:
+                        made[preparation[name]] = prepare_sequence(
+                            copy, cfg, features=features_of(copy, cfg, group, cache, embedders))
+                    result = finish_sequence(made[preparation[name]], cfg)
+                    path = results_path(Path(tmp) / (name + suffix), result.info.name)
+                    write_results(path, result.tracks)
+                    pairs.setdefault(name + suffix, []).append((path, result.info.gt_path, result.info.length,
+                                                                result.info.name))
+                if not suffix:
+                    prepared = made[preparation[reference]]
             runs = noise_runs(seq, group, configs[reference], args.model, args.cache) if args.noise else {}
             for run, (run_seq, cfg, cache) in runs.items():
                 result = finish_sequence(prepare_sequence(run_seq, cfg, features=features_of(run_seq, cfg, group,
@@ -324,14 +357,20 @@ def main(argv: list[str] | None = None) -> int:
                                                             prepared.info.name))
             seconds[prepared.info.name] = time.perf_counter() - start
             print(f"{prepared.info.name}: {seconds[prepared.info.name]:.1f} s", file=sys.stderr)
-        by_group = {name: {g: evaluate_files([p for p in pairs[name] if group_of[p[3]] == g])
-                           for g in sorted(set(group_of.values()))} for name in configs}
+        by_group = {label: {g: evaluate_files([p for p in runs if group_of[p[3]] == g])
+                            for g in sorted(set(group_of.values()))} for label, runs in pairs.items()}
         by_peer = {name: evaluate_files(p) for name, p in peer_pairs.items()}
         by_noise = {run: [evaluate_files([p for p in runs if group_of[p[3]] == g])
                           for g in sorted({group_of[p[3]] for p in runs})] for run, runs in noise_pairs.items()}
     # per sequence: each group's own rows (a sequence's scores do not depend on what it is scored beside)
-    per_seq = {name: {s: row for rep in by_group[name].values() for s, row in rep.sequences.items()}
-               for name in configs}
+    each = {label: {s: row for rep in reps.values() for s, row in rep.sequences.items()}
+            for label, reps in by_group.items()}
+    labels = {name: [name] + [f"{name}@{k}" for k in range(1, args.seeds + 1)] for name in configs}
+    per_seq = {name: {s: mean_rows([each[label][s] for label in runs]) for s in each[name]}
+               for name, runs in labels.items()}
+    combined = {name: {g: mean_rows([by_group[label][g].combined for label in runs]) for g in by_group[name]}
+                for name, runs in labels.items()}
+    seed_runs = {name: [each[label] for label in runs] for name, runs in labels.items()} if args.seeds else None
     noise = {run: {s: row for rep in reps for s, row in rep.sequences.items()} for run, reps in by_noise.items()}
     floor = noise_floor(noise, per_seq[reference])
 
@@ -344,8 +383,8 @@ def main(argv: list[str] | None = None) -> int:
     lines.append("")
     for g in sorted(set(group_of.values())):
         for name in configs:
-            lines.append(f"{'combined ' + g:<28}{name:<16}" + cells(by_group[name][g].combined))
-    worst = worst_of(per_seq, reference, names, floor)
+            lines.append(f"{'combined ' + g:<28}{name:<16}" + cells(combined[name][g]))
+    worst = worst_of(per_seq, reference, names, floor, seed_runs)
     if floor:
         lines += ["", f"noise floor of {reference!r} (the largest change of {', '.join(noise)}), HOTA / MOTA / IDF1:"]
         lines += [f"  {seq:<26}" + " / ".join(f"{floor[seq][m]:.2f}" for m in ("HOTA", "MOTA", "IDF1"))
@@ -355,15 +394,18 @@ def main(argv: list[str] | None = None) -> int:
     for name, metrics in worst.items():
         for metric, w in metrics.items():
             beyond = (f", {len(w['below_noise_floor'])} beyond their noise floor" if "below_noise_floor" in w
-                      else "")
+                      else f", {len(w['below_in_every_run'])} in every run" if "below_in_every_run" in w else "")
             lines.append(f"  {name:<16}{metric}: mean {w['mean']:+6.2f}, worst {w['worst']:+6.2f} "
                          f"({w['worst_sequence']}), {len(w['sequences_below_-0.5'])} of {len(names)} sequences "
                          f"below -{RULE}{beyond}")
     if by_peer:
         lines += ["", "motion-only peers on the label-only sequences (combined), beside the reference:"]
-        lines.append(f"{'combined labels':<28}{reference:<16}" + cells(by_group[reference]["labels"].combined))
+        lines.append(f"{'combined labels':<28}{reference:<16}" + cells(combined[reference]["labels"]))
         lines += [f"{'combined labels':<28}{name:<16}" + cells(rep.combined) for name, rep in by_peer.items()]
     print("\n".join(lines))
+    if args.seeds:
+        print(f"rows: means over each sequence and its {args.seeds} copies with boxes moved by under "
+              f"{JITTER_PIXELS} px")
     print(f"frames: public detections, re-ID {Path(args.model).name}; labels: motion only (no frames)")
     print(f"machine: {machine()}")
     if args.json:
@@ -373,7 +415,7 @@ def main(argv: list[str] | None = None) -> int:
             "configs_described": {name: about for name, (_, about) in described.items()},
             "groups": group_of, "seconds": seconds,
             "sequences": per_seq,
-            "combined": {name: {g: rep.combined for g, rep in by_group[name].items()} for name in configs},
+            "combined": combined, "seeds": args.seeds, "runs": seed_runs or {},
             "worst": worst, "noise": noise, "noise_floor": floor,
             "peers": {name: {"sequences": rep.sequences, "combined": rep.combined} for name, rep in by_peer.items()},
         }

@@ -20,6 +20,7 @@ Files it reads, each optional (a missing one leaves its section out):
 * ``motion.json``: ``scripts/bench_motion.py`` (a moving camera, synthetic and real);
 * ``detector.json``: ``scripts/bench_detector.py`` (the built-in detector's recall on small people by input size);
 * ``validation.json``: ``scripts/bench_validation.py`` (candidate defaults on the validation set);
+* ``validation_seeds.json``: ``scripts/bench_validation.py --seeds`` (the same, means over jittered copies);
 * ``identities_public.json``: ``scripts/identity_analysis.py`` (fragmentations and switches by stage);
 * ``confidence_fit.json``: ``scripts/fit_confidence.py --json`` (the packaged calibration, held out);
 * ``transfer.json``: ``scripts/transfer_confidence.py`` (a detector family held out);
@@ -548,6 +549,33 @@ def validation_section(data: dict | None) -> list[str]:
     return lines + validation_peers(data, ref, shown) + ["", f"Machine: {data['machine']}.", ""]
 
 
+def seeds_section(data: dict | None) -> list[str]:
+    """``bench_validation.py --seeds``: candidates judged on means over jittered copies, a loss counted only where
+    it shows in every run."""
+    if data is None:
+        return []
+    names, k = list(data["configs"]), data["seeds"]
+    shown = ("HOTA", "MOTA", "IDF1", "FP", "FN")
+    lines = ["### The same, averaged over runs", "",
+             f"`scripts/bench_validation.py --seeds {k}`: each configuration tracks every sequence as given and as "
+             f"{k} copies whose boxes moved by a seeded offset of under half a pixel; the rows are means over the "
+             f"{k + 1} runs, and a loss counts against the rule only where it is larger than 0.5 in every run, each "
+             f"copy paired with the reference's (`{data['reference']}`). Configurations: "
+             + "; ".join(f"`{n}` {data['configs_described'].get(n, '')}".rstrip() for n in names) + ".", "",
+             "| group | configuration | " + " | ".join(shown) + " |", "|" + "---|" * (len(shown) + 2)]
+    for group in sorted(set(data["groups"].values())):
+        for name in names:
+            lines.append(f"| {group} | {name} | " + cells(data["combined"][name][group], shown) + " |")
+    lines += ["", "| configuration | HOTA mean / worst (sequence) | MOTA mean / worst (sequence) | below -0.5 in every "
+              "run HOTA / MOTA |", "|---|---|---|---|"]
+    for name in names[1:]:
+        w = data["worst"][name]
+        lines.append(f"| {name} | {w['HOTA']['mean']:+.2f} / {w['HOTA']['worst']:+.2f} ({w['HOTA']['worst_sequence']})"
+                     f" | {w['MOTA']['mean']:+.2f} / {w['MOTA']['worst']:+.2f} ({w['MOTA']['worst_sequence']}) | "
+                     + " / ".join(", ".join(w[m]["below_in_every_run"]) or "none" for m in ("HOTA", "MOTA")) + " |")
+    return lines + ["", f"Machine: {data['machine']}.", ""]
+
+
 def noise_words(data: dict, ref: str) -> str:
     """What the noise floor is, for the validation section's sentence on the selection rule."""
     runs = list(data.get("noise", {}))
@@ -642,6 +670,7 @@ def page() -> str:
     lines += accuracy_section("Public detections", load("accuracy_public.json"), load("peers_public.json"),
                               "Each sequence's own `det/det.txt` (MOTChallenge's public detections).")
     lines += validation_section(load("validation.json"))
+    lines += seeds_section(load("validation_seeds.json"))
     lines += identities_section(load("identities_public.json"))
     lines += accuracy_section("Private detections", load("accuracy_private.json"), load("peers_private.json"),
                               "The built-in person detector's boxes (`--detections model`, person-detection-0202). "

@@ -86,3 +86,23 @@ def test_the_results_page_shows_each_sequence_noise_floor_and_the_losses_beyond_
     assert "| L | 40.0 / 40.0 / 7 | 38.0 / 40.0 / 7 | 0.00 / 0.00 |" in text
     assert "| x | -1.50 / -2.00 (L) |" in text and "| 2 / 0 of 2 | 1 / 0 |" in text  # A's -1 is within its floor
     assert "re-ID in the other runtime" in text and "(1 seed)" in text
+
+
+def test_with_seeds_a_loss_counts_only_where_every_paired_run_shows_it():
+    script = load_script("bench_validation")
+    runs = {"defaults": [{"A": row(60, 70), "B": row(50, 50)}, {"A": row(59, 70), "B": row(50, 50)}],
+            "x": [{"A": row(58, 70), "B": row(49, 50)}, {"A": row(59.2, 70), "B": row(49, 50)}]}  # A: -2, +0.2
+    per_seq = {name: {s: script.mean_rows([r[s] for r in rows]) for s in ("A", "B")} for name, rows in runs.items()}
+    assert per_seq["x"]["A"] == pytest.approx(row(58.6, 70)) and per_seq["defaults"]["A"]["HOTA"] == 59.5
+    worst = script.worst_of(per_seq, "defaults", ["A", "B"], runs=runs)["x"]["HOTA"]
+    assert worst["sequences_below_-0.5"] == ["A", "B"]  # the means: -0.9 and -1
+    assert worst["below_in_every_run"] == ["B"]  # A gained in the second run
+
+
+def test_seeds_is_a_report_of_its_own(capsys):
+    script = load_script("bench_validation")
+    for extra, said in ((["--seeds", "2", "--merge", "old.json", "--json", "new.json"], "not with --merge"),
+                        (["--seeds", "2", "--noise"], "not with --merge"), (["--seeds", "-1"], "a count")):
+        with pytest.raises(SystemExit):
+            script.main(["--model", "r.onnx", *extra])
+        assert said in capsys.readouterr().err
