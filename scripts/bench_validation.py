@@ -340,8 +340,8 @@ def main(argv: list[str] | None = None) -> int:
                                                                 result.info.name))
                 if not suffix:
                     prepared = made[preparation[reference]]
-            runs = noise_runs(seq, group, configs[reference], args.model, args.cache) if args.noise else {}
-            for run, (run_seq, cfg, cache) in runs.items():
+            neutral = noise_runs(seq, group, configs[reference], args.model, args.cache) if args.noise else {}
+            for run, (run_seq, cfg, cache) in neutral.items():
                 result = finish_sequence(prepare_sequence(run_seq, cfg, features=features_of(run_seq, cfg, group,
                                                                                              cache, embedders)), cfg)
                 path = results_path(Path(tmp) / f"noise-{run}", result.info.name)

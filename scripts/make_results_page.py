@@ -161,8 +161,8 @@ def flip_section(*runs: tuple[str, dict | None, dict | None]) -> list[str]:
              "the two averaged: the paper's eq. 1) and with `[appearance] flip = false` (`--no-flip`, half the "
              "re-ID work), everything else the default's, confirmation as packaged (fitted with the flip). One run "
              "each: a single sequence's difference may be chance (its noise floor, \"The validation set\" above); "
-             "the flip's systematic part, from several runs that differ only by chance, is in "
-             "[benchmarks.md](benchmarks.md) (\"Speed on two cores\").", "",
+             "over paired runs on copies with moved boxes the two tie (\"The same, averaged over runs\" above; "
+             "[benchmarks.md](benchmarks.md), \"Speed on two cores\").", "",
              "| sequence | detections | HOTA flip / no flip | IDF1 flip / no flip | MOTA flip / no flip | "
              "MOTA before confirmation |", "|---|---|---|---|---|---|"]
     for label, flip, noflip in runs:
@@ -504,6 +504,12 @@ def confidence_section(fitted: dict | None, transfer: dict | None) -> list[str]:
     return lines
 
 
+#: The validation set's groups (``bench_validation.py``), in the order the page shows them.
+VALIDATION_GROUPS = {"frames": "full-length sequences with frames (public detections, re-ID)",
+                     "rates": "the same at every 2nd and 3rd frame (8-15 fps)",
+                     "labels": "label-only sequences, motion only (no frames, no re-ID, no camera motion)"}
+
+
 def validation_section(data: dict | None) -> list[str]:
     """The validation set (``scripts/bench_validation.py``): each candidate default against the reference, per
     group combined and by its worst sequence."""
@@ -512,9 +518,7 @@ def validation_section(data: dict | None) -> list[str]:
     ref, groups = data["reference"], data["groups"]
     names = list(data["configs"])
     shown = ("HOTA", "MOTA", "IDF1", "FP", "FN")
-    what = {"frames": "full-length sequences with frames (public detections, re-ID)",
-            "rates": "the same at every 2nd and 3rd frame (8-15 fps)",
-            "labels": "label-only sequences, motion only (no frames, no re-ID, no camera motion)"}
+    what = VALIDATION_GROUPS
     lines = ["## The validation set: defaults judged by their worst sequence", "",
              f"`scripts/bench_validation.py` (issue #39): {len(groups)} sequences, each configuration tracking "
              "every one from the same preparation; the reference is `" + ref + "` (today's defaults). "
@@ -563,9 +567,10 @@ def seeds_section(data: dict | None) -> list[str]:
              f"copy paired with the reference's (`{data['reference']}`). Configurations: "
              + "; ".join(f"`{n}` {data['configs_described'].get(n, '')}".rstrip() for n in names) + ".", "",
              "| group | configuration | " + " | ".join(shown) + " |", "|" + "---|" * (len(shown) + 2)]
-    for group in sorted(set(data["groups"].values())):
+    for group in [g for g in VALIDATION_GROUPS if g in set(data["groups"].values())]:
         for name in names:
-            lines.append(f"| {group} | {name} | " + cells(data["combined"][name][group], shown) + " |")
+            lines.append(f"| {VALIDATION_GROUPS[group]} | {name} | " + cells(data["combined"][name][group], shown)
+                         + " |")
     lines += ["", "| configuration | HOTA mean / worst (sequence) | MOTA mean / worst (sequence) | below -0.5 in every "
               "run HOTA / MOTA |", "|---|---|---|---|"]
     for name in names[1:]:
