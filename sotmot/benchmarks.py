@@ -56,7 +56,10 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
     The cache key holds the sequence, the model file's name and size, the
     detection cleaning configuration, the flip setting, the backend and any
     fine-tuned weights. ``embedder_box`` is a list that receives the embedder
-    when one is first needed, so several calls share it.
+    when one is first needed, so several calls share it: one box per
+    ``[appearance]`` setting, since its embedder computes whatever is not
+    cached (a box whose embedder flips otherwise than ``config`` is refused
+    with ``ValueError``).
     """
     from sotmot.detection import detection_source
     from sotmot.passes import embed_detections
@@ -81,6 +84,9 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
         from sotmot.appearance import make_embedder
 
         embedder_box.append(make_embedder(config.appearance))  # built once, for the first sequence not cached
+    if getattr(embedder_box[0], "flip", config.appearance.flip) != config.appearance.flip:
+        raise ValueError(f"{seq}: the embedder in the box embeds with flip = {embedder_box[0].flip}, the "
+                         f"configuration asks for {config.appearance.flip}: one box per [appearance] setting")
     dets = preprocess(read_detections(detection_source(config.detection, info)[1] or info.det_path, info.length),
                       config.preprocess)
     features = embed_detections(info, dets, embedder_box[0], progress=sys.stderr.isatty())

@@ -151,3 +151,15 @@ def test_jittered_sequences_move_each_box_by_under_half_a_pixel_and_keep_the_res
     again = read_detections(read_seqinfo(jittered_sequence(seq, 1, tmp_path / "again")).det_path, 7)
     other = read_detections(read_seqinfo(jittered_sequence(seq, 2, tmp_path / "noise")).det_path, 7)
     assert np.array_equal(again.boxes, moved.boxes) and not np.array_equal(other.boxes, moved.boxes)  # by seed
+
+
+def test_cached_features_refuse_an_embedder_that_flips_otherwise_than_asked(tmp_path):
+    from types import SimpleNamespace
+
+    from sotmot.benchmarks import cached_features
+
+    seq = write_sequence(tmp_path, [f"{f},-1,{f},10,10,20,1" for f in range(1, 4)], length=3)
+    config = TrackerConfig().replace("appearance", model=str(tmp_path / "reid.onnx"))
+    with pytest.raises(ValueError, match="one box per"):
+        cached_features(seq, config, tmp_path / "cache", [SimpleNamespace(flip=False)])
+    assert not (tmp_path / "cache").exists()  # nothing embedded, nothing stored
