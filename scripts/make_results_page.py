@@ -162,7 +162,7 @@ def flip_section(*runs: tuple[str, dict | None, dict | None]) -> list[str]:
              "re-ID work), everything else the default's, confirmation as packaged (fitted with the flip). One run "
              "each: a single sequence's difference may be chance (its noise floor, \"The validation set\" above); "
              "over paired runs on copies with moved boxes the two tie with public detections (\"The same, averaged "
-             "over runs\" above) and the flip keeps 0.4 HOTA on MOT16-09 with the detector's "
+             "over runs\" above) and the flip keeps a small edge on MOT16-09 with the detector's "
              "([benchmarks.md](benchmarks.md), \"Speed on two cores\").", "",
              "| sequence | detections | HOTA flip / no flip | IDF1 flip / no flip | MOTA flip / no flip | "
              "MOTA before confirmation |", "|---|---|---|---|---|---|"]
