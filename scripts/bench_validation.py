@@ -110,6 +110,29 @@ def motion_only(config: TrackerConfig) -> TrackerConfig:
             .replace("ends", seconds=0.0))
 
 
+def for_group(config: TrackerConfig, group: str, model: str) -> TrackerConfig:
+    """``config`` as a sequence of ``group`` is tracked with it: the re-ID ``model`` given, and the motion-only
+    mode (:func:`motion_only`) for the label-only group."""
+    config = config.replace("appearance", model=model)
+    return motion_only(config) if group == "labels" else config
+
+
+def jittered_copy(seq: Path, seed: int, cache: Path) -> tuple[Path, Path]:
+    """The copy of ``seq`` with its boxes moved by under :data:`JITTER_PIXELS` (seed ``seed``; made once under
+    ``cache``) and the feature cache of its own that copy needs (it keeps the sequence's name, which the
+    features' cache key holds): ``--noise`` and ``--seeds`` share both."""
+    return jittered_sequence(seq, seed, cache, JITTER_PIXELS), cache / f"features-jitter{seed}"
+
+
+def keep_result(runs: dict[str, list[tuple[Path, Path, int, str]]], label: str, tracks: Tracks, info, root: Path
+                ) -> None:
+    """Write ``tracks`` of the sequence ``info`` under ``root / label`` and add the file to ``runs[label]``, the
+    ``(results, ground truth, length, name)`` rows :func:`~sotmot.scoring.evaluate_files` scores."""
+    path = results_path(root / label, info.name)
+    write_results(path, tracks)
+    runs.setdefault(label, []).append((path, info.gt_path, info.length, info.name))
+
+
 def features_of(seq: Path, config: TrackerConfig, group: str, cache: Path, embedders: dict[str, list]
                 ) -> np.ndarray | None:
     """Re-ID features of ``seq``'s detections, kept under ``cache`` (none for the label-only group).
@@ -126,15 +149,14 @@ def noise_runs(seq: Path, group: str, reference: TrackerConfig, model: str, cach
     """The ``--noise`` runs of one validation sequence (:data:`NOISE`): name -> (the folder tracked, its
     configuration, its feature cache). ``runtime`` only where re-ID runs; the jittered folders are made once
     under ``cache`` and keep the sequence's name, their features in a cache of their own."""
-    config = reference.replace("appearance", model=model)
-    config = motion_only(config) if group == "labels" else config
+    config = for_group(reference, group, model)
     runs = {}
     other = OTHER_RUNTIME.get(resolve_backend(config.appearance).backend)
     if group != "labels" and other:
         runs["runtime"] = (seq, config.replace("appearance", backend=other), cache / "features")
     for run in (r for r in NOISE if r.startswith("jitter")):
-        runs[run] = (jittered_sequence(seq, int(run.removeprefix("jitter")), cache, JITTER_PIXELS), config,
-                     cache / f"features-{run}")
+        copy, features = jittered_copy(seq, int(run.removeprefix("jitter")), cache)
+        runs[run] = (copy, config, features)
     return runs
 
 
@@ -323,38 +345,27 @@ def main(argv: list[str] | None = None) -> int:
         for group, seq in members:
             start = time.perf_counter()
             copies = [(seq, args.cache / "features", "")] + [
-                (jittered_sequence(seq, k, args.cache, JITTER_PIXELS), args.cache / f"features-jitter{k}", f"@{k}")
-                for k in range(1, args.seeds + 1)]
+                (*jittered_copy(seq, k, args.cache), f"@{k}") for k in range(1, args.seeds + 1)]
             for copy, cache, suffix in copies:
                 made: dict[str, object] = {}
                 for name, cfg in configs.items():
-                    cfg = cfg.replace("appearance", model=args.model)
-                    cfg = motion_only(cfg) if group == "labels" else cfg
+                    cfg = for_group(cfg, group, args.model)
                     if preparation[name] not in made:
                         made[preparation[name]] = prepare_sequence(
                             copy, cfg, features=features_of(copy, cfg, group, cache, embedders))
                     result = finish_sequence(made[preparation[name]], cfg)
-                    path = results_path(Path(tmp) / (name + suffix), result.info.name)
-                    write_results(path, result.tracks)
-                    pairs.setdefault(name + suffix, []).append((path, result.info.gt_path, result.info.length,
-                                                                result.info.name))
+                    keep_result(pairs, name + suffix, result.tracks, result.info, Path(tmp))
                 if not suffix:
                     prepared = made[preparation[reference]]
             neutral = noise_runs(seq, group, configs[reference], args.model, args.cache) if args.noise else {}
             for run, (run_seq, cfg, cache) in neutral.items():
                 result = finish_sequence(prepare_sequence(run_seq, cfg, features=features_of(run_seq, cfg, group,
                                                                                              cache, embedders)), cfg)
-                path = results_path(Path(tmp) / f"noise-{run}", result.info.name)
-                write_results(path, result.tracks)
-                noise_pairs.setdefault(run, []).append((path, result.info.gt_path, result.info.length,
-                                                        result.info.name))
+                keep_result(noise_pairs, run, result.tracks, result.info, Path(tmp) / "noise")
             group_of[prepared.info.name] = group
             if group == "labels":
                 for name, tracks in peer_runs(prepared, peers).items():
-                    path = results_path(Path(tmp) / name, prepared.info.name)
-                    write_results(path, tracks)
-                    peer_pairs.setdefault(name, []).append((path, prepared.info.gt_path, prepared.info.length,
-                                                            prepared.info.name))
+                    keep_result(peer_pairs, name, tracks, prepared.info, Path(tmp))
             seconds[prepared.info.name] = time.perf_counter() - start
             print(f"{prepared.info.name}: {seconds[prepared.info.name]:.1f} s", file=sys.stderr)
         by_group = {label: {g: evaluate_files([p for p in runs if group_of[p[3]] == g])

@@ -511,6 +511,11 @@ VALIDATION_GROUPS = {"frames": "full-length sequences with frames (public detect
                      "labels": "label-only sequences, motion only (no frames, no re-ID, no camera motion)"}
 
 
+def mean_worst(change: dict) -> str:
+    """A candidate's change on one metric (``bench_validation.worst_of``): ``mean / worst (sequence)``."""
+    return f"{change['mean']:+.2f} / {change['worst']:+.2f} ({change['worst_sequence']})"
+
+
 def validation_section(data: dict | None) -> list[str]:
     """The validation set (``scripts/bench_validation.py``): each candidate default against the reference, per
     group combined and by its worst sequence."""
@@ -519,16 +524,16 @@ def validation_section(data: dict | None) -> list[str]:
     ref, groups = data["reference"], data["groups"]
     names = list(data["configs"])
     shown = ("HOTA", "MOTA", "IDF1", "FP", "FN")
-    what = VALIDATION_GROUPS
     lines = ["## The validation set: defaults judged by their worst sequence", "",
              f"`scripts/bench_validation.py` (issue #39): {len(groups)} sequences, each configuration tracking "
              "every one from the same preparation; the reference is `" + ref + "` (today's defaults). "
              "Configurations: " + "; ".join(f"`{n}` {data['configs_described'].get(n, '')}".rstrip()
                                              for n in names) + ".", "",
              "| group | configuration | " + " | ".join(shown) + " |", "|" + "---|" * (len(shown) + 2)]
-    for group in [g for g in what if g in set(groups.values())]:
+    for group in [g for g in VALIDATION_GROUPS if g in set(groups.values())]:
         for name in names:
-            lines.append(f"| {what[group]} | {name} | " + cells(data["combined"][name][group], shown) + " |")
+            lines.append(f"| {VALIDATION_GROUPS[group]} | {name} | " + cells(data["combined"][name][group], shown)
+                         + " |")
     floor = data.get("noise_floor") or {}
     lines += ["", f"Change against `{ref}` per sequence (the selection rule: a new default loses at most 0.5 HOTA "
               "and 0.5 MOTA on any sequence)" + (noise_words(data, ref) if floor else "") + ":", "",
@@ -539,8 +544,7 @@ def validation_section(data: dict | None) -> list[str]:
         w = data["worst"][name]
         beyond = (f" {len(w['HOTA']['below_noise_floor'])} / {len(w['MOTA']['below_noise_floor'])} |"
                   if floor else "")
-        lines.append(f"| {name} | {w['HOTA']['mean']:+.2f} / {w['HOTA']['worst']:+.2f} ({w['HOTA']['worst_sequence']})"
-                     f" | {w['MOTA']['mean']:+.2f} / {w['MOTA']['worst']:+.2f} ({w['MOTA']['worst_sequence']}) | "
+        lines.append(f"| {name} | {mean_worst(w['HOTA'])} | {mean_worst(w['MOTA'])} | "
                      f"{len(w['HOTA']['sequences_below_-0.5'])} / {len(w['MOTA']['sequences_below_-0.5'])} of "
                      f"{len(groups)} |" + beyond)
     lines += ["", "Per sequence, HOTA / MOTA / FP" + (f"; the noise floor of `{ref}`, HOTA / MOTA" if floor else "")
@@ -576,8 +580,7 @@ def seeds_section(data: dict | None) -> list[str]:
               "run HOTA / MOTA |", "|---|---|---|---|"]
     for name in names[1:]:
         w = data["worst"][name]
-        lines.append(f"| {name} | {w['HOTA']['mean']:+.2f} / {w['HOTA']['worst']:+.2f} ({w['HOTA']['worst_sequence']})"
-                     f" | {w['MOTA']['mean']:+.2f} / {w['MOTA']['worst']:+.2f} ({w['MOTA']['worst_sequence']}) | "
+        lines.append(f"| {name} | {mean_worst(w['HOTA'])} | {mean_worst(w['MOTA'])} | "
                      + " / ".join(", ".join(w[m]["below_in_every_run"]) or "none" for m in ("HOTA", "MOTA")) + " |")
     return lines + ["", f"Machine: {data['machine']}.", ""]
 
