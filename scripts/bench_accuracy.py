@@ -43,7 +43,7 @@ from pathlib import Path
 
 from sotmot.appearance import make_embedder
 from common import DEFAULT_DATA
-from sotmot.benchmarks import before_confirmation, machine, private_config, sequences
+from sotmot.benchmarks import FULL_LENGTH, before_confirmation, machine, private_config, sequences
 from sotmot.fitting.confidence import box_labels
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import METRICS, EvalReport, evaluate_files
@@ -52,7 +52,6 @@ from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.postprocess import to_tracks
 
 COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
-FULL_LENGTH = 100  # frames; shorter sequences are the 30-frame clips
 BEST_PEER_MOTA = {  # issue #11, same detections and embeddings; not re-measured here
     "PETS09-S2L1": ("BoostTrack++ with GSI", 74.3),
     "MOT16-09": ("HybridSORT with GSI", 50.6),

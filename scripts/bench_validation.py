@@ -15,7 +15,7 @@ The set, built from what ``../shared/data`` holds:
 Each configuration (``--config NAME=FILE``, TOML or JSON; the first is the
 reference, by default today's defaults) tracks every sequence; configurations
 that agree on the sections a preparation reads (detections, features,
-tracklets: :data:`PREPARATION`) share one preparation. Printed: HOTA / MOTA
+tracklets: :func:`~sotmot.benchmarks.preparation_key`) share one preparation. Printed: HOTA / MOTA
 / IDF1 / FP / FN per sequence and configuration, the change against the
 reference, the **worst sequence** of each change (the selection rule: a new
 default loses at most 0.5 HOTA and 0.5 MOTA on any sequence), and combined rows
@@ -59,24 +59,18 @@ from pathlib import Path
 
 import numpy as np
 
-from common import DEFAULT_DATA
+from common import DEFAULT_DATA, named_config
 from sotmot.appearance import resolve_backend
-from sotmot.benchmarks import cached_features, jittered_sequence, machine, sequences, subsampled_sequence
-from sotmot.config import TrackerConfig, load_config
+from sotmot.benchmarks import (for_group, group_features, jittered_sequence, machine, preparation_key,
+                               validation_set)
+from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
-from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
+from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.peers import TRACKERS_PACKAGE, TRACKERS_ROWS, SeqInput, peer_scores, run_peer
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracks
 
 COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "FP", "FN")
-#: The sections a preparation reads: configurations that agree on them share one preparation of a sequence.
-PREPARATION = ("input", "detection", "preprocess", "appearance", "sot", "tracklets", "motion")
-#: Full-length sequences (frames) are at least this long; shorter ones are the 30-frame clips, left out.
-FULL_LENGTH = 100
-#: Frame-rate variants are made of sequences at this frame rate or above.
-VARIANT_MIN_FPS = 20.0
-LABELS = ("MOT16-labels/*", "MOT17-labels/*")
 #: The changes ``--noise`` makes to the reference: ``runtime`` (re-ID in the other runtime; sequences with
 #: frames) and ``jitter<seed>`` (every detection box moved by under :data:`JITTER_PIXELS` in x and y).
 NOISE = ("runtime", "jitter1", "jitter2")
@@ -86,35 +80,6 @@ JITTER_PIXELS = 0.5
 OTHER_RUNTIME = {"openvino": "onnx", "onnx": "openvino"}
 #: The selection rule: a new default loses at most this much HOTA and MOTA on any sequence.
 RULE = 0.5
-
-
-def validation_set(data: Path, cache: Path, groups: set[str]) -> list[tuple[str, Path]]:
-    """``(group, folder)`` of every validation sequence under ``data``: groups ``frames``, ``rates``, ``labels``."""
-    members: list[tuple[str, Path]] = []
-    full = [p for p in sequences(data) if read_seqinfo(p).length >= FULL_LENGTH]
-    if "frames" in groups:
-        members += [("frames", p) for p in full]
-    if "rates" in groups:
-        members += [("rates", subsampled_sequence(p, step, cache / "rates")) for p in full
-                    if read_seqinfo(p).frame_rate >= VARIANT_MIN_FPS for step in (2, 3)]
-    if "labels" in groups:
-        members += [("labels", p) for pattern in LABELS for p in sorted(data.glob(pattern))
-                    if (p / "seqinfo.ini").is_file()]
-    return members
-
-
-def motion_only(config: TrackerConfig) -> TrackerConfig:
-    """``config`` for a sequence without frames: no re-ID, no camera motion, nothing that reads pixels."""
-    return (config.replace("appearance", backend="none", model=None)
-            .replace("motion", compensation="off").replace("sot", variant="none")
-            .replace("ends", seconds=0.0))
-
-
-def for_group(config: TrackerConfig, group: str, model: str) -> TrackerConfig:
-    """``config`` as a sequence of ``group`` is tracked with it: the re-ID ``model`` given, and the motion-only
-    mode (:func:`motion_only`) for the label-only group."""
-    config = config.replace("appearance", model=model)
-    return motion_only(config) if group == "labels" else config
 
 
 def jittered_copy(seq: Path, seed: int, cache: Path) -> tuple[Path, Path]:
@@ -131,17 +96,6 @@ def keep_result(runs: dict[str, list[tuple[Path, Path, int, str]]], label: str, 
     path = results_path(root / label, info.name)
     write_results(path, tracks)
     runs.setdefault(label, []).append((path, info.gt_path, info.length, info.name))
-
-
-def features_of(seq: Path, config: TrackerConfig, group: str, cache: Path, embedders: dict[str, list]
-                ) -> np.ndarray | None:
-    """Re-ID features of ``seq``'s detections, kept under ``cache`` (none for the label-only group).
-    ``embedders`` holds one embedder box (:func:`~sotmot.benchmarks.cached_features`) per ``[appearance]``
-    setting, so that a configuration's missing features come from its own runtime and flip."""
-    if group == "labels":
-        return None
-    box = embedders.setdefault(json.dumps(config.to_dict()["appearance"], sort_keys=True, default=str), [])
-    return cached_features(seq, config, cache, box)
 
 
 def noise_runs(seq: Path, group: str, reference: TrackerConfig, model: str, cache: Path
@@ -249,17 +203,6 @@ def merge_reports(old: dict, new: dict) -> dict:
     return merged
 
 
-def named_config(spec: str) -> tuple[str, tuple[TrackerConfig, str]]:
-    """``NAME=FILE`` -> ``(NAME, (configuration, what it is))``: the file's first line if it is a comment."""
-    name, _, path = spec.partition("=")
-    if not name:
-        raise argparse.ArgumentTypeError(f"--config takes NAME=FILE (FILE empty: the defaults), got {spec!r}")
-    if not path:
-        return name, (TrackerConfig(), "today's defaults")
-    first = Path(path).read_text(encoding="utf-8").partition("\n")[0]
-    return name, (load_config(path), first.lstrip("# ").strip() if first.startswith("#") else path)
-
-
 def cells(values: dict[str, float]) -> str:
     return "".join(f"{values[c]:8.1f}" if c in ("HOTA", "MOTA", "IDF1") else f"{values[c]:8.0f}" for c in COLUMNS)
 
@@ -329,8 +272,7 @@ def main(argv: list[str] | None = None) -> int:
         if fresh and not set(previous["groups"].values()) <= set(args.groups.split(",")):
             parser.error(f"--merge: {', '.join(fresh)} not in the old report: run them on every group it has")
     # configurations that agree on every section a preparation reads share one preparation of each sequence
-    preparation = {name: json.dumps({s: cfg.to_dict()[s] for s in PREPARATION}, sort_keys=True, default=str)
-                   for name, cfg in configs.items()}
+    preparation = {name: preparation_key(cfg) for name, cfg in configs.items()}
     members = validation_set(args.data, args.cache, set(args.groups.split(",")))
     if not members:
         print(f"no validation sequences under {args.data}", file=sys.stderr)
@@ -352,14 +294,14 @@ def main(argv: list[str] | None = None) -> int:
                     cfg = for_group(cfg, group, args.model)
                     if preparation[name] not in made:
                         made[preparation[name]] = prepare_sequence(
-                            copy, cfg, features=features_of(copy, cfg, group, cache, embedders))
+                            copy, cfg, features=group_features(copy, cfg, group, cache, embedders))
                     result = finish_sequence(made[preparation[name]], cfg)
                     keep_result(pairs, name + suffix, result.tracks, result.info, Path(tmp))
                 if not suffix:
                     prepared = made[preparation[reference]]
             neutral = noise_runs(seq, group, configs[reference], args.model, args.cache) if args.noise else {}
             for run, (run_seq, cfg, cache) in neutral.items():
-                result = finish_sequence(prepare_sequence(run_seq, cfg, features=features_of(run_seq, cfg, group,
+                result = finish_sequence(prepare_sequence(run_seq, cfg, features=group_features(run_seq, cfg, group,
                                                                                              cache, embedders)), cfg)
                 keep_result(noise_pairs, run, result.tracks, result.info, Path(tmp) / "noise")
             group_of[prepared.info.name] = group

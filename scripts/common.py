@@ -91,3 +91,14 @@ def run_timed(command: list[str], env: dict[str, str] | None = None) -> dict[str
             raise SystemExit(f"{' '.join(command)} failed with exit status {done.returncode}:\n{done.stderr[-3000:]}")
         user, system, peak_kb = usage.read_text().split()[-3:]
     return {"seconds": seconds, "cpu_seconds": float(user) + float(system), "peak_rss_mb": int(peak_kb) / 1024}
+
+
+def named_config(spec: str) -> tuple[str, tuple[TrackerConfig, str]]:
+    """``NAME=FILE`` -> ``(NAME, (configuration, what it is))``: the file's first line if it is a comment."""
+    name, _, path = spec.partition("=")
+    if not name:
+        raise argparse.ArgumentTypeError(f"--config takes NAME=FILE (FILE empty: the defaults), got {spec!r}")
+    if not path:
+        return name, (TrackerConfig(), "today's defaults")
+    first = Path(path).read_text(encoding="utf-8").partition("\n")[0]
+    return name, (load_config(path), first.lstrip("# ").strip() if first.startswith("#") else path)

@@ -21,6 +21,16 @@ from sotmot.config import TrackerConfig
 from sotmot.errors import InputError
 from sotmot.io import SeqInfo, atomic_path, read_detections, read_seqinfo, write_text_atomic
 
+#: Full-length sequences are longer than this many frames; shorter ones are the 30-frame clips (quick tests only).
+FULL_LENGTH = 100
+#: Frame-rate variants of the validation set are made of the full-length sequences at this frame rate or above.
+VARIANT_MIN_FPS = 20.0
+#: The validation set's label-only sequences (detections and ground truth, no frames), as patterns under the data.
+LABEL_SETS = ("MOT16-labels/*", "MOT17-labels/*")
+#: The validation set's groups (:func:`validation_set`).
+GROUPS = ("frames", "rates", "labels")
+
+
 def machine() -> str:
     """One line: CPU model, logical CPUs, OS and Python version (benchmarks report what they ran on)."""
     cpu = platform.processor() or platform.machine()
@@ -95,6 +105,60 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
         with open(tmp, "wb") as fh:
             np.save(fh, features)
     return features
+
+
+def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]" = GROUPS
+                   ) -> list[tuple[str, Path]]:
+    """``(group, folder)`` of every validation sequence under ``data`` (issue #39): ``frames``, the full-length
+    sequences with frames; ``rates``, each of them at :data:`VARIANT_MIN_FPS` or above at every 2nd and 3rd
+    frame (:func:`subsampled_sequence`, made once under ``cache / "rates"``); ``labels``, the label-only
+    sequences (:data:`LABEL_SETS`), tracked without frames (:func:`for_group`)."""
+    members: list[tuple[str, Path]] = []
+    full = [p for p in sequences(data) if read_seqinfo(p).length > FULL_LENGTH]
+    if "frames" in groups:
+        members += [("frames", p) for p in full]
+    if "rates" in groups:
+        members += [("rates", subsampled_sequence(p, step, cache / "rates")) for p in full
+                    if read_seqinfo(p).frame_rate >= VARIANT_MIN_FPS for step in (2, 3)]
+    if "labels" in groups:
+        members += [("labels", p) for pattern in LABEL_SETS for p in sorted(data.glob(pattern))
+                    if (p / "seqinfo.ini").is_file()]
+    return members
+
+
+def motion_only(config: TrackerConfig) -> TrackerConfig:
+    """``config`` for a sequence without frames: no re-ID, no camera motion, nothing that reads pixels."""
+    return (config.replace("appearance", backend="none", model=None)
+            .replace("motion", compensation="off").replace("sot", variant="none")
+            .replace("ends", seconds=0.0))
+
+
+def for_group(config: TrackerConfig, group: str, model: str) -> TrackerConfig:
+    """``config`` as a validation sequence of ``group`` is tracked with it: the re-ID ``model`` given, and the
+    motion-only mode (:func:`motion_only`) for the label-only group."""
+    config = config.replace("appearance", model=model)
+    return motion_only(config) if group == "labels" else config
+
+
+#: The configuration sections a preparation (:func:`sotmot.pipeline.prepare_sequence`) reads.
+PREPARATION = ("input", "detection", "preprocess", "appearance", "sot", "tracklets", "motion")
+
+
+def preparation_key(config: TrackerConfig) -> str:
+    """What a preparation of a sequence depends on in ``config`` (its :data:`PREPARATION` sections): configurations
+    with the same key can share one preparation and finish it each their own way."""
+    return json.dumps({s: config.to_dict()[s] for s in PREPARATION}, sort_keys=True, default=str)
+
+
+def group_features(seq: Path, config: TrackerConfig, group: str, cache: Path, embedders: dict[str, list]
+                   ) -> np.ndarray | None:
+    """Re-ID features of a validation sequence's detections, kept under ``cache`` (none for the label-only
+    group). ``embedders`` holds one embedder box (:func:`cached_features`) per ``[appearance]`` setting, so that
+    a configuration's missing features come from its own runtime and flip."""
+    if group == "labels":
+        return None
+    box = embedders.setdefault(json.dumps(config.to_dict()["appearance"], sort_keys=True, default=str), [])
+    return cached_features(seq, config, cache, box)
 
 
 def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
