@@ -163,7 +163,13 @@ def judged_gaps(trajectory: Tracklet, config: PostprocessConfig, frame_rate: flo
     those longer than it; none when there is no check, no frame rate or no ``occluders``."""
     if config.occlusion_seconds is None or frame_rate is None or occluders is None:
         return _NONE
-    return np.flatnonzero(np.diff(trajectory.frames) > max(1, int(round(config.occlusion_seconds * frame_rate))))
+    return np.flatnonzero(np.diff(trajectory.frames) > long_gap_frames(config.occlusion_seconds, frame_rate))
+
+
+def long_gap_frames(seconds: float, frame_rate: float) -> int:
+    """The frame difference a gap must exceed to be longer than ``seconds`` at ``frame_rate`` (at least 1): the
+    gaps ``[postprocess] occlusion_seconds`` judges (:func:`judged_gaps`)."""
+    return max(1, int(round(seconds * frame_rate)))
 
 
 def unhidden(trajectory: Tracklet, frames: np.ndarray, boxes: np.ndarray, filled: np.ndarray,
