@@ -11,7 +11,8 @@ or any folder of MOTChallenge sequences with frames (``--data``). Every output
 box TrackEval scores (boxes on distractors are removed first, as TrackEval
 does) is put under the stage that wrote it:
 
-* ``detection``: a box of the tracker's input (``det/det.txt``);
+* ``detection``: a box of the tracker's input (``det/det.txt``, or with
+  ``--detector-model`` the built-in detector's boxes: private detections);
 * ``sot``: a box the SOT step or the end extension added;
 * ``short gap``: interpolated in a gap of at most ``[postprocess]
   occlusion_seconds`` (1 s when the check is off);
@@ -30,6 +31,9 @@ it at IoU >= 0.5: a second box on someone), ``no one`` (neither).
 
     python scripts/fp_analysis.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --config defaults= --config gap60f=docs/validation/gap60f.toml --json docs/results/false_boxes.json
+    # private detections, on sequences with frames only
+    python scripts/fp_analysis.py --model ... --groups frames \\
+        --detector-model ../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml
 """
 
 from __future__ import annotations
@@ -43,7 +47,8 @@ from pathlib import Path
 import numpy as np
 
 from common import DEFAULT_DATA, named_config
-from sotmot.benchmarks import GROUPS, for_group, group_features, machine, preparation_key, validation_set
+from sotmot.benchmarks import (GROUPS, for_group, group_features, machine, preparation_key, private_config,
+                               validation_set)
 from sotmot.boxes import iou_matrix
 from sotmot.config import PostprocessConfig
 from sotmot.io import results_path, write_results, write_text_atomic
@@ -145,11 +150,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--cache", type=Path, default=Path(".cache/validation"),
                         help="frame-rate variants and re-ID features kept between runs (default: %(default)s)")
+    parser.add_argument("--detector-model", metavar="PATH.xml",
+                        help="track the person detector's boxes (private detections) instead of det/det.txt; only "
+                             "the sequences with frames (--groups frames and rates)")
+    parser.add_argument("--det-cache", type=Path, default=Path(".cache/detections"),
+                        help="where the detector's boxes are kept between runs (default: %(default)s)")
     parser.add_argument("--json", type=Path, help="write the counts here")
     args = parser.parse_args(argv)
     groups = args.groups.split(",")
     if not set(groups) <= set(GROUPS):
         parser.error(f"--groups: choose from {', '.join(GROUPS)}")
+    if args.detector_model and "labels" in groups:
+        parser.error("--detector-model detects on frames: the label-only sequences have none; give --groups frames "
+                     "(or frames,rates)")
+    if args.detector_model and not Path(args.detector_model).is_file():
+        parser.error(f"--detector-model: no such file: {args.detector_model}")
+    detections = (f"private detections: the boxes of {Path(args.detector_model).name}" if args.detector_model
+                  else "public detections: each sequence's det/det.txt")
     described = dict(args.config or [named_config("defaults=")])
     members = [(g, s) for g, s in validation_set(args.data, args.cache, groups)
                if not args.sequences or s.name in args.sequences.split(",")]
@@ -165,6 +182,8 @@ def main(argv: list[str] | None = None) -> int:
             made: dict[str, object] = {}  # configurations that agree on what a preparation reads share one
             for name, (cfg, _) in described.items():
                 cfg = for_group(cfg, group, args.model)
+                if args.detector_model:
+                    cfg = private_config(cfg, seq, str(Path(args.detector_model).resolve()), args.det_cache)
                 key = preparation_key(cfg)
                 if key not in made:
                     made[key] = prepare_sequence(seq, cfg, features=group_features(seq, cfg, group, args.cache,
@@ -192,12 +211,12 @@ def main(argv: list[str] | None = None) -> int:
     for seq in group_of:
         lines.append(f"  {seq:<24}" + "   ".join(
             f"{name} " + " / ".join(str(counts[name][seq][o]["FP"]) for o in ORIGINS) for name in described))
-    lines += ["", f"public detections (each det/det.txt); frames: re-ID {Path(args.model).name}; labels: motion only "
-              f"(no frames); machine: {machine()}"]
+    lines += ["", f"{detections}; frames: re-ID {Path(args.model).name}; labels: motion only (no frames); "
+              f"machine: {machine()}"]
     print("\n".join(lines).lstrip("\n"))
     if args.json:
         write_text_atomic(args.json, json.dumps({
-            "machine": machine(), "model": Path(args.model).name,
+            "machine": machine(), "model": Path(args.model).name, "detections": detections,
             "configs": {name: what for name, (_, what) in described.items()},
             "groups": group_of, "origins": list(ORIGINS), "under": list(UNDER), "combined": combined,
             "sequences": counts,

@@ -653,8 +653,9 @@ def false_boxes_section(data: dict | None) -> list[str]:
     names, origins, under = list(data["configs"]), data["origins"], data["under"]
     ref = names[0]
     lines = ["## Where the false boxes come from", "",
-             "`scripts/fp_analysis.py` (issue #39), public detections: every output box TrackEval scores (boxes on "
-             "distractors removed first) put under the stage that wrote it: `detection` a box of `det/det.txt`, "
+             f"`scripts/fp_analysis.py` (issue #39), {data.get('detections', 'public detections')}: every output "
+             "box TrackEval scores (boxes on distractors removed first) put under the stage that wrote it: "
+             "`detection` a box of the tracker's input, "
              "`sot` a box the SOT step or the end extension added, `short gap` interpolated in a gap of at most "
              "`[postprocess] occlusion_seconds` (1 s), `long gap, on the line` interpolated in a longer gap the "
              "walk on both sides leads along (written on trust), `long gap, off the line` in a longer gap off it "

@@ -62,3 +62,16 @@ def test_a_false_box_is_misplaced_double_or_on_no_one():
     assert script.combine([counts, counts])["detection"]["boxes"] == 4
     lines = script.table(counts)
     assert lines[2].split()[:4] == ["detection", "2", "1", "33%"] and lines[2].split()[4] == "50.0%"
+
+
+def test_private_detections_are_refused_on_sequences_without_frames(tmp_path, capsys):
+    script = load_script("fp_analysis")
+    model = tmp_path / "detector.xml"
+    model.write_text("<net/>")
+    try:
+        script.main(["--model", "reid.onnx", "--detector-model", str(model), "--data", str(tmp_path)])
+    except SystemExit as exc:
+        assert exc.code == 2
+    else:
+        raise AssertionError("the label-only group was taken with --detector-model")
+    assert "label-only sequences have none" in capsys.readouterr().err
