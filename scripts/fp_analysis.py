@@ -127,16 +127,24 @@ def combine(per_sequence: list[dict[str, dict[str, int]]]) -> dict[str, dict[str
 
 
 def table(counts: dict[str, dict[str, int]]) -> list[str]:
-    """One stage per line: boxes, FP, the stage's share of all FP, its precision, and what lies under its FP."""
+    """One stage per line: boxes, FP, the stage's share of all FP, its precision, ``TP - FP`` (what its boxes do
+    to MOTA's numerator: each right box is a miss saved, each false one a false positive added; negative, the
+    stage costs MOTA) and what lies under its FP."""
     total = sum(counts[o]["FP"] for o in ORIGINS)
-    head = f"{'stage':<24}{'boxes':>8}{'FP':>7}{'of FP':>7}{'precision':>10}" + "".join(f"{u:>11}" for u in UNDER)
+    head = (f"{'stage':<24}{'boxes':>8}{'FP':>7}{'of FP':>7}{'precision':>10}{'TP - FP':>9}"
+            + "".join(f"{u:>11}" for u in UNDER))
     lines = [head, "-" * len(head)]
     for o in ORIGINS:
         row = counts[o]
         precision = f"{100 * (1 - row['FP'] / row['boxes']):.1f}%" if row["boxes"] else "-"
         lines.append(f"{o:<24}{row['boxes']:>8}{row['FP']:>7}{100 * row['FP'] / max(total, 1):>6.0f}%"
-                     f"{precision:>10}" + "".join(f"{row[u]:>11}" for u in UNDER))
+                     f"{precision:>10}{net(row):>+9}" + "".join(f"{row[u]:>11}" for u in UNDER))
     return lines
+
+
+def net(row: dict[str, int]) -> int:
+    """``TP - FP`` of one stage's boxes (:func:`table`)."""
+    return row["boxes"] - 2 * row["FP"]
 
 
 def main(argv: list[str] | None = None) -> int:

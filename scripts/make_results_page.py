@@ -660,7 +660,9 @@ def false_boxes_section(data: dict | None) -> list[str]:
              "`[postprocess] occlusion_seconds` (1 s), `long gap, on the line` interpolated in a longer gap the "
              "walk on both sides leads along (written on trust), `long gap, off the line` in a longer gap off it "
              "(written where a detection in front could hide the person; every box with the check off). Each "
-             "cell: FP / boxes. What lies under the reference's false boxes: `misplaced` a person nobody matched "
+             "cell: FP / boxes. For the reference, `TP - FP`: what the stage's boxes do to MOTA's numerator (each right "
+             "box a miss saved, each false one a false positive added; negative, the stage costs MOTA), and what "
+             "lies under its false boxes: `misplaced` a person nobody matched "
              "overlaps it at IoU >= 0.3, `double` a person matched to another box overlaps it at IoU >= 0.5, "
              "`no one` neither. Configurations: " + "; ".join(f"`{n}` {what}" for n, what in data["configs"].items())
              + ".", ""]
@@ -668,13 +670,14 @@ def false_boxes_section(data: dict | None) -> list[str]:
         count = sum(1 for g in data["groups"].values() if g == group)
         lines += [f"### {VALIDATION_GROUPS[group][0].upper()}{VALIDATION_GROUPS[group][1:]}: {count} sequences",
                   "", "| stage | " + " | ".join(f"{n} FP / boxes" for n in names)
-                  + f" | {ref}: " + " / ".join(under) + " |", "|" + "---|" * (len(names) + 2)]
+                  + f" | {ref}: TP - FP | {ref}: " + " / ".join(under) + " |", "|" + "---|" * (len(names) + 3)]
         for origin in [*origins, "all"]:
             rows = [data["combined"][n][group] for n in names]
             cell = [{k: sum(r[o][k] for o in origins) for k in ("boxes", "FP", *under)} if origin == "all"
                     else r[origin] for r in rows]
             lines.append(f"| {origin} | " + " | ".join(f"{c['FP']:,} / {c['boxes']:,}" for c in cell)
-                         + " | " + " / ".join(f"{cell[0][u]:,}" for u in under) + " |")
+                         + f" | {cell[0]['boxes'] - 2 * cell[0]['FP']:+,} | "
+                         + " / ".join(f"{cell[0][u]:,}" for u in under) + " |")
         lines.append("")
     lines += [f"FP per sequence by stage ({', '.join(origins)}):", "",
               "| sequence | " + " | ".join(names) + " |", "|" + "---|" * (len(names) + 1)]

@@ -61,7 +61,8 @@ def test_a_false_box_is_misplaced_double_or_on_no_one():
     assert counts["sot"] == {"boxes": 1, "FP": 1, "misplaced": 0, "double": 1, "no one": 0}
     assert script.combine([counts, counts])["detection"]["boxes"] == 4
     lines = script.table(counts)
-    assert lines[2].split()[:4] == ["detection", "2", "1", "33%"] and lines[2].split()[4] == "50.0%"
+    assert lines[2].split()[:6] == ["detection", "2", "1", "33%", "50.0%", "+0"]  # one right box, one false
+    assert script.net(counts["sot"]) == -1
 
 
 def test_private_detections_are_refused_on_sequences_without_frames(tmp_path, capsys):
