@@ -301,8 +301,8 @@ def main(argv: list[str] | None = None) -> int:
                     prepared = made[preparation[reference]]
             neutral = noise_runs(seq, group, configs[reference], args.model, args.cache) if args.noise else {}
             for run, (run_seq, cfg, cache) in neutral.items():
-                result = finish_sequence(prepare_sequence(run_seq, cfg, features=group_features(run_seq, cfg, group,
-                                                                                             cache, embedders)), cfg)
+                features = group_features(run_seq, cfg, group, cache, embedders)
+                result = finish_sequence(prepare_sequence(run_seq, cfg, features=features), cfg)
                 keep_result(noise_pairs, run, result.tracks, result.info, Path(tmp) / "noise")
             group_of[prepared.info.name] = group
             if group == "labels":

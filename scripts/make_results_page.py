@@ -660,8 +660,8 @@ def false_boxes_section(data: dict | None) -> list[str]:
              "`[postprocess] occlusion_seconds` (1 s), `long gap, on the line` interpolated in a longer gap the "
              "walk on both sides leads along (written on trust), `long gap, off the line` in a longer gap off it "
              "(written where a detection in front could hide the person; every box with the check off). Each "
-             "cell: FP / boxes. For the reference, `TP - FP`: what the stage's boxes do to MOTA's numerator (each right "
-             "box a miss saved, each false one a false positive added; negative, the stage costs MOTA), and what "
+             "cell: FP / boxes. For the reference, `TP - FP`: what the stage's boxes do to MOTA's numerator (each "
+             "right box a miss saved, each false one a false positive added; negative, the stage costs MOTA), and what "
              "lies under its false boxes: `misplaced` a person nobody matched "
              "overlaps it at IoU >= 0.3, `double` a person matched to another box overlaps it at IoU >= 0.5, "
              "`no one` neither. Configurations: " + "; ".join(f"`{n}` {what}" for n, what in data["configs"].items())
