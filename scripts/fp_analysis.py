@@ -47,11 +47,11 @@ from pathlib import Path
 import numpy as np
 
 from common import DEFAULT_DATA, named_config
-from sotmot.benchmarks import (GROUPS, for_group, group_features, machine, preparation_key, private_config,
-                               validation_set)
+from sotmot.benchmarks import (FULL_LENGTH, GROUPS, for_group, group_features, machine, preparation_key,
+                               private_config, sequences, validation_set)
 from sotmot.boxes import iou_matrix
 from sotmot.config import PostprocessConfig
-from sotmot.io import results_path, write_results, write_text_atomic
+from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.pipeline import TrackResult, finish_sequence, prepare_sequence
 from sotmot.postprocess import gap_agreement, long_gap_frames
 from sotmot.scoring import FrameErrors, evaluate_files, frame_errors
@@ -178,6 +178,10 @@ def main(argv: list[str] | None = None) -> int:
     described = dict(args.config or [named_config("defaults=")])
     members = [(g, s) for g, s in validation_set(args.data, args.cache, groups)
                if not args.sequences or s.name in args.sequences.split(",")]
+    short = [p.name for p in sequences(args.data, args.sequences) if read_seqinfo(p).length <= FULL_LENGTH]
+    if short and {"frames", "rates"} & set(groups):
+        print(f"left out, {FULL_LENGTH} frames or fewer (too short for long gaps): {', '.join(short)}",
+              file=sys.stderr)
     if not members:
         print(f"no sequences of the groups {args.groups} under {args.data}", file=sys.stderr)
         return 1
