@@ -29,6 +29,8 @@ VARIANT_MIN_FPS = 20.0
 LABEL_SETS = ("MOT16-labels/*", "MOT17-labels/*")
 #: The validation set's groups (:func:`validation_set`).
 GROUPS = ("frames", "rates", "labels")
+#: The configuration sections a preparation (:func:`sotmot.pipeline.prepare_sequence`) reads.
+PREPARATION = ("input", "detection", "preprocess", "appearance", "sot", "tracklets", "motion")
 
 
 def machine() -> str:
@@ -114,12 +116,12 @@ def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]"
     frame (:func:`subsampled_sequence`, made once under ``cache / "rates"``); ``labels``, the label-only
     sequences (:data:`LABEL_SETS`), tracked without frames (:func:`for_group`)."""
     members: list[tuple[str, Path]] = []
-    full = [p for p in sequences(data) if read_seqinfo(p).length > FULL_LENGTH]
+    full = {p: info for p in sequences(data) if (info := read_seqinfo(p)).length > FULL_LENGTH}
     if "frames" in groups:
         members += [("frames", p) for p in full]
     if "rates" in groups:
-        members += [("rates", subsampled_sequence(p, step, cache / "rates")) for p in full
-                    if read_seqinfo(p).frame_rate >= VARIANT_MIN_FPS for step in (2, 3)]
+        members += [("rates", subsampled_sequence(p, step, cache / "rates")) for p, info in full.items()
+                    if info.frame_rate >= VARIANT_MIN_FPS for step in (2, 3)]
     if "labels" in groups:
         members += [("labels", p) for pattern in LABEL_SETS for p in sorted(data.glob(pattern))
                     if (p / "seqinfo.ini").is_file()]
@@ -138,10 +140,6 @@ def for_group(config: TrackerConfig, group: str, model: str) -> TrackerConfig:
     motion-only mode (:func:`motion_only`) for the label-only group."""
     config = config.replace("appearance", model=model)
     return motion_only(config) if group == "labels" else config
-
-
-#: The configuration sections a preparation (:func:`sotmot.pipeline.prepare_sequence`) reads.
-PREPARATION = ("input", "detection", "preprocess", "appearance", "sot", "tracklets", "motion")
 
 
 def preparation_key(config: TrackerConfig) -> str:
