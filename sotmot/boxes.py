@@ -37,6 +37,18 @@ def xyxy_to_xywh(boxes: np.ndarray) -> np.ndarray:
     return np.concatenate([b[:, :2], b[:, 2:] - b[:, :2]], axis=1)
 
 
+def xywh_to_cxcywh(boxes: np.ndarray) -> np.ndarray:
+    """Convert ``(N, 4)`` ``x, y, w, h`` boxes to ``cx, cy, w, h`` (centre and size)."""
+    b = as_boxes(boxes)
+    return np.concatenate([b[:, :2] + 0.5 * b[:, 2:], b[:, 2:]], axis=1)
+
+
+def cxcywh_to_xywh(boxes: np.ndarray) -> np.ndarray:
+    """Convert ``(N, 4)`` ``cx, cy, w, h`` (centre and size) to ``x, y, w, h`` boxes."""
+    b = as_boxes(boxes)
+    return np.concatenate([b[:, :2] - 0.5 * b[:, 2:], b[:, 2:]], axis=1)
+
+
 def centers(boxes: np.ndarray) -> np.ndarray:
     """Centres ``(N, 2)`` of ``(N, 4)`` ``x, y, w, h`` boxes, in pixels."""
     b = as_boxes(boxes)

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sotmot.boxes import VELOCITY_BOXES, end_velocity, intersection_aligned, motion_agreement
+from sotmot.boxes import (VELOCITY_BOXES, cxcywh_to_xywh, end_velocity, intersection_aligned, motion_agreement,
+                          xywh_to_cxcywh)
 from sotmot.config import PostprocessConfig
 from sotmot.types import Detections, Tracklet, Tracks
 
@@ -18,6 +19,17 @@ from sotmot.types import Detections, Tracklet, Tracks
 #: of the box's height (nearer the camera, so it can hide the person).
 FRONT_MARGIN = 0.05
 _NONE = np.zeros(0, dtype=np.int64)
+#: The windows (frames either side) ``[postprocess] smooth_window = "auto"`` chooses from, for each trajectory and
+#: coordinate (:func:`smoothing_windows`).
+AUTO_WINDOWS = (3, 4, 6, 8, 12)
+#: :func:`smoothing_windows` predicts a box from the others leaving out the boxes within this many frames of it
+#: too: a detector errs alike on a person in consecutive frames (the same pose, the same partial occlusion), and a
+#: neighbour sharing the box's error would make little smoothing look best (with every box left out alone, windows
+#: of 1 to 24 frames, the choice lost up to 0.85 HOTA on the validation set; docs/benchmarks.md). A line needs 3
+#: others, so the shortest window is 3 frames, the paper's.
+CV_BLOCK = 1
+#: The window of a trajectory with too few observed boxes to choose one (the paper's 3).
+SHORT_WINDOW = 3
 
 
 def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_gap: int | None = None
@@ -57,18 +69,90 @@ def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_g
     return full, out, full_scores, filled
 
 
-def smooth(frames: np.ndarray, boxes: np.ndarray, window: int) -> np.ndarray:
-    """Each box replaced by the mean of the trajectory's boxes within ``+- window`` frames.
+def smooth(frames: np.ndarray, boxes: np.ndarray, window: int | str, observed: np.ndarray | None = None) -> np.ndarray:
+    """The boxes of one trajectory smoothed as ``[postprocess] smooth_window`` asks.
 
-    Works on trajectories with or without gaps: only boxes that exist are
-    averaged. ``window = 0`` returns a copy.
+    ``window`` frames (an integer, the paper's smoothing): each box replaced by
+    the mean of the trajectory's boxes within ``+- window`` frames; 0 returns a
+    copy. ``"auto"``: each coordinate (centre x, centre y, width, height)
+    replaced by a straight line fitted through its values within ``+- w``
+    frames, evaluated at the box's frame, ``w`` chosen for the trajectory and
+    the coordinate by :func:`smoothing_windows` from its ``observed`` boxes
+    (``(L,)`` True for the boxes not interpolated; None: all). Works on
+    trajectories with or without gaps: only boxes that exist enter a mean or a
+    line. ``frames`` ``(L,)`` increasing 1-based, ``boxes`` ``(L, 4)`` ``x, y, w, h`` pixels.
     """
+    if window == "auto":
+        if len(frames) < 2:
+            return boxes.copy()
+        observed = np.ones(len(frames), dtype=bool) if observed is None else observed
+        values = xywh_to_cxcywh(boxes)
+        windows = smoothing_windows(frames[observed], values[observed])
+        out = np.column_stack([local_lines(frames, values[:, k:k + 1], int(w))[0][:, 0]
+                               for k, w in enumerate(windows)])
+        return cxcywh_to_xywh(out)
     if window <= 0 or len(frames) < 2:
         return boxes.copy()
     lo = np.searchsorted(frames, frames - window, side="left")
     hi = np.searchsorted(frames, frames + window, side="right")
     csum = np.vstack([np.zeros((1, 4)), np.cumsum(boxes, axis=0)])
     return (csum[hi] - csum[lo]) / (hi - lo)[:, None]
+
+
+def local_lines(frames: np.ndarray, values: np.ndarray, window: int, block: int = -1
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Each row of ``values`` ``(L, K)`` at 1-based ``frames`` ``(L,)`` (increasing) replaced by the least-squares
+    line through the rows within ``+- window`` frames of it, evaluated at its frame (one line per column).
+
+    The rows within ``+- block`` frames of a row are left out of its own line (-1: none; 0: the row itself), as
+    :func:`smoothing_windows` predicts a row from the others. A line through rows of one frame only is their mean.
+    Returns the fitted ``(L, K)`` and the number of rows each line went through ``(L,)`` (where it is 0 the
+    fitted row is 0).
+    """
+    t = (frames - frames[0]).astype(np.float64)  # offsets: sums of squares stay small for long trajectories
+    values = np.asarray(values, dtype=np.float64)
+
+    def sums(window_: int) -> list[np.ndarray]:
+        lo = np.searchsorted(frames, frames - window_, side="left")
+        hi = np.searchsorted(frames, frames + window_, side="right")
+        out = []
+        for a in (np.ones((len(t), 1)), t[:, None], (t * t)[:, None], values, t[:, None] * values):
+            running = np.vstack([np.zeros((1, a.shape[1])), np.cumsum(a, axis=0)])
+            out.append(running[hi] - running[lo])
+        return out
+
+    n, st, stt, sy, sty = sums(window)
+    if block >= 0:
+        n, st, stt, sy, sty = (a - b for a, b in zip((n, st, stt, sy, sty), sums(block)))
+    n, st, stt = n[:, 0], st[:, 0], stt[:, 0]
+    safe = np.maximum(n, 1.0)
+    mean_t, mean_y = st / safe, sy / safe[:, None]
+    var_t = stt / safe - mean_t ** 2
+    sloped = var_t > 1e-9
+    slope = np.zeros_like(mean_y)
+    slope[sloped] = (sty[sloped] / safe[sloped, None] - mean_t[sloped, None] * mean_y[sloped]) / var_t[sloped, None]
+    return mean_y + slope * (t - mean_t)[:, None], n.astype(np.int64)
+
+
+def smoothing_windows(frames: np.ndarray, values: np.ndarray, windows: Sequence[int] = AUTO_WINDOWS,
+                      block: int = CV_BLOCK) -> np.ndarray:
+    """For each column of ``values`` ``(L, K)`` (one trajectory's observed boxes at 1-based ``frames``, e.g. centre
+    x, centre y, width, height), the window of ``windows`` whose local lines (:func:`local_lines`) predict each row
+    best from the others: cross-validation, each row left out with those within ``+- block`` frames of it, the
+    rows whose line has at least 3 others scored. Returns ``(K,)`` windows; :data:`SHORT_WINDOW` where no window
+    scores a row (fewer than 4 rows, or rows too far apart)."""
+    values = np.asarray(values, dtype=np.float64)
+    if len(frames) < 4:
+        return np.full(values.shape[1], SHORT_WINDOW)
+    errors = []
+    for w in windows:
+        fitted, n = local_lines(frames, values, w, block)
+        scored = n >= 3
+        errors.append(((values[scored] - fitted[scored]) ** 2).mean(axis=0) if scored.any()
+                      else np.full(values.shape[1], np.inf))
+    errors = np.asarray(errors)
+    best = np.asarray(windows)[np.argmin(errors, axis=0)]
+    return np.where(np.isfinite(errors.min(axis=0)), best, SHORT_WINDOW)
 
 
 def output_ids(trajectories: Sequence[Tracklet], config: PostprocessConfig = PostprocessConfig(),
@@ -299,7 +383,7 @@ def to_tracks(trajectories: Sequence[Tracklet], detections: Detections,
         sot = np.zeros(len(e.frames), dtype=bool)
         sot[~e.filled] = detections.from_sot[t.det_index]
         confidence = np.full(len(e.frames), np.nan) if scorer is None else scorer(t, e)
-        boxes = smooth(e.frames, e.boxes, config.smooth_window)
+        boxes = smooth(e.frames, e.boxes, config.smooth_window, ~e.filled)
         parts.append((e.frames, np.full(len(e.frames), track_id), boxes, e.scores, e.filled, sot, confidence))
     if not parts:
         return Tracks.empty()

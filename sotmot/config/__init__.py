@@ -117,7 +117,16 @@ def _coerce(section: str, name: str, hint: Any, value: Any) -> Any:
         inner = [a for a in args if a is not type(None)]
         if type(None) in args and (value is None or (value == "none" and inner[0] in (int, float))):
             return None
-        return _coerce(section, name, inner[0], value)
+        for choice in inner[1:]:  # a word beside a number (``int | Literal["auto"]``): the word as it is
+            if typing.get_origin(choice) is Literal and value in typing.get_args(choice):
+                return value
+        try:
+            return _coerce(section, name, inner[0], value)
+        except ConfigError as exc:
+            words = [repr(w) for c in inner[1:] if typing.get_origin(c) is Literal for w in typing.get_args(c)]
+            if not words:
+                raise
+            raise ConfigError(str(exc).replace("; got", f" or {' or '.join(words)}; got", 1)) from None
     if origin is Literal:
         if value not in args:
             raise ConfigError(f"[{section}] {name} must be one of {', '.join(map(repr, args))}; got {value!r}")
