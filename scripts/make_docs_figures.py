@@ -33,6 +33,7 @@ from sotmot.io import (
     write_text_atomic,
 )
 from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.postprocess import AUTO_WINDOWS
 from sotmot.preprocess import preprocess, resolve_nms
 from sotmot.inspect.render import draw_frame
 from sotmot.types import Tracks
@@ -54,6 +55,17 @@ def save(img: np.ndarray, name: str, width: int = 900) -> str:
 def boxes_as_tracks(frame: int, boxes: np.ndarray, ids: np.ndarray, sot: np.ndarray | None = None) -> Tracks:
     n = len(boxes)
     return Tracks(np.full(n, frame), ids, boxes, np.ones(n), None, sot)
+
+
+def smoothing_words(config: TrackerConfig) -> str:
+    """How ``[postprocess] smooth_window`` smooths, in words."""
+    window = config.postprocess.smooth_window
+    if window == "auto":
+        windows = ", ".join(map(str, AUTO_WINDOWS))
+        return ("each coordinate of a box (centre and size) is replaced by a straight line fitted through the "
+                f"trajectory's values within +-w frames, w chosen from {windows} for each trajectory and "
+                "coordinate by cross-validation on its detected boxes")
+    return f"each box is averaged with the trajectory's boxes within +-{window} frames"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -168,9 +180,8 @@ def main(argv: list[str] | None = None) -> int:
     result_fig = save(draw_frame(reader(f_show), run.tracks, rows_show), "result.jpg")
     text += ["## 6. Interpolation and smoothing", "",
              f"Gaps of up to {base.postprocess.interpolate_max_seconds:g} s inside a trajectory are filled "
-             f"linearly ({interp} boxes here, drawn thin with an `i`), then "
-             f"each box is averaged with the trajectory's boxes within +-{base.postprocess.smooth_window} "
-             f"frames. Frame {f_show} of the output (`sotmot render` draws whole videos):", "",
+             f"linearly ({interp} boxes here, drawn thin with an `i`), then {smoothing_words(base)}. "
+             f"Frame {f_show} of the output (`sotmot render` draws whole videos):", "",
              f"![result]({result_fig})", ""]
     pets = args.data / "PETS09-S2L1"
     if pets.is_dir():

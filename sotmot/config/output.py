@@ -52,7 +52,7 @@ class PostprocessConfig:
         left the image and came back. ``None``: every gap up to the bound is
         filled. 1.0 s and 0.5 (default) passed the validation set's rule (no
         sequence losing more than 0.5 HOTA or MOTA, the moving-camera
-        variants included; docs/results.md, "The validation set").
+        variants included; docs/benchmarks.md, "The validation set").
     """
 
     interpolate: bool = True
