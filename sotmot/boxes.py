@@ -40,7 +40,7 @@ def xyxy_to_xywh(boxes: np.ndarray) -> np.ndarray:
 def xywh_to_cxcywh(boxes: np.ndarray) -> np.ndarray:
     """Convert ``(N, 4)`` ``x, y, w, h`` boxes to ``cx, cy, w, h`` (centre and size)."""
     b = as_boxes(boxes)
-    return np.concatenate([b[:, :2] + 0.5 * b[:, 2:], b[:, 2:]], axis=1)
+    return np.concatenate([centers(b), b[:, 2:]], axis=1)
 
 
 def cxcywh_to_xywh(boxes: np.ndarray) -> np.ndarray:

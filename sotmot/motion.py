@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sotmot.boxes import centers
+from sotmot.boxes import centers, cxcywh_to_xywh
 from sotmot.config import MotionConfig
 from sotmot.io.frames import FrameSource, frame_source
 from sotmot.io.mot import SeqInfo
@@ -87,7 +87,7 @@ def warp_boxes(transforms: np.ndarray, boxes: np.ndarray) -> np.ndarray:
     mapped = np.einsum("nij,nj->ni", transforms[:, :, :2], c) + transforms[:, :, 2]
     scale = np.sqrt(np.abs(np.linalg.det(transforms[:, :, :2])))
     wh = boxes[:, 2:] * scale[:, None]
-    return np.hstack([mapped - wh / 2, wh])
+    return cxcywh_to_xywh(np.hstack([mapped, wh]))
 
 
 @dataclass(frozen=True, eq=False)
