@@ -112,14 +112,13 @@ def local_lines(frames: np.ndarray, values: np.ndarray, window: int, block: int 
     t = (frames - frames[0]).astype(np.float64)  # offsets: sums of squares stay small for long trajectories
     values = np.asarray(values, dtype=np.float64)
 
+    running = [np.vstack([np.zeros((1, a.shape[1])), np.cumsum(a, axis=0)])
+               for a in (np.ones((len(t), 1)), t[:, None], (t * t)[:, None], values, t[:, None] * values)]
+
     def sums(window_: int) -> list[np.ndarray]:
         lo = np.searchsorted(frames, frames - window_, side="left")
         hi = np.searchsorted(frames, frames + window_, side="right")
-        out = []
-        for a in (np.ones((len(t), 1)), t[:, None], (t * t)[:, None], values, t[:, None] * values):
-            running = np.vstack([np.zeros((1, a.shape[1])), np.cumsum(a, axis=0)])
-            out.append(running[hi] - running[lo])
-        return out
+        return [r[hi] - r[lo] for r in running]
 
     n, st, stt, sy, sty = sums(window)
     if block >= 0:
