@@ -717,7 +717,7 @@ def ceiling_table(data: dict, peer: str) -> list[str]:
 #: not rerun since: their rows used the paper's mean over +-3 frames. Emptied as they are rerun.
 BEFORE_AUTO_SMOOTHING = ("The SOT step: the paper's Table 3",
                          "Trajectory ends: SOT or the detector's weak boxes", "Long videos", "Committed windows",
-                         "Confidence and confirmation, held out", "A moving camera")
+                         "Confidence and confirmation, held out")
 
 
 def page() -> str:
