@@ -158,7 +158,8 @@ def main(argv: list[str] | None = None) -> int:
                              "(default: %(default)s)")
     parser.add_argument("--real", default="MOT16-05-clip30,MOT16-10-clip30,MOT16-13-clip30",
                         help="real moving-camera sequences, comma-separated (default: %(default)s)")
-    parser.add_argument("--timing", default="MOT16-09", help="the 1080p sequence the estimate is timed on")
+    parser.add_argument("--timing", default="MOT16-09",
+                        help="the 1080p sequence the estimate is timed on ('' skips it; default: %(default)s)")
     parser.add_argument("--still-timing", default="PETS09-S2L1,MOT16-09,TUD-Stadtmitte",
                         help="still sequences the still check is timed on (default: %(default)s)")
     parser.add_argument("--cache", type=Path, default=ROOT / ".cache" / "moving",
@@ -216,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
             seq = args.data / name
             runs = {"off": track(seq, f"{name}-off", "off", out), "auto": track(seq, f"{name}-auto", "auto", out)}
             real[name] = {label: evaluate_files([pair]).sequences[pair[3]] for label, pair in runs.items()}
-    timing = {"on": estimate_time(args.data / args.timing, "on"),
+    timing = {"on": estimate_time(args.data / args.timing, "on") if args.timing else None,
               "still_check": {n: estimate_time(args.data / n, "auto") for n in args.still_timing.split(",") if n}}
 
     print(f"machine: {machine()}")
@@ -241,8 +242,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{name:<14} {label:<24} " + " ".join(f"{scores[c]:>7.1f}" if c in ("HOTA", "MOTA", "IDF1")
                                                          else f"{scores[c]:>7.0f}" for c in COLUMNS))
     t = timing["on"]
-    print(f"estimate at {t['width']} x {t['height']}: {t['ms_per_frame']:.1f} ms a frame (target < "
-          f"{TARGETS['ms_per_frame_1080p']:g}), grey frames decoded small included")
+    if t is not None:
+        print(f"estimate at {t['width']} x {t['height']}: {t['ms_per_frame']:.1f} ms a frame (target < "
+              f"{TARGETS['ms_per_frame_1080p']:g}), grey frames decoded small included")
     for name, s in timing["still_check"].items():
         camera = "moving" if s["moving"] else "still"
         print(f"still check on {name}: {s['ms_per_frame']:.2f} ms a frame, camera {camera}")
