@@ -49,7 +49,7 @@ from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import METRICS, EvalReport, evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
-from sotmot.postprocess import to_tracks
+from sotmot.postprocess import line_checked, to_tracks
 
 COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 BEST_PEER_MOTA = {  # issue #11, same detections and embeddings; not re-measured here
@@ -125,7 +125,8 @@ def main(argv: list[str] | None = None) -> int:
                 for k in hits:
                     kept = [t for t in result.trajectories
                             if int((~prepared.detections.from_sot[t.det_index]).sum()) >= k]
-                    tracks = to_tracks(kept, prepared.detections, online.postprocess, None, result.info.frame_rate,
+                    post = line_checked(online.postprocess, kept, result.info.frame_rate)
+                    tracks = to_tracks(kept, prepared.detections, post, None, result.info.frame_rate,
                                        occluders=prepared.occluders)
                     path = results_path(out / f"min_hits_{k}", result.info.name)
                     write_results(path, tracks)

@@ -56,9 +56,9 @@ def sequences(data: Path, only: str = "") -> list[Path]:
 
 def before_confirmation(config: TrackerConfig) -> TrackerConfig:
     """``config`` as sotmot ran before the confirmation stage (issue #11): every box kept, every gap filled, no
-    end extension (issue #12), no occlusion check (issue #39)."""
+    end extension (issue #12), no occlusion check and no line check (issue #39)."""
     return (config.replace("confirm", enabled=False)
-            .replace("postprocess", interpolate_max_seconds=None, occlusion_seconds=None)
+            .replace("postprocess", interpolate_max_seconds=None, occlusion_seconds=None, line_check_seconds=None)
             .replace("ends", seconds=0.0))
 
 

@@ -30,14 +30,14 @@ from sotmot.association import Association, get_solver
 from sotmot.association.merge import merge_group
 from sotmot.confidence.calibration import load_calibration, model_kind
 from sotmot.confidence.maps import confidence_knots, detection_confidence, self_map
-from sotmot.config import TrackerConfig
+from sotmot.config import PostprocessConfig, TrackerConfig
 from sotmot.confirm import box_scorer, confirm
 from sotmot.detection import Detector, make_detector
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
 from sotmot.motion import CameraMotion, estimate_motion
 from sotmot.passes import detect_sequence, embed_detections
 from sotmot.plan import Plan, resolve
-from sotmot.postprocess import Occluders, output_ids, to_tracks
+from sotmot.postprocess import Occluders, line_checked, output_ids, to_tracks
 from sotmot.preprocess import nms_per_frame, preprocess_indices, resolve_nms
 from sotmot.progress import Progress, as_progress
 from sotmot.sot.support import WEAK_MIN_SCORE, DetectorSupport
@@ -141,6 +141,11 @@ class TrackResult:
     occluders
         The detections as post-processing's occlusion check saw them (what could
         hide a person in a long gap; :func:`sotmot.postprocess.gaps_of`).
+    postprocess
+        ``[postprocess]`` as post-processing applied it to ``trajectories``: the
+        interpolation bound lowered where the line check found the straight line
+        does not hold (:func:`sotmot.postprocess.line_checked`); None when not
+        post-processed.
     """
 
     info: SeqInfo
@@ -158,6 +163,7 @@ class TrackResult:
     motion: CameraMotion | None = None
     confidence_method: str = ""
     occluders: Occluders | None = None
+    postprocess: PostprocessConfig | None = None
 
     def identities(self) -> dict[int, np.ndarray]:
         """Output track id -> the mean appearance feature of its trajectory (its identity)."""
@@ -353,9 +359,13 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
         scorer = box_scorer(model, prepared.detections, prepared.features, prepared.confidence,
                             prepared.info.frame_rate)
     occluders = prepared.occluders
-    ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate, occluders)
-    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, scorer, prepared.info.frame_rate, ids,
-                       occluders)
+    post = line_checked(config.postprocess, trajectories, prepared.info.frame_rate)
+    if post != config.postprocess:
+        log.info("%s: the straight line does not hold over %g s on this sequence's trajectories ([postprocess] "
+                 "line_check_seconds): gaps are filled up to %g s", prepared.info.name,
+                 config.postprocess.line_check_seconds, post.interpolate_max_seconds)
+    ids = output_ids(trajectories, post, prepared.info.frame_rate, occluders)
+    tracks = to_tracks(trajectories, prepared.detections, post, scorer, prepared.info.frame_rate, ids, occluders)
     motion = prepared.motion
     if motion is not None and motion.moving:  # interpolated and smoothed in the reference frame; written in each own
         tracks = tracks.with_boxes(motion.from_ref(tracks.frames, tracks.boxes))
@@ -377,7 +387,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
              len(dropped), config.association.solver)
     return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
                        association, trajectories, tracks, timings, prepared.confidence, dropped, prepared.detected,
-                       ids, motion, prepared.confidence_method, occluders)
+                       ids, motion, prepared.confidence_method, occluders, post)
 
 
 def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.ndarray], tracks: Tracks,

@@ -5,13 +5,14 @@ Boxes are ``x, y, w, h`` pixels, frames 1-based.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from sotmot.boxes import (VELOCITY_BOXES, cxcywh_to_xywh, end_velocity, intersection_aligned, motion_agreement,
-                          xywh_to_cxcywh)
+from sotmot.boxes import (VELOCITY_BOXES, cxcywh_to_xywh, end_velocity, intersection_aligned, iou_aligned,
+                          motion_agreement, xywh_to_cxcywh)
 from sotmot.config import PostprocessConfig
 from sotmot.types import Detections, Tracklet, Tracks
 
@@ -30,6 +31,19 @@ AUTO_WINDOWS = (3, 4, 6, 8, 12)
 CV_BLOCK = 1
 #: The window of a trajectory with too few observed boxes to choose one (the paper's 3).
 SHORT_WINDOW = 3
+#: The line check (``[postprocess] line_check_seconds``, :func:`line_checked`): one sample is the straight line
+#: between two boxes of a trajectory a span apart, evaluated at its box halfway between them; it lands when its IoU
+#: with that box is at least this.
+LINE_IOU = 0.5
+#: The line holds over a span when at least this share of the span's samples land: a box written where it is more
+#: likely false than true costs MOTA (:mod:`sotmot.confidence`).
+LINE_HOLDS = 0.5
+#: A span with fewer samples than this says nothing (it counts as holding): short clips keep the configured bound.
+LINE_MIN_SAMPLES = 30
+#: Where the line does not hold over ``line_check_seconds``, the spans tried are this long and longer by
+#: :data:`LINE_STEP_SECONDS`; the bound never falls below the first (the occlusion check's default).
+LINE_FLOOR_SECONDS = 1.0
+LINE_STEP_SECONDS = 0.5
 
 
 def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_gap: int | None = None
@@ -201,6 +215,58 @@ def max_interpolated_gap(config: PostprocessConfig, frame_rate: float | None) ->
     if config.interpolate_max_seconds is None or frame_rate is None:
         return None
     return max(1, int(round(config.interpolate_max_seconds * frame_rate)))
+
+
+def line_samples(trajectories: Sequence[Tracklet], span: int) -> tuple[int, int]:
+    """How many straight lines over ``span`` frames land on their trajectory's box halfway, and how many were tried.
+
+    A sample is two boxes of one trajectory ``span`` frames apart with a box at the frame halfway between them
+    (``span // 2`` after the first; starts every ``span // 4`` frames, so that samples overlap little); it lands
+    when the line from the first box to the second, at that frame, overlaps the box there by IoU >=
+    :data:`LINE_IOU`. Boxes are ``x, y, w, h`` pixels, in the trajectories' coordinates.
+    """
+    landed = tried = 0
+    for t in trajectories:
+        f, b = t.frames, t.boxes
+        starts = np.flatnonzero(np.isin(f + span, f) & np.isin(f + span // 2, f))[::max(1, span // 4)]
+        if not len(starts):
+            continue
+        end, mid = np.searchsorted(f, f[starts] + span), np.searchsorted(f, f[starts] + span // 2)
+        share = ((f[mid] - f[starts]) / span)[:, None]
+        line = b[starts] * (1.0 - share) + b[end] * share
+        landed += int((iou_aligned(line, b[mid]) >= LINE_IOU).sum())
+        tried += len(starts)
+    return landed, tried
+
+
+def line_holds(trajectories: Sequence[Tracklet], seconds: float, frame_rate: float) -> bool:
+    """Whether the straight line holds over ``seconds`` on these trajectories (:func:`line_samples`): at least
+    :data:`LINE_HOLDS` of the samples land, or fewer than :data:`LINE_MIN_SAMPLES` were found."""
+    landed, tried = line_samples(trajectories, max(2, int(round(seconds * frame_rate))))
+    return tried < LINE_MIN_SAMPLES or landed >= LINE_HOLDS * tried
+
+
+def line_checked(config: PostprocessConfig, trajectories: Sequence[Tracklet], frame_rate: float | None
+                 ) -> PostprocessConfig:
+    """``config`` as it applies to one sequence's ``trajectories``: ``interpolate_max_seconds`` lowered where the
+    straight line does not hold (``[postprocess] line_check_seconds``).
+
+    Interpolation writes a person where the straight line between two of their boxes says; whether that line is
+    where people go is checked on the sequence's own trajectories, over spans where they were seen
+    (:func:`line_holds`). Where it holds over ``line_check_seconds``, ``config`` stands; where it does not (a camera
+    that moves and nothing compensated, people at many depths under a moving camera), gaps are filled only up to
+    the longest span from :data:`LINE_FLOOR_SECONDS` up, in steps of :data:`LINE_STEP_SECONDS`, over which it
+    holds (at least the first). Unchanged without a frame rate, with interpolation off or the check off.
+    """
+    horizon, bound = config.line_check_seconds, config.interpolate_max_seconds
+    if horizon is None or not frame_rate or not config.interpolate or line_holds(trajectories, horizon, frame_rate):
+        return config
+    chosen = LINE_FLOOR_SECONDS
+    while chosen + LINE_STEP_SECONDS < horizon and line_holds(trajectories, chosen + LINE_STEP_SECONDS, frame_rate):
+        chosen += LINE_STEP_SECONDS
+    if bound is not None and bound <= chosen:
+        return config
+    return dataclasses.replace(config, interpolate_max_seconds=chosen)
 
 
 def gap_agreement(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray) -> np.ndarray:

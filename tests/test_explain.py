@@ -1,5 +1,6 @@
 """Graph export and explanations: the decisions of a run, in files and in words."""
 
+import dataclasses
 import math
 import re
 import shutil
@@ -11,7 +12,8 @@ import pytest
 
 from conftest import GeometryEmbedder, write_sequence
 from sotmot.config import TrackerConfig
-from sotmot.inspect.explain import explain, export_graph, inspection_graph
+from helpers import tk
+from sotmot.inspect.explain import explain, explain_gaps, export_graph, inspection_graph
 from sotmot.inspect.graph_view import draw_png, tracklet_crops, write_html
 from sotmot.pipeline import track_sequence
 
@@ -105,3 +107,14 @@ def test_html_page_works_in_a_real_headless_browser(tmp_path):
     run = subprocess.run([CHROMIUM, *CHROME_FLAGS, *profile, f"--screenshot={shot}", "--window-size=1400,500",
                           url], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0 and shot.is_file() and cv2.imread(str(shot)) is not None
+
+
+def test_gaps_are_explained_with_the_bound_the_line_check_set(tmp_path):
+    config, result = teleport_run(tmp_path)
+    person = tk(1, [1, 2, 3, 4, 13, 14], [[10, 50, 20, 40]])  # an 8-frame gap: 2 s at 4 fps
+    checked = dataclasses.replace(result, trajectories=[person], track_ids=[1],
+                                  postprocess=dataclasses.replace(config.postprocess, interpolate_max_seconds=1.0))
+    text = explain_gaps(checked, config, 1)
+    assert "does not hold over 2 s" in text and "filled up to 1 s" in text and "left empty" in text
+    kept = explain_gaps(dataclasses.replace(checked, postprocess=config.postprocess), config, 1)
+    assert "does not hold" not in kept and "left empty" not in kept

@@ -2,7 +2,8 @@ import numpy as np
 
 from helpers import tk
 from sotmot.config import PostprocessConfig
-from sotmot.postprocess import AUTO_WINDOWS, interpolate, local_lines, smooth, smoothing_windows, to_tracks
+from sotmot.postprocess import (AUTO_WINDOWS, LINE_MIN_SAMPLES, expand, interpolate, line_checked, line_samples,
+                                local_lines, smooth, smoothing_windows, to_tracks)
 from sotmot.types import Detections
 
 
@@ -168,3 +169,37 @@ def test_each_gap_says_what_was_written_in_it_and_which_rule_decided():
     (small,) = gaps_of(short, checked, 10, occluders)
     assert (small.after, small.before, small.written, small.why) == (2, 5, 2, "interpolated")
     assert gaps_of(walker(x_after=80.0), PostprocessConfig(interpolate=False), 10)[0].why.startswith("interpolation")
+
+
+def swaying(tid: int, amplitude: float, period: float, frames=np.arange(1, 301)):
+    """A person seen in every frame whose box swings sideways by ``amplitude`` pixels every ``period`` frames (a
+    camera panning to and fro with nothing to compensate it); 0 is a straight walk."""
+    x = 100.0 * tid + 1.5 * frames + amplitude * np.sin(2 * np.pi * frames / period)
+    return tk(tid, frames, np.column_stack([x, 300 + 0.2 * frames, 40 + 0 * frames, 100 + 0 * frames]))
+
+
+def test_the_line_check_lowers_the_interpolation_bound_only_where_the_line_does_not_hold():
+    config = PostprocessConfig()  # gaps up to 4 s, the line checked over 2 s
+    walks = [swaying(k, 0.0, 1) for k in range(3)]
+    assert line_samples(walks, 20) == (168, 168)  # every 2-s line lands on the box halfway
+    assert line_checked(config, walks, 10) is config
+    # a sway the line follows over 1.5 s (every sample lands) but not over 2 s: gaps are filled up to 1.5 s
+    mild = [swaying(k, 40.0, 60) for k in range(3)]
+    assert line_samples(mild, 15)[0] == line_samples(mild, 15)[1] and line_samples(mild, 20)[0] < 84
+    assert line_checked(config, mild, 10).interpolate_max_seconds == 1.5
+    strong = [swaying(k, 80.0, 40) for k in range(3)]
+    assert line_checked(config, strong, 10).interpolate_max_seconds == 1.0  # never below 1 s
+    # what is left alone: the check off, no frame rate, a bound already as short, too few samples to judge
+    for off in (PostprocessConfig(line_check_seconds=None), PostprocessConfig(interpolate_max_seconds=1.0)):
+        assert line_checked(off, strong, 10) is off
+    assert line_checked(config, strong, None) is config
+    short = [swaying(0, 80.0, 40, np.arange(1, 30))]
+    assert line_samples(short, 20)[1] < LINE_MIN_SAMPLES and line_checked(config, short, 10) is config
+
+
+def test_a_gap_the_line_check_bounds_is_left_empty():
+    strong = [swaying(k, 80.0, 40) for k in range(3)]
+    frames = np.r_[np.arange(1, 101), np.arange(131, 301)]  # a 3-s gap at 10 fps
+    person = tk(9, frames, strong[0].boxes[frames - 1])
+    assert expand(person, PostprocessConfig(), 10).filled.sum() == 30  # on trust without the check
+    assert expand(person, line_checked(PostprocessConfig(), strong, 10), 10).filled.sum() == 0

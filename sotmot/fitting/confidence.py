@@ -33,14 +33,14 @@ from sotmot.confidence.maps import (
     quantile_map,
     self_map,
 )
-from sotmot.config import TrackerConfig
+from sotmot.config import PostprocessConfig, TrackerConfig
 from sotmot.scoring import EvalReport, FrameErrors, evaluate_files, frame_errors
 from sotmot.io import SeqInfo, read_detections, read_seqinfo, results_path, write_results
 from sotmot.confirm import box_scorer, confirm
 from sotmot.fitting.logistic import fit_box_model
 from sotmot.pipeline import Prepared, associate
 from sotmot.preprocess import preprocess
-from sotmot.postprocess import expand, output_ids, to_tracks
+from sotmot.postprocess import expand, line_checked, output_ids, to_tracks
 from sotmot.types import Tracklet, Tracks
 
 
@@ -113,6 +113,11 @@ class Labelled:
     def name(self) -> str:
         return self.prepared.info.name
 
+    def postprocess(self, config: TrackerConfig) -> PostprocessConfig:
+        """``config``'s ``[postprocess]`` as it applies to these trajectories (the interpolation bound after the
+        line check, :func:`~sotmot.postprocess.line_checked`), as the tracker applies it."""
+        return line_checked(config.postprocess, self.trajectories, self.prepared.info.frame_rate)
+
 
 def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerConfig,
                    workdir: Path, family: str | None = None) -> Labelled:
@@ -120,9 +125,9 @@ def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerCo
     guessed from the scores."""
     _, trajectories = associate(prepared.tracklets, prepared.finishing(config))
     occluders = prepared.occluders
-    ids = output_ids(trajectories, config.postprocess, prepared.info.frame_rate, occluders)
-    tracks = to_tracks(trajectories, prepared.detections, config.postprocess, None, prepared.info.frame_rate, ids,
-                       occluders)
+    post = line_checked(config.postprocess, trajectories, prepared.info.frame_rate)
+    ids = output_ids(trajectories, post, prepared.info.frame_rate, occluders)
+    tracks = to_tracks(trajectories, prepared.detections, post, None, prepared.info.frame_rate, ids, occluders)
     labels = box_labels(tracks, prepared.info, workdir)
     keyed = {(int(f), int(i)): int(v) for f, i, v in zip(tracks.frames, tracks.ids, labels) if v >= 0}
     return Labelled(prepared, trajectories, family or detector_family(raw_scores, prepared.info.name),
@@ -189,13 +194,13 @@ def sequence_confidence(seq: Labelled, method: str, calibration: Calibration) ->
 
 def scored_boxes(seq: Labelled, confidence: np.ndarray, config: TrackerConfig) -> tuple[np.ndarray, np.ndarray]:
     """Features ``(M, len(FEATURES))`` and labels ``(M,)`` of the labelled output boxes of ``seq``."""
-    p = seq.prepared
+    p, post = seq.prepared, seq.postprocess(config)
     rows, labels = [], []
     occluders = p.occluders
     for t, tid in zip(seq.trajectories, seq.track_ids):
         if tid is None:
             continue
-        e = expand(t, config.postprocess, p.info.frame_rate, occluders)
+        e = expand(t, post, p.info.frame_rate, occluders)
         x = box_features(t, e, confidence, p.detections.from_sot, p.features, p.info.frame_rate)
         y = np.array([seq.labels.get((int(f), tid), -1) for f in e.frames])
         rows.append(x[y >= 0])
@@ -210,8 +215,8 @@ def confirmed_tracks(seq: Labelled, confidence: np.ndarray, model: BoxModel, thr
     """The output of ``seq`` after confirmation with ``model`` at ``threshold``."""
     p = seq.prepared
     scorer = box_scorer(model, p.detections, p.features, confidence, p.info.frame_rate)
-    tracks = to_tracks(seq.trajectories, p.detections, config.postprocess, scorer, p.info.frame_rate, seq.track_ids,
-                       p.occluders)
+    tracks = to_tracks(seq.trajectories, p.detections, seq.postprocess(config), scorer, p.info.frame_rate,
+                       seq.track_ids, p.occluders)
     return confirm(tracks, config.replace("confirm", threshold=threshold))[0]
 
 
@@ -242,8 +247,8 @@ def objective(report: EvalReport, base: EvalReport) -> float:
 def unconfirmed_tracks(seq: Labelled, config: TrackerConfig) -> Tracks:
     """The output of ``seq`` without confirmation (post-processing as configured)."""
     p = seq.prepared
-    return to_tracks(seq.trajectories, p.detections, config.postprocess, None, p.info.frame_rate, seq.track_ids,
-                     p.occluders)
+    return to_tracks(seq.trajectories, p.detections, seq.postprocess(config), None, p.info.frame_rate,
+                     seq.track_ids, p.occluders)
 
 
 @dataclass

@@ -251,10 +251,15 @@ def explain_gaps(result: TrackResult, config: TrackerConfig, track: int) -> str:
     if not found:
         return f"track {track}: no trajectory of this run has that id"
     rate = result.info.frame_rate
-    gaps = gaps_of(found[0], config.postprocess, rate, result.occluders)
+    post = result.postprocess or config.postprocess
+    gaps = gaps_of(found[0], post, rate, result.occluders)
     if not gaps:
         return f"track {track} has no gap: a box in every frame from {found[0].start} to {found[0].end}"
     out = [f"track {track}: {len(gaps)} gap(s) between its boxes"]
+    if post.interpolate_max_seconds != config.postprocess.interpolate_max_seconds:
+        out.append(f"  (the straight line does not hold over {config.postprocess.line_check_seconds:g} s on this "
+                   f"sequence's trajectories, [postprocess] line_check_seconds: gaps are filled up to "
+                   f"{post.interpolate_max_seconds:g} s)")
     for g in gaps:
         missing = g.before - g.after - 1
         seconds = f", {missing / rate:.2f} s" if rate else ""
