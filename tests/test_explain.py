@@ -111,6 +111,7 @@ def test_html_page_works_in_a_real_headless_browser(tmp_path):
 
 def test_gaps_are_explained_with_the_bound_the_line_check_set(tmp_path):
     config, result = teleport_run(tmp_path)
+    config = config.replace("postprocess", line_check_seconds=2.0)
     person = tk(1, [1, 2, 3, 4, 13, 14], [[10, 50, 20, 40]])  # an 8-frame gap: 2 s at 4 fps
     checked = dataclasses.replace(result, trajectories=[person], track_ids=[1],
                                   postprocess=dataclasses.replace(config.postprocess, interpolate_max_seconds=1.0))

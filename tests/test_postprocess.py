@@ -179,7 +179,7 @@ def swaying(tid: int, amplitude: float, period: float, frames=np.arange(1, 301))
 
 
 def test_the_line_check_lowers_the_interpolation_bound_only_where_the_line_does_not_hold():
-    config = PostprocessConfig()  # gaps up to 4 s, the line checked over 2 s
+    config = PostprocessConfig(line_check_seconds=2.0)  # gaps up to 4 s, the line checked over 2 s
     walks = [swaying(k, 0.0, 1) for k in range(3)]
     assert line_samples(walks, 20) == (168, 168)  # every 2-s line lands on the box halfway
     assert line_checked(config, walks, 10) is config
@@ -190,7 +190,7 @@ def test_the_line_check_lowers_the_interpolation_bound_only_where_the_line_does_
     strong = [swaying(k, 80.0, 40) for k in range(3)]
     assert line_checked(config, strong, 10).interpolate_max_seconds == 1.0  # never below 1 s
     # what is left alone: the check off, no frame rate, a bound already as short, too few samples to judge
-    for off in (PostprocessConfig(line_check_seconds=None), PostprocessConfig(interpolate_max_seconds=1.0)):
+    for off in (PostprocessConfig(), PostprocessConfig(line_check_seconds=2.0, interpolate_max_seconds=1.0)):
         assert line_checked(off, strong, 10) is off
     assert line_checked(config, strong, None) is config
     short = [swaying(0, 80.0, 40, np.arange(1, 30))]
@@ -202,4 +202,5 @@ def test_a_gap_the_line_check_bounds_is_left_empty():
     frames = np.r_[np.arange(1, 101), np.arange(131, 301)]  # a 3-s gap at 10 fps
     person = tk(9, frames, strong[0].boxes[frames - 1])
     assert expand(person, PostprocessConfig(), 10).filled.sum() == 30  # on trust without the check
-    assert expand(person, line_checked(PostprocessConfig(), strong, 10), 10).filled.sum() == 0
+    checked = line_checked(PostprocessConfig(line_check_seconds=2.0), strong, 10)
+    assert expand(person, checked, 10).filled.sum() == 0

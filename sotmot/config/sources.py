@@ -192,13 +192,14 @@ class AppearanceConfig:
         its appearance feature; no SOT step, no end extension. Several times
         faster, and what ``scripts/bench_validation.py`` tracks label-only
         sequences with; ahead of SORT, ByteTrack and OC-SORT there (combined
-        HOTA 47.2 against at most 44.3, docs/results.md). On the five
+        HOTA 47.4 against at most 44.3, docs/results.md). On the five
         full-length sequences with frames it trails re-ID by 17 HOTA combined
-        (46.7 against 63.6; docs/benchmarks.md). Its gaps: the label sets
-        prefer ``l_max_seconds = 2`` with ``interpolate_max_seconds = 2``
-        (``docs/validation/gap2s.toml``: HOTA +0.5, MOTA +2.1 combined, +3.0
-        / +10.3 on a moving camera) but a crowded street loses 1.6 HOTA: a
-        recommendation where the camera moves, not a default.
+        (46.7 against 63.6; docs/benchmarks.md). Where the camera moves,
+        nothing compensates it here (no frames): ``[postprocess]
+        line_check_seconds = 2`` (``docs/validation/line2s.toml``) fills gaps
+        only as far as the straight line holds on the sequence, +0.36 HOTA and
+        +1.55 MOTA on the label sets combined (MOT17-10-SDP +3.5 / +15.1), none
+        worse; a recommendation there, not a default (docs/benchmarks.md).
     model
         Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
         person-reidentification-retail-0288). ``None`` reads the environment
