@@ -34,7 +34,7 @@ SHORT_WINDOW = 3
 #: The line check (``[postprocess] line_check_seconds``, :func:`line_checked`): one sample is the straight line
 #: between two boxes of a trajectory a span apart, evaluated at its box halfway between them; it lands when its IoU
 #: with that box is at least this.
-LINE_IOU = 0.5
+LINE_IOU = 0.3
 #: The line holds over a span when at least this share of the span's samples land: a box written where it is more
 #: likely false than true costs MOTA (:mod:`sotmot.confidence`).
 LINE_HOLDS = 0.5

@@ -184,7 +184,7 @@ def test_the_line_check_lowers_the_interpolation_bound_only_where_the_line_does_
     assert line_samples(walks, 20) == (168, 168)  # every 2-s line lands on the box halfway
     assert line_checked(config, walks, 10) is config
     # a sway the line follows over 1.5 s (every sample lands) but not over 2 s: gaps are filled up to 1.5 s
-    mild = [swaying(k, 40.0, 60) for k in range(3)]
+    mild = [swaying(k, 60.0, 60) for k in range(3)]
     assert line_samples(mild, 15)[0] == line_samples(mild, 15)[1] and line_samples(mild, 20)[0] < 84
     assert line_checked(config, mild, 10).interpolate_max_seconds == 1.5
     strong = [swaying(k, 80.0, 40) for k in range(3)]
