@@ -33,10 +33,10 @@ CV_BLOCK = 1
 SHORT_WINDOW = 3
 #: The line check (``[postprocess] line_check_seconds``, :func:`line_checked`): one sample is the straight line
 #: between two boxes of a trajectory a span apart, evaluated at its box halfway between them; it lands when its IoU
-#: with that box is at least this.
+#: with that box is at least this (0.5 failed lines that follow a person under a detector's loose boxes:
+#: docs/benchmarks.md, "Interpolation that checks its line").
 LINE_IOU = 0.3
-#: The line holds over a span when at least this share of the span's samples land: a box written where it is more
-#: likely false than true costs MOTA (:mod:`sotmot.confidence`).
+#: The line holds over a span when at least this share of the span's samples land (most of them).
 LINE_HOLDS = 0.5
 #: A span with fewer samples than this says nothing (it counts as holding): short clips keep the configured bound.
 LINE_MIN_SAMPLES = 30
@@ -254,7 +254,7 @@ def line_checked(config: PostprocessConfig, trajectories: Sequence[Tracklet], fr
     Interpolation writes a person where the straight line between two of their boxes says; whether that line is
     where people go is checked on the sequence's own trajectories, over spans where they were seen
     (:func:`line_holds`). Where it holds over ``line_check_seconds``, ``config`` stands; where it does not (a camera
-    that moves and nothing compensated, people at many depths under a moving camera), gaps are filled only up to
+    that moves with nothing to compensate it), gaps are filled only up to
     the longest span from :data:`LINE_FLOOR_SECONDS` up, in steps of :data:`LINE_STEP_SECONDS`, over which it
     holds (at least the first). Unchanged without a frame rate, with interpolation off or the check off.
     """
