@@ -715,7 +715,7 @@ def ceiling_table(data: dict, peer: str) -> list[str]:
 
 #: Sections measured before smoothing chose its window (``[postprocess] smooth_window = "auto"``, 2026-12-04) and
 #: not rerun since: their rows used the paper's mean over +-3 frames. Emptied as they are rerun.
-BEFORE_AUTO_SMOOTHING = ("Long videos", "Committed windows")
+BEFORE_AUTO_SMOOTHING = ("Committed windows",)
 
 
 def page() -> str:
