@@ -10,7 +10,9 @@ The set, built from what ``../shared/data`` holds:
   DPM, Faster R-CNN, SDP), 14 sequences with detections and ground truth but no
   frames, crowded and sparse, still and moving cameras, tracked in the
   motion-only mode (``[appearance] backend = "none"``, camera motion not
-  estimated): what a default does to FP and FN where no frames exist.
+  estimated): what a default does to FP and FN where no frames exist;
+* **label-rates**: each 25-30 fps label-only sequence at every 2nd frame (10
+  sequences at 12.5-15 fps, made once under ``--cache``), tracked alike.
 
 Each configuration (``--config NAME=FILE``, TOML or JSON; the first is the
 reference, by default today's defaults) tracks every sequence; configurations
@@ -61,8 +63,8 @@ import numpy as np
 
 from common import DEFAULT_DATA, named_config
 from sotmot.appearance import resolve_backend
-from sotmot.benchmarks import (for_group, group_features, jittered_sequence, machine, preparation_key,
-                               validation_set)
+from sotmot.benchmarks import (GROUPS, LABEL_GROUPS, for_group, group_features, jittered_sequence, machine,
+                               preparation_key, validation_set)
 from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
@@ -106,7 +108,7 @@ def noise_runs(seq: Path, group: str, reference: TrackerConfig, model: str, cach
     config = for_group(reference, group, model)
     runs = {}
     other = OTHER_RUNTIME.get(resolve_backend(config.appearance).backend)
-    if group != "labels" and other:
+    if group not in LABEL_GROUPS and other:
         runs["runtime"] = (seq, config.replace("appearance", backend=other), cache / "features")
     for run in (r for r in NOISE if r.startswith("jitter")):
         copy, features = jittered_copy(seq, int(run.removeprefix("jitter")), cache)
@@ -214,8 +216,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", action="append", type=named_config, metavar="NAME=FILE",
                         help="a configuration to judge (repeat; the first is the reference; FILE empty: the "
                              "defaults; default: defaults=)")
-    parser.add_argument("--groups", default="frames,rates,labels",
-                        help="which parts of the set: frames, rates, labels (default: %(default)s)")
+    parser.add_argument("--groups", default=",".join(GROUPS),
+                        help="which parts of the set, of those above (default: %(default)s)")
     parser.add_argument("--cache", type=Path, default=Path(".cache/validation"),
                         help="frame-rate variants and re-ID features kept between runs (default: %(default)s)")
     parser.add_argument("--peers", default="",
@@ -235,6 +237,8 @@ def main(argv: list[str] | None = None) -> int:
                              "groups, its peers) replace the old ones, the rest are kept, and the worst sequences "
                              "are recomputed over all of them; written to --json, another file")
     args = parser.parse_args(argv)
+    if not set(args.groups.split(",")) <= set(GROUPS):
+        parser.error(f"--groups: choose from {', '.join(GROUPS)}")
     if args.seeds < 0:
         parser.error("--seeds takes a count, 0 or more")
     if args.seeds and (args.merge or args.noise):

@@ -6,7 +6,8 @@ Issue #39 measured the 4-s gap adding false positives on unseen sequences (FP
 Each configuration (``--config NAME=FILE``; the first is the reference,
 default today's defaults) tracks the validation set (``--groups``: the
 full-length sequences with frames, their 8-15 fps variants, the label-only
-sequences in the motion-only mode; :func:`sotmot.benchmarks.validation_set`)
+sequences and their 12.5-15 fps variants in the motion-only mode;
+:func:`sotmot.benchmarks.validation_set`)
 or any folder of MOTChallenge sequences with frames (``--data``). Every output
 box TrackEval scores (boxes on distractors are removed first, as TrackEval
 does) is put under the stage that wrote it:
@@ -47,8 +48,8 @@ from pathlib import Path
 import numpy as np
 
 from common import DEFAULT_DATA, named_config
-from sotmot.benchmarks import (FULL_LENGTH, GROUPS, for_group, group_features, machine, preparation_key,
-                               private_config, sequences, validation_set)
+from sotmot.benchmarks import (FULL_LENGTH, GROUPS, LABEL_GROUPS, for_group, group_features, machine,
+                               preparation_key, private_config, sequences, validation_set)
 from sotmot.boxes import iou_matrix
 from sotmot.config import PostprocessConfig
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
@@ -154,7 +155,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", action="append", type=named_config, metavar="NAME=FILE",
                         help="a configuration to analyse (repeat; FILE empty: the defaults; default: defaults=)")
     parser.add_argument("--groups", default=",".join(GROUPS),
-                        help="which parts of the validation set: frames, rates, labels (default: %(default)s)")
+                        help=f"which parts of the validation set: {', '.join(GROUPS)} (default: %(default)s)")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--cache", type=Path, default=Path(".cache/validation"),
                         help="frame-rate variants and re-ID features kept between runs (default: %(default)s)")
@@ -168,7 +169,7 @@ def main(argv: list[str] | None = None) -> int:
     groups = args.groups.split(",")
     if not set(groups) <= set(GROUPS):
         parser.error(f"--groups: choose from {', '.join(GROUPS)}")
-    if args.detector_model and "labels" in groups:
+    if args.detector_model and set(LABEL_GROUPS) & set(groups):
         parser.error("--detector-model detects on frames: the label-only sequences have none; give --groups frames "
                      "(or frames,rates)")
     if args.detector_model and not Path(args.detector_model).is_file():

@@ -28,7 +28,9 @@ VARIANT_MIN_FPS = 20.0
 #: The validation set's label-only sequences (detections and ground truth, no frames), as patterns under the data.
 LABEL_SETS = ("MOT16-labels/*", "MOT17-labels/*")
 #: The validation set's groups (:func:`validation_set`).
-GROUPS = ("frames", "rates", "labels")
+GROUPS = ("frames", "rates", "labels", "label-rates")
+#: The groups without frames, tracked in the motion-only mode (:func:`for_group`).
+LABEL_GROUPS = ("labels", "label-rates")
 #: The configuration sections a preparation (:func:`sotmot.pipeline.prepare_sequence`) reads.
 PREPARATION = ("input", "detection", "preprocess", "appearance", "sot", "tracklets", "motion")
 
@@ -114,7 +116,8 @@ def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]"
     """``(group, folder)`` of every validation sequence under ``data`` (issue #39): ``frames``, the full-length
     sequences with frames; ``rates``, each of them at :data:`VARIANT_MIN_FPS` or above at every 2nd and 3rd
     frame (:func:`subsampled_sequence`, made once under ``cache / "rates"``); ``labels``, the label-only
-    sequences (:data:`LABEL_SETS`), tracked without frames (:func:`for_group`)."""
+    sequences (:data:`LABEL_SETS`), tracked without frames (:func:`for_group`); ``label-rates``, each label-only
+    sequence at :data:`VARIANT_MIN_FPS` or above at every 2nd frame (made alike), tracked alike."""
     members: list[tuple[str, Path]] = []
     full = {p: info for p in sequences(data) if (info := read_seqinfo(p)).length > FULL_LENGTH}
     if "frames" in groups:
@@ -122,9 +125,12 @@ def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]"
     if "rates" in groups:
         members += [("rates", subsampled_sequence(p, step, cache / "rates")) for p, info in full.items()
                     if info.frame_rate >= VARIANT_MIN_FPS for step in (2, 3)]
+    labelled = [p for pattern in LABEL_SETS for p in sorted(data.glob(pattern)) if (p / "seqinfo.ini").is_file()]
     if "labels" in groups:
-        members += [("labels", p) for pattern in LABEL_SETS for p in sorted(data.glob(pattern))
-                    if (p / "seqinfo.ini").is_file()]
+        members += [("labels", p) for p in labelled]
+    if "label-rates" in groups:
+        members += [("label-rates", subsampled_sequence(p, 2, cache / "rates")) for p in labelled
+                    if read_seqinfo(p).frame_rate >= VARIANT_MIN_FPS]
     return members
 
 
@@ -137,9 +143,9 @@ def motion_only(config: TrackerConfig) -> TrackerConfig:
 
 def for_group(config: TrackerConfig, group: str, model: str) -> TrackerConfig:
     """``config`` as a validation sequence of ``group`` is tracked with it: the re-ID ``model`` given, and the
-    motion-only mode (:func:`motion_only`) for the label-only group."""
+    motion-only mode (:func:`motion_only`) for the groups without frames (:data:`LABEL_GROUPS`)."""
     config = config.replace("appearance", model=model)
-    return motion_only(config) if group == "labels" else config
+    return motion_only(config) if group in LABEL_GROUPS else config
 
 
 def preparation_key(config: TrackerConfig) -> str:
@@ -153,7 +159,7 @@ def group_features(seq: Path, config: TrackerConfig, group: str, cache: Path, em
     """Re-ID features of a validation sequence's detections, kept under ``cache`` (none for the label-only
     group). ``embedders`` holds one embedder box (:func:`cached_features`) per ``[appearance]`` setting, so that
     a configuration's missing features come from its own runtime and flip."""
-    if group == "labels":
+    if group in LABEL_GROUPS:
         return None
     box = embedders.setdefault(json.dumps(config.to_dict()["appearance"], sort_keys=True, default=str), [])
     return cached_features(seq, config, cache, box)

@@ -129,6 +129,26 @@ def test_subsampled_sequences_keep_every_nth_frame_and_say_their_rate(tmp_path):
     assert subsampled_sequence(seq, 3, tmp_path / "rates") == out  # made once
 
 
+def test_the_validation_set_tracks_label_only_sequences_and_their_lower_rates_without_frames(tmp_path):
+    from sotmot.benchmarks import for_group, validation_set
+    from sotmot.io import read_seqinfo
+
+    data = tmp_path / "data"
+    gt = [f"{f},1,{f},10,10,20,1,1,1" for f in range(1, 8)]
+    write_sequence(data / "MOT17-labels", [f"{f},-1,{f},10,10,20,1" for f in range(1, 8)], length=7,
+                   frame_rate=30, name="L-SDP", images=False, gt_lines=gt)
+    write_sequence(data / "MOT17-labels", [f"{f},-1,{f},10,10,20,1" for f in range(1, 8)], length=7,
+                   frame_rate=14, name="SLOW-SDP", images=False, gt_lines=gt)
+    members = validation_set(data, tmp_path / "cache")
+    assert [(g, p.name) for g, p in members] == [("labels", "L-SDP"), ("labels", "SLOW-SDP"),
+                                                ("label-rates", "L-every2-SDP")]  # 14 fps has no lower rate here
+    assert read_seqinfo(members[2][1]).frame_rate == 15.0
+    assert [g for g, _ in validation_set(data, tmp_path / "cache", ("label-rates",))] == ["label-rates"]
+    for group in ("labels", "label-rates"):
+        assert for_group(TrackerConfig(), group, "reid.onnx").appearance.backend == "none"
+    assert for_group(TrackerConfig(), "rates", "reid.onnx").appearance.backend == "auto"
+
+
 def test_jittered_sequences_move_each_box_by_under_half_a_pixel_and_keep_the_rest(tmp_path):
     from sotmot.benchmarks import jittered_sequence
     from sotmot.io import read_detections, read_seqinfo
