@@ -66,7 +66,8 @@ def test_an_optional_number_is_turned_off_by_none_in_toml_and_null_in_json(tmp_p
     assert config_from_dict({"appearance": {"model": "none"}}).appearance.model == "none"
     (tmp_path / "line.toml").write_text('[postprocess]\nline_check_seconds = 2\n')
     assert load_config(tmp_path / "line.toml").postprocess.line_check_seconds == 2.0
-    assert TrackerConfig().postprocess.line_check_seconds is None  # off unless asked for
+    assert TrackerConfig().postprocess.line_check_seconds == 2.0  # on by default
+    assert config_from_dict({"postprocess": {"line_check_seconds": "none"}}).postprocess.line_check_seconds is None
     with pytest.raises(ConfigError, match="line_check_seconds must be in"):
         config_from_dict({"postprocess": {"line_check_seconds": 0}})
 

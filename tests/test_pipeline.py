@@ -205,8 +205,8 @@ def test_where_the_line_does_not_hold_the_run_fills_shorter_gaps():
             lines.append(f"{f},-1,{x:.2f},{40 + 60 * k},40,80,0.9,-1,-1,-1")
     with tempfile.TemporaryDirectory() as tmp:
         seq = write_sequence(Path(tmp), lines, length=120, frame_rate=4, width=700, height=300)
-        trust = TrackerConfig().replace("confirm", enabled=False)  # the default: the line is not checked
-        config = trust.replace("postprocess", line_check_seconds=2.0)
+        config = TrackerConfig().replace("confirm", enabled=False)  # the default: the line checked over 2 s
+        trust = config.replace("postprocess", line_check_seconds=None)
         checked = track_sequence(seq, config, embedder=GeometryEmbedder())
         trusting = track_sequence(seq, trust, embedder=GeometryEmbedder())
     assert checked.postprocess.interpolate_max_seconds == 1.5 and trusting.postprocess == trust.postprocess

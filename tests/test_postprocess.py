@@ -190,7 +190,7 @@ def test_the_line_check_lowers_the_interpolation_bound_only_where_the_line_does_
     strong = [swaying(k, 80.0, 40) for k in range(3)]
     assert line_checked(config, strong, 10).interpolate_max_seconds == 1.0  # never below 1 s
     # what is left alone: the check off, no frame rate, a bound already as short, too few samples to judge
-    for off in (PostprocessConfig(), PostprocessConfig(line_check_seconds=2.0, interpolate_max_seconds=1.0)):
+    for off in (PostprocessConfig(line_check_seconds=None), PostprocessConfig(interpolate_max_seconds=1.0)):
         assert line_checked(off, strong, 10) is off
     assert line_checked(config, strong, None) is config
     short = [swaying(0, 80.0, 40, np.arange(1, 30))]
@@ -201,6 +201,6 @@ def test_a_gap_the_line_check_bounds_is_left_empty():
     strong = [swaying(k, 80.0, 40) for k in range(3)]
     frames = np.r_[np.arange(1, 101), np.arange(131, 301)]  # a 3-s gap at 10 fps
     person = tk(9, frames, strong[0].boxes[frames - 1])
-    assert expand(person, PostprocessConfig(), 10).filled.sum() == 30  # on trust without the check
+    assert expand(person, PostprocessConfig(), 10).filled.sum() == 30  # expand() fills on trust, unchecked
     checked = line_checked(PostprocessConfig(line_check_seconds=2.0), strong, 10)
     assert expand(person, checked, 10).filled.sum() == 0

@@ -195,11 +195,9 @@ class AppearanceConfig:
         HOTA 47.4 against at most 44.3, docs/results.md). On the five
         full-length sequences with frames it trails re-ID by 17 HOTA combined
         (46.7 against 63.6; docs/benchmarks.md). Where the camera moves,
-        nothing compensates it here (no frames): ``[postprocess]
-        line_check_seconds = 2`` (``docs/validation/line2s.toml``) fills gaps
-        only as far as the straight line holds on the sequence, +0.33 HOTA and
-        +1.36 MOTA on the label sets combined (MOT17-10-SDP +3.1 / +13.8), none
-        worse; a recommendation there, not a default (docs/benchmarks.md).
+        nothing compensates it here (no frames): the line check
+        (``[postprocess] line_check_seconds``) fills gaps only as far as the
+        straight line holds on the sequence.
     model
         Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
         person-reidentification-retail-0288). ``None`` reads the environment
