@@ -192,7 +192,7 @@ class AppearanceConfig:
         its appearance feature; no SOT step, no end extension. Several times
         faster, and what ``scripts/bench_validation.py`` tracks label-only
         sequences with; ahead of SORT, ByteTrack and OC-SORT there (combined
-        HOTA 47.4 against at most 44.3, docs/results.md). On the five
+        HOTA 47.7 against at most 44.3, docs/results.md). On the five
         full-length sequences with frames it trails re-ID by 17 HOTA combined
         (46.7 against 63.6; docs/benchmarks.md). Where the camera moves,
         nothing compensates it here (no frames): the line check
