@@ -66,7 +66,7 @@ class PostprocessConfig:
         ``None`` trusts the line (the default before 2026-12-04). 2.0 changes
         no validation sequence with frames and no compensated synthetic
         camera, and lifts the motion-only mode on the moving-camera label sets
-        by up to 3.5 HOTA and 16 MOTA, none worse, at their recorded rates and
+        by up to 3.1 HOTA and 17 MOTA, none worse, at their recorded rates and
         at half of them, over paired runs with moved boxes too
         (docs/benchmarks.md, "Interpolation that checks its line").
     """
