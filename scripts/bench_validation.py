@@ -61,7 +61,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import DEFAULT_DATA, named_config
+from common import DEFAULT_DATA, named_config, validation_groups
 from sotmot.appearance import resolve_backend
 from sotmot.benchmarks import (GROUPS, LABEL_GROUPS, for_group, group_features, jittered_sequence, machine,
                                preparation_key, validation_set)
@@ -216,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", action="append", type=named_config, metavar="NAME=FILE",
                         help="a configuration to judge (repeat; the first is the reference; FILE empty: the "
                              "defaults; default: defaults=)")
-    parser.add_argument("--groups", default=",".join(GROUPS),
+    parser.add_argument("--groups", type=validation_groups, default=",".join(GROUPS),
                         help="which parts of the set, of those above (default: %(default)s)")
     parser.add_argument("--cache", type=Path, default=Path(".cache/validation"),
                         help="frame-rate variants and re-ID features kept between runs (default: %(default)s)")
@@ -237,8 +237,6 @@ def main(argv: list[str] | None = None) -> int:
                              "groups, its peers) replace the old ones, the rest are kept, and the worst sequences "
                              "are recomputed over all of them; written to --json, another file")
     args = parser.parse_args(argv)
-    if not set(args.groups.split(",")) <= set(GROUPS):
-        parser.error(f"--groups: choose from {', '.join(GROUPS)}")
     if args.seeds < 0:
         parser.error("--seeds takes a count, 0 or more")
     if args.seeds and (args.merge or args.noise):
@@ -273,11 +271,11 @@ def main(argv: list[str] | None = None) -> int:
         if previous["reference"] != reference:
             parser.error(f"--merge: the first --config is {reference!r}, the old report's reference "
                          f"{previous['reference']!r}")
-        if fresh and not set(previous["groups"].values()) <= set(args.groups.split(",")):
+        if fresh and not set(previous["groups"].values()) <= set(args.groups):
             parser.error(f"--merge: {', '.join(fresh)} not in the old report: run them on every group it has")
     # configurations that agree on every section a preparation reads share one preparation of each sequence
     preparation = {name: preparation_key(cfg) for name, cfg in configs.items()}
-    members = validation_set(args.data, args.cache, set(args.groups.split(",")))
+    members = validation_set(args.data, args.cache, set(args.groups))
     if not members:
         print(f"no validation sequences under {args.data}", file=sys.stderr)
         return 1

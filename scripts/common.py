@@ -18,7 +18,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from sotmot.benchmarks import fit_sequences
+from sotmot.benchmarks import GROUPS, fit_sequences
 from sotmot.config import TrackerConfig, load_config
 from sotmot.errors import SotmotError
 
@@ -91,6 +91,14 @@ def run_timed(command: list[str], env: dict[str, str] | None = None) -> dict[str
             raise SystemExit(f"{' '.join(command)} failed with exit status {done.returncode}:\n{done.stderr[-3000:]}")
         user, system, peak_kb = usage.read_text().split()[-3:]
     return {"seconds": seconds, "cpu_seconds": float(user) + float(system), "peak_rss_mb": int(peak_kb) / 1024}
+
+
+def validation_groups(spec: str) -> tuple[str, ...]:
+    """``--groups``: comma-separated parts of the validation set (:data:`sotmot.benchmarks.GROUPS`)."""
+    groups = tuple(spec.split(","))
+    if not set(groups) <= set(GROUPS):
+        raise argparse.ArgumentTypeError(f"choose from {', '.join(GROUPS)}, got {spec!r}")
+    return groups
 
 
 def named_config(spec: str) -> tuple[str, tuple[TrackerConfig, str]]:

@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import DEFAULT_DATA, named_config
+from common import DEFAULT_DATA, named_config, validation_groups
 from sotmot.benchmarks import (FULL_LENGTH, GROUPS, LABEL_GROUPS, for_group, group_features, machine,
                                preparation_key, private_config, sequences, validation_set)
 from sotmot.boxes import iou_matrix
@@ -154,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", required=True, help="ONNX re-ID model (for the sequences with frames)")
     parser.add_argument("--config", action="append", type=named_config, metavar="NAME=FILE",
                         help="a configuration to analyse (repeat; FILE empty: the defaults; default: defaults=)")
-    parser.add_argument("--groups", default=",".join(GROUPS),
+    parser.add_argument("--groups", type=validation_groups, default=",".join(GROUPS),
                         help=f"which parts of the validation set: {', '.join(GROUPS)} (default: %(default)s)")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--cache", type=Path, default=Path(".cache/validation"),
@@ -166,9 +166,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="where the detector's boxes are kept between runs (default: %(default)s)")
     parser.add_argument("--json", type=Path, help="write the counts here")
     args = parser.parse_args(argv)
-    groups = args.groups.split(",")
-    if not set(groups) <= set(GROUPS):
-        parser.error(f"--groups: choose from {', '.join(GROUPS)}")
+    groups = args.groups
     if args.detector_model and set(LABEL_GROUPS) & set(groups):
         parser.error("--detector-model detects on frames: the label-only sequences have none; give --groups frames "
                      "(or frames,rates)")
@@ -184,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"left out, {FULL_LENGTH} frames or fewer (too short for long gaps): {', '.join(short)}",
               file=sys.stderr)
     if not members:
-        print(f"no sequences of the groups {args.groups} under {args.data}", file=sys.stderr)
+        print(f"no sequences of the groups {','.join(groups)} under {args.data}", file=sys.stderr)
         return 1
     embedders: dict[str, list] = {}
     counts: dict[str, dict[str, dict]] = {name: {} for name in described}
