@@ -89,9 +89,9 @@ def window_path(length: int, frame_rate: float, width: int, height: int, args: a
     return path
 
 
-def map_rows(rows: np.ndarray, path: np.ndarray, out_w: int, out_h: int, min_inside: float) -> np.ndarray:
-    """MOTChallenge rows (frame, id, x, y, w, h, ...) mapped into the window; rows with less than ``min_inside``
-    of their area inside it dropped (0: rows wholly outside)."""
+def into_window(rows: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """MOTChallenge rows (frame, id, x, y, w, h, ...) of the source frame mapped into the window along ``path``
+    (:func:`read_path`), every row kept."""
     if not len(rows):
         return rows
     a = path[rows[:, 0].astype(np.int64)]
@@ -101,8 +101,26 @@ def map_rows(rows: np.ndarray, path: np.ndarray, out_w: int, out_h: int, min_ins
     out = rows.copy()
     out[:, 4:6] = rows[:, 4:6] * scale[:, None]
     out[:, 2:4] = moved - out[:, 4:6] / 2
+    return out
+
+
+def map_rows(rows: np.ndarray, path: np.ndarray, out_w: int, out_h: int, min_inside: float) -> np.ndarray:
+    """MOTChallenge rows (frame, id, x, y, w, h, ...) mapped into the window; rows with less than ``min_inside``
+    of their area inside it dropped (0: rows wholly outside)."""
+    out = into_window(rows, path)
+    if not len(out):
+        return out
     inside = inside_share(out[:, 2:6], out_w, out_h)
     return out[(inside >= min_inside) & (inside > 0)]
+
+
+def window_share(rows: np.ndarray, still: Path, moving: Path) -> np.ndarray:
+    """``(N,)``: the share of each box of ``rows`` (MOTChallenge rows of the still window ``still``) inside the
+    moving window ``moving`` (both made by this script from one source)."""
+    info = read_seqinfo(moving)
+    source = to_source(rows, read_path(still, read_seqinfo(still).length))
+    seen = into_window(source, read_path(moving, info.length))
+    return inside_share(seen[:, 2:6], info.width, info.height) if len(seen) else np.zeros(0)
 
 
 def refuse_existing(out: Path) -> Path:

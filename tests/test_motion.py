@@ -254,7 +254,8 @@ def test_make_moving_drives_forward_zooming_and_turning_and_refuses_a_path_out_o
 def test_the_same_view_reference_sees_the_still_window_through_the_moving_one(tmp_path):
     """make_moving.same_view keeps the still window's frames with only the detections the moving window kept, and
     through() shows results of the still window as the moving window would: the still ground truth seen through
-    the forward window is the forward window's own ground truth."""
+    the forward window is the forward window's own ground truth; window_share() says how much of each box the
+    moving window shows."""
     import subprocess
     import sys
 
@@ -283,6 +284,10 @@ def test_the_same_view_reference_sees_the_still_window_through_the_moving_one(tm
     make_moving.through(still / "gt" / "gt.txt", still, forward, seen)
     np.testing.assert_allclose(make_moving.read_rows(seen), make_moving.read_rows(forward / "gt" / "gt.txt"),
                                atol=2e-6)
+    # frame 3's person, 12 px wide at the still window's left edge, is 14.4 px wide at x = -8 in the zoomed window:
+    # 6.4 px of it inside, less than half (the bench drops the still window's end-extension boxes there)
+    np.testing.assert_allclose(make_moving.window_share(make_moving.read_rows(still / "gt" / "gt.txt"), still, forward),
+                               [1.0, 6.4 / 14.4, 1.0], atol=1e-6)
 
 
 def test_positions_compared_in_a_reference_of_another_scale_and_offset_give_the_same_tracks(monkeypatch):

@@ -15,7 +15,8 @@ feature, the paper's seed, the mean was right more often: on MOT17-09-FRCNN
   affinity with the trajectory of at least ``[ends] min_affinity``;
 * the best candidate overlaps a box of another trajectory (or one already
   added) at IoU above ``[ends] stop_iou``: someone else is there;
-* less than half the candidate lies inside the image (the person leaves);
+* less than half the candidate lies inside the image (the person leaves;
+  :data:`MIN_INSIDE`);
 * it has grown ``[ends] seconds``, or reached the sequence's first or last frame.
 
 With the detector's weak boxes (``[detection] weak_boxes``) the candidates
@@ -47,6 +48,8 @@ log = logging.getLogger(__name__)
 
 #: How many of a trajectory's last boxes (frames) give its velocity.
 VELOCITY_FRAMES = 5
+#: An end stops where less of the box it found than this share lies inside the image (the person leaves).
+MIN_INSIDE = 0.5
 
 
 def end_velocity(frames: np.ndarray, boxes: np.ndarray, direction: int) -> np.ndarray:
@@ -165,7 +168,7 @@ class _Finder:
         best = int(np.argmax(aff))
         found, affinity = candidates[best], float(aff[best])
         if not passes_end_gates(self.ends, affinity=affinity, supported=supported) \
-                or inside_share(found[None], image.shape[1], image.shape[0])[0] < 0.5:
+                or inside_share(found[None], image.shape[1], image.shape[0])[0] < MIN_INSIDE:
             return None, affinity, supported
         others = [b for o, b in self.occupied.get(frame, []) if o != track_id]
         stop = SUPPORTED_STOP_IOU if supported else self.ends.stop_iou  # a detector box is someone of its own
