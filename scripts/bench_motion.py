@@ -14,8 +14,9 @@ rounded to whole pixels) and the same window held still (cached under
   in view. A window that zooms in sees less of the scene; people near its edges
   lose their detections and leave the view, which costs any tracker against the
   whole still window. The still window's end extension would follow them on
-  into pixels the moving window never shows, where the moving run's ends stop
-  (less than half the box inside its image): those boxes are dropped. The
+  into pixels the moving window never shows, past where the moving run's ends
+  stop (at the latest where less than half the box is inside its image): those
+  boxes are dropped. The
   moving run minus this one is what the motion itself costs, and the targets
   are measured against it;
 - ``pan, off``: the moving window without compensation;
@@ -197,8 +198,8 @@ def main(argv: list[str] | None = None) -> int:
         """The still window tracked with the moving window's detections, seen through the moving window.
 
         Its end extension's boxes less than :data:`~sotmot.sot.extend.MIN_INSIDE` inside the moving window are
-        dropped: the moving run's ends stop there (their image ends), the still window's go on into pixels the
-        moving camera never saw (counted in ``beyond``)."""
+        dropped: the moving run's ends have stopped by then (its template search, at the image's edge), the still
+        window's go on into pixels the moving camera never saw (counted in ``beyond``)."""
         view = args.cache / f"{still.name}-view-{moving.name}"
         if not view.is_dir():
             make_moving.same_view(still, moving, view)

@@ -395,10 +395,10 @@ def same_view_words(data: dict) -> str:
             "detections and leave the view, which costs any tracker against the whole still window (PETS09-S2L1 "
             f"forward: `same view` {data['synthetic']['PETS09-S2L1']['forward, same view']['HOTA']:.1f} HOTA against "
             f"`still` {data['synthetic']['PETS09-S2L1']['still']['HOTA']:.1f}). Its end extension would follow "
-            "them on into pixels the moving camera never shows, where the moving run's ends stop (less than half "
-            "the box inside the image): those boxes are dropped" + ends_dropped(data) + "; a moving run minus its "
-            "`same view` is what the motion itself costs, and the issue's target (within 1.0 HOTA and 2.0 MOTA) is "
-            "measured "
+            "them on into pixels the moving camera never shows, past where the moving run's ends stop (at the "
+            "latest where less than half the box is inside the image): those boxes are dropped"
+            + ends_dropped(data) + "; a moving run minus its `same view` is what the motion itself costs, and the "
+            "issue's target (within 1.0 HOTA and 2.0 MOTA) is measured "
             f"against it: the worst `auto` run is {hota[2]:+.1f} HOTA ({hota[0]} {hota[1]}) and {mota[3]:+.1f} MOTA "
             f"({mota[0]} {mota[1]})." if "PETS09-S2L1" in data["synthetic"] else "")
 

@@ -16,7 +16,9 @@ feature, the paper's seed, the mean was right more often: on MOT17-09-FRCNN
 * the best candidate overlaps a box of another trajectory (or one already
   added) at IoU above ``[ends] stop_iou``: someone else is there;
 * less than half the candidate lies inside the image (the person leaves;
-  :data:`MIN_INSIDE`);
+  :data:`MIN_INSIDE`; only a detector's weak box can be partly outside:
+  the template search proposes boxes wholly inside the image, so a SOT end
+  stops where the person reaches the image's edge);
 * it has grown ``[ends] seconds``, or reached the sequence's first or last frame.
 
 With the detector's weak boxes (``[detection] weak_boxes``) the candidates
@@ -48,7 +50,8 @@ log = logging.getLogger(__name__)
 
 #: How many of a trajectory's last boxes (frames) give its velocity.
 VELOCITY_FRAMES = 5
-#: An end stops where less of the box it found than this share lies inside the image (the person leaves).
+#: An end stops where less of the box it found than this share lies inside the image (the person leaves); the
+#: template search's boxes lie wholly inside it, so this stops the weak-box search only.
 MIN_INSIDE = 0.5
 
 
