@@ -16,9 +16,8 @@ rounded to whole pixels) and the same window held still (cached under
   whole still window. The still window's end extension would follow them on
   into pixels the moving window never shows, past where the moving run's ends
   stop (at the latest where less than half the box is inside its image): those
-  boxes are dropped. The
-  moving run minus this one is what the motion itself costs, and the targets
-  are measured against it;
+  boxes are dropped. The moving run minus this one is what the motion itself
+  costs, and the targets are measured against it;
 - ``pan, off``: the moving window without compensation;
 - ``pan, auto``: the moving window with the default compensation;
 - ``forward, off`` / ``forward, auto`` (issue #41, unless ``--forward ""``): the
