@@ -41,8 +41,8 @@ LINE_HOLDS = 0.5
 #: A span with fewer samples than this says nothing (it counts as holding): short clips keep the configured bound.
 LINE_MIN_SAMPLES = 30
 #: Where the line does not hold over ``line_check_seconds``, the spans tried are this long and longer by
-#: :data:`LINE_STEP_SECONDS`; the bound never falls below the first (the occlusion check's default).
-LINE_FLOOR_SECONDS = 1.0
+#: :data:`LINE_STEP_SECONDS`; the bound never falls below the first (the occlusion check's default span).
+LINE_FLOOR_SECONDS = PostprocessConfig.occlusion_seconds
 LINE_STEP_SECONDS = 0.5
 
 
