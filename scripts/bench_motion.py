@@ -177,20 +177,20 @@ def main(argv: list[str] | None = None) -> int:
     errors: dict[str, dict[str, float]] = {}
     beyond: dict[str, dict[str, int]] = {}  # per moving run: its same view's end-extension boxes, and those dropped
 
-    def run(seq: Path, label: str, compensation: str, out: Path, predict: bool = False) -> tuple[TrackResult, Path]:
+    def run(seq: Path, label: str, compensation: str, predict: bool = False) -> TrackResult:
         cfg = config.replace("motion", compensation=compensation).replace("tracklets", predict=predict)
         features = cached_features(seq, cfg, args.cache / "features", embedder_box)
         if not embedder_box:
             embedder_box.append(make_embedder(cfg.appearance))
         result = track_sequence(seq, cfg, embedder_box[0], progress=sys.stderr.isatty(), features=features)
-        path = results_path(out / label, result.info.name)
-        write_results(path, result.tracks)
         print(f"{result.info.name} {label}: camera {'moving' if result.motion.moving else 'still'}", file=sys.stderr)
-        return result, path
+        return result
 
     def track(seq: Path, label: str, compensation: str, out: Path,
               predict: bool = False) -> tuple[Path, Path, int, str]:
-        result, path = run(seq, label, compensation, out, predict)
+        result = run(seq, label, compensation, predict)
+        path = results_path(out / label, result.info.name)
+        write_results(path, result.tracks)
         return path, result.info.gt_path, result.info.length, result.info.name
 
     def same_view(still: Path, moving: Path, kind: str, out: Path) -> tuple[Path, Path, int, str]:
@@ -202,7 +202,7 @@ def main(argv: list[str] | None = None) -> int:
         view = args.cache / f"{still.name}-view-{moving.name}"
         if not view.is_dir():
             make_moving.same_view(still, moving, view)
-        result, _ = run(view, f"{kind}-view", "auto", out)
+        result = run(view, f"{kind}-view", "auto")
         t = result.tracks
         outside = t.from_sot & (make_moving.window_share(np.column_stack([t.frames, t.ids, t.boxes]).astype(float),
                                                          view, moving) < MIN_INSIDE)
