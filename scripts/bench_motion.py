@@ -197,8 +197,8 @@ def main(argv: list[str] | None = None) -> int:
         """The still window tracked with the moving window's detections, seen through the moving window.
 
         Its end extension's boxes less than :data:`~sotmot.sot.extend.MIN_INSIDE` inside the moving window are
-        dropped: the moving run's ends have stopped by then (its template search, at the image's edge), the still
-        window's go on into pixels the moving camera never saw (counted in ``beyond``)."""
+        dropped: the moving run's ends stop there (half the person past its image's edge), the still window's
+        would go on into pixels the moving camera never saw (counted in ``beyond``)."""
         view = args.cache / f"{still.name}-view-{moving.name}"
         if not view.is_dir():
             make_moving.same_view(still, moving, view)

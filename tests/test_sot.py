@@ -62,6 +62,20 @@ def test_a_deleted_detection_is_recovered(variant, model_0288):
     assert len(result.links) >= 2  # 3 -> 4 and 4 -> 5 (the two ends meet around the hole)
 
 
+def test_the_search_past_the_image_edge_finds_a_patch_half_out_and_the_clipped_one_stays_inside():
+    from sotmot.sot.search import TemplateSearch
+
+    frames, truth = scene(n_frames=1)
+    template = TemplateSearch.template(frames[1], truth[1])
+    shifted = np.zeros_like(frames[1]) + 128  # the patch moved so its right half lies past the image's edge
+    shifted[80:140, W - 15:] = frames[1][80:140, 100:115]
+    prior = np.array([W - 18.0, 80, 30, 60])
+    padded, score = TemplateSearch(SotConfig(), beyond_edge=True).search(template, shifted, prior)
+    assert abs(padded[0, 0] - (W - 15)) <= 2 and abs(padded[0, 1] - 80) <= 2
+    clipped, worse = TemplateSearch(SotConfig()).search(template, shifted, prior)
+    assert clipped[0, 0] + clipped[0, 2] <= W + 1e-6 and worse[0] < score[0]  # Algorithm 1's search: wholly inside
+
+
 def test_no_extension_where_the_object_is_gone():
     frames, truth = scene(n_frames=12, gone_after=6)
     d = dets(truth, [1, 2, 3, 4, 5, 6])

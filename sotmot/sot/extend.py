@@ -16,9 +16,10 @@ feature, the paper's seed, the mean was right more often: on MOT17-09-FRCNN
 * the best candidate overlaps a box of another trajectory (or one already
   added) at IoU above ``[ends] stop_iou``: someone else is there;
 * less than half the candidate lies inside the image (the person leaves;
-  :data:`MIN_INSIDE`; only a detector's weak box can be partly outside:
-  the template search proposes boxes wholly inside the image, so a SOT end
-  stops where the person reaches the image's edge);
+  :data:`MIN_INSIDE`): the template search looks past the image's edge
+  (:class:`~sotmot.sot.search.TemplateSearch` with ``beyond_edge``), so an
+  end follows a person out of the image until half of them is gone, as
+  MOTChallenge annotates them;
 * it has grown ``[ends] seconds``, or reached the sequence's first or last frame.
 
 With the detector's weak boxes (``[detection] weak_boxes``) the candidates
@@ -50,8 +51,7 @@ log = logging.getLogger(__name__)
 
 #: How many of a trajectory's last boxes (frames) give its velocity.
 VELOCITY_FRAMES = 5
-#: An end stops where less of the box it found than this share lies inside the image (the person leaves); the
-#: template search's boxes lie wholly inside it, so this stops the weak-box search only.
+#: An end stops where less of the box it found than this share lies inside the image (the person leaves).
 MIN_INSIDE = 0.5
 
 
@@ -121,7 +121,7 @@ class _Finder:
                  search: SotConfig, ends: EndsConfig, support: DetectorSupport | None = None) -> None:
         self.read_frame, self.embedder, self.support = read_frame, embedder, support
         self.search_config, self.ends = search, ends
-        self.search = TemplateSearch(search)
+        self.search = TemplateSearch(search, beyond_edge=True)  # MIN_INSIDE says how far out
         self.occupied: dict[int, list[tuple[int, np.ndarray]]] = {}  # frame -> (track id, box) of every box there
         for f, i, b in zip(tracks.frames.tolist(), tracks.ids.tolist(), tracks.boxes):
             self.occupied.setdefault(f, []).append((i, b))

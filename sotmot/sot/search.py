@@ -35,11 +35,21 @@ class TemplateSearch:
     The template is the seed crop at a fixed height of 64 pixels; the search
     window (the prior box grown by ``radius`` box sizes on every side) is
     rescaled by the same factor, so the cost does not grow with resolution.
+
+    With ``beyond_edge`` the window is not clipped to the image: the part
+    outside is filled by repeating the image's edge pixels
+    (``cv2.BORDER_REPLICATE``), so a proposal may lie partly outside the
+    image, as a person leaving it does (MOTChallenge annotates such people
+    with boxes past the edge). The caller decides where a proposal is too far
+    out (the trajectory ends stop under half inside,
+    :data:`sotmot.sot.extend.MIN_INSIDE`). Without it (Algorithm 1, which has
+    no such stop) every proposal lies wholly inside the image.
     """
 
-    def __init__(self, config: SotConfig) -> None:
+    def __init__(self, config: SotConfig, beyond_edge: bool = False) -> None:
         self.radius = config.search_radius
         self.scales = config.scales
+        self.beyond_edge = beyond_edge
 
     @staticmethod
     def template(frame: np.ndarray, box: np.ndarray) -> np.ndarray:
@@ -68,14 +78,21 @@ class TemplateSearch:
             tw = max(4, int(round(bw * k)))
             tmpl = cv2.resize(template, (tw, TEMPLATE_HEIGHT), interpolation=cv2.INTER_AREA)
             cx, cy = prior[0] + prior[2] / 2, prior[1] + prior[3] / 2
-            x1 = int(np.floor(max(0.0, cx - bw / 2 - self.radius * bw)))
-            y1 = int(np.floor(max(0.0, cy - bh / 2 - self.radius * bh)))
-            x2 = int(np.ceil(min(img_w, cx + bw / 2 + self.radius * bw)))
-            y2 = int(np.ceil(min(img_h, cy + bh / 2 + self.radius * bh)))
+            x1 = int(np.floor(cx - bw / 2 - self.radius * bw))
+            y1 = int(np.floor(cy - bh / 2 - self.radius * bh))
+            x2 = int(np.ceil(cx + bw / 2 + self.radius * bw))
+            y2 = int(np.ceil(cy + bh / 2 + self.radius * bh))
+            inner = max(0, x1), max(0, y1), min(img_w, x2), min(img_h, y2)  # the window's part in the image
+            if not self.beyond_edge:
+                x1, y1, x2, y2 = inner
             rw, rh = int(round((x2 - x1) * k)), int(round((y2 - y1) * k))
-            if rw < tw or rh < TEMPLATE_HEIGHT:
-                continue
-            region = cv2.resize(grey[y1:y2, x1:x2], (rw, rh), interpolation=cv2.INTER_AREA).astype(np.float32)
+            if rw < tw or rh < TEMPLATE_HEIGHT or min(inner[2] - inner[0], inner[3] - inner[1]) < 2:
+                continue  # the window is too small, or (beyond the edge) holds under 2 pixels of the image
+            region = grey[inner[1]:inner[3], inner[0]:inner[2]]
+            if self.beyond_edge:
+                region = cv2.copyMakeBorder(region, inner[1] - y1, y2 - inner[3], inner[0] - x1, x2 - inner[2],
+                                            cv2.BORDER_REPLICATE)
+            region = cv2.resize(region, (rw, rh), interpolation=cv2.INTER_AREA).astype(np.float32)
             response = cv2.matchTemplate(region, tmpl, cv2.TM_CCOEFF_NORMED)
             if top == 1:
                 flat = [int(np.argmax(response))]
@@ -88,7 +105,7 @@ class TemplateSearch:
                 scores.append(float(response[py, px]))
         if not boxes:
             return np.zeros((0, 4)), np.zeros(0)
-        boxes_arr, scores_arr = np.asarray(boxes), np.clip(np.asarray(scores), 0.0, 1.0)
+        boxes_arr, scores_arr = np.asarray(boxes), np.clip(np.nan_to_num(np.asarray(scores)), 0.0, 1.0)
         order = np.argsort(-scores_arr, kind="stable")
         keep: list[int] = []
         for i in order:  # spread the proposals: no two nearly the same box
