@@ -229,7 +229,7 @@ def main(argv: list[str] | None = None) -> int:
                  f"kept while the affinity is >= {base.ends.min_affinity:g}; `sotmot/sot/extend.py`). On "
                  f"PETS09-S2L1 it added {int(r.tracks.from_sot.sum())} boxes (the last row above); at 7 fps "
                  f"people move far between frames and few ends can be followed. On the 30 fps sequences it adds "
-                 f"more, up to 0.9 MOTA (MOT17-09-FRCNN; Table 3's `MOT+ends` row in `docs/results.md`).", ""]
+                 f"more, up to 1.2 MOTA (MOT17-09-FRCNN; Table 3's `MOT+ends` row in `docs/results.md`).", ""]
     write_text_atomic(DOCS / "walkthrough.md", "\n".join(text))
     print(f"wrote {DOCS / 'walkthrough.md'} and {len(list(FIG.iterdir()))} figures")
     return 0

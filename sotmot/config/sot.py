@@ -91,7 +91,7 @@ class EndsConfig:
         How far an end may grow, in seconds; 0 turns the extension off. On by
         default since issue #12. Its gates chosen held out on the full-length
         sequences (docs/results.md, "Trajectory ends"), combined HOTA / MOTA
-        against no extension: public, by SOT +0.05 / +0.2, by the weak boxes
+        against no extension: public, by SOT +0.07 / +0.3, by the weak boxes
         ("public, refined") +0.55 / +0.9; private, by the weak boxes +0.0 /
         +0.0 (+0.1 / +0.1 before 1080p frames went to the detector at 544 x
         960).
@@ -109,7 +109,7 @@ class EndsConfig:
         and ``seconds`` 1, was fitted leave-one-sequence-out in issue #12
         (``scripts/fit_sot.py``, docs/benchmarks.md); with today's defaults the
         held-out choices differ by fold and score no better than these
-        (public, by SOT: 63.4 HOTA held out, 63.6 with these gates).
+        (public, by SOT: 63.6 HOTA held out, 63.9 with these gates).
     stop_iou
         An end stops where its SOT candidate overlaps a box of someone else
         (another trajectory, another detection) at IoU above this: a lagging
