@@ -11,6 +11,7 @@ from sotmot.errors import InputError
 from sotmot.io import read_ground_truth
 from sotmot.pipeline import prepare_sequence
 from sotmot.sot.algorithm1 import SotTracker
+from sotmot.sot.search import TemplateSearch
 from sotmot.types import Detections
 
 H, W = 240, 320
@@ -63,8 +64,6 @@ def test_a_deleted_detection_is_recovered(variant, model_0288):
 
 
 def test_the_search_past_the_image_edge_finds_a_patch_half_out_and_the_clipped_one_stays_inside():
-    from sotmot.sot.search import TemplateSearch
-
     frames, truth = scene(n_frames=1)
     template = TemplateSearch.template(frames[1], truth[1])
     shifted = np.zeros_like(frames[1]) + 128  # the patch moved so its right half lies past the image's edge
