@@ -6,8 +6,9 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from conftest import DATA, require, write_video
+from conftest import DATA, require, write_sequence, write_video
 from sotmot.config import TrackerConfig
+from sotmot.errors import InputError
 from sotmot.io import FrameReader, read_seqinfo
 from sotmot.io.frames import VideoFile
 
@@ -25,6 +26,13 @@ def clip_video(tmp_path_factory):
         writer.write(np.ascontiguousarray(reader(f)))
     writer.release()
     return path, info.det_path
+
+
+def cv2_write(path, value: int) -> None:
+    """A 64 x 48 JPEG of one grey level, ``value`` times 20."""
+    import cv2
+
+    cv2.imwrite(str(path), np.full((48, 64, 3), 20 * value, np.uint8))
 
 
 def counting(monkeypatch) -> Counter:
@@ -74,6 +82,40 @@ def test_the_frame_cache_never_holds_more_than_its_bound(tmp_path):
     for f in [5, 6, 7, 5, 6, 7, 8, 5]:  # 5, 6, 7 decoded once while they stay in the cache; 5 again after 8
         again(f)
     assert again.source.decodes == 5
+
+
+def test_a_prefetched_jpeg_frame_is_the_frame_decoded_once_and_at_most_two_wait(tmp_path):
+    from sotmot.io.frames import PREFETCH_AHEAD
+
+    seq = write_sequence(tmp_path, [], length=8)
+    for f in range(1, 9):  # frames that differ, so a frame given for another would show
+        cv2_write(seq / "img1" / f"{f:06d}.jpg", f)
+    info = read_seqinfo(seq)
+    plain = [FrameReader(info, cache_size=1)(f).copy() for f in range(1, 9)]
+    reader = FrameReader(info, cache_size=2)
+    reader.prefetch(3)
+    np.testing.assert_array_equal(reader(3), plain[2])
+    reader.prefetch(3)  # held now: not decoded again
+    for f in (0, 9):  # outside the sequence: nothing to decode
+        reader.prefetch(f)
+    assert reader.source.decodes == 1
+    for f in (4, 5, 6):  # three asked ahead, two kept: 4 is forgotten
+        reader.prefetch(f)
+    assert PREFETCH_AHEAD == 2 and sorted(reader._ahead) == [5, 6]
+    for f in (4, 5, 6):
+        np.testing.assert_array_equal(reader(f), plain[f - 1])
+    assert reader.cached <= 2
+    (seq / "img1" / "000008.jpg").write_bytes(b"not a jpeg")
+    reader.prefetch(8)  # the error waits for the frame to be asked for
+    with pytest.raises(InputError, match="frame 8 cannot be decoded"):
+        reader(8)
+    reader.close()
+
+
+def test_a_video_is_never_decoded_ahead(tmp_path):
+    reader = FrameReader(read_seqinfo(write_video(tmp_path / "walk.avi", n=10)), cache_size=2)
+    reader.prefetch(2)
+    assert reader.source.decodes == 0 and reader.cached == 0  # one decoder, read in order by the caller only
 
 
 def test_a_video_tracks_with_no_temporary_frame_folder(clip_video, model_0288, tmp_path, monkeypatch):

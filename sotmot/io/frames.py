@@ -6,13 +6,17 @@ temporary frames on disk). Stages never touch a source: they call a
 :class:`FrameReader`, which keeps at most ``cache_size`` decoded frames (the
 least recently used go first), so a stage that looks back or ahead (the SOT
 windows, the end extension) decodes a frame once while it stays in the cache
-and memory stays bounded for any length. Frames are 1-based, images BGR
-``uint8`` ``(H, W, 3)``, read-only.
+and memory stays bounded for any length. A stage that knows which frame it
+will ask for next says so (:meth:`FrameReader.prefetch`), and a folder of
+JPEGs decodes it in a background thread meanwhile. Frames are 1-based,
+images BGR ``uint8`` ``(H, W, 3)``, read-only.
 """
 
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Protocol
 
 import numpy as np
@@ -35,10 +39,17 @@ def reduced_size(height: int, width: int, factor: int) -> tuple[int, int]:
 READ_BACK_CACHE = 8
 
 
+#: Frames a :class:`FrameReader` decodes ahead at most (:meth:`FrameReader.prefetch`), beside its cache.
+PREFETCH_AHEAD = 2
+
+
 class FrameSource(Protocol):
-    """Decodes one frame of a sequence; :attr:`decodes` counts the frames it decoded (tests, benchmarks)."""
+    """Decodes one frame of a sequence; :attr:`decodes` counts the frames it decoded (tests, benchmarks).
+    :attr:`independent`: any frame decodes on its own, from any thread, while another decodes (a folder of
+    JPEGs), so a reader may decode ahead in the background; not a video (one decoder, read in order)."""
 
     decodes: int
+    independent: bool
 
     def read(self, frame: int) -> np.ndarray:
         """The image of 1-based ``frame``; :class:`InputError` when it cannot be decoded."""
@@ -68,9 +79,12 @@ def grey_reduced(image: np.ndarray, factor: int) -> np.ndarray:
 class JpegFolder:
     """The ``img1/NNNNNN.jpg`` files of a MOTChallenge folder, each decoded on request."""
 
+    independent = True
+
     def __init__(self, info: SeqInfo) -> None:
         self.info = info
         self.decodes = 0
+        self._counting = threading.Lock()  # a reader's background thread decodes beside the caller's
 
     def read(self, frame: int) -> np.ndarray:
         import cv2
@@ -97,7 +111,8 @@ class JpegFolder:
         except OSError as exc:
             raise InputError(path, f"frame {frame} cannot be read: {exc.strerror}") from exc
         image = cv2.imdecode(data, flags) if len(data) else None
-        self.decodes += 1
+        with self._counting:
+            self.decodes += 1
         if image is None:
             raise InputError(path, f"frame {frame} cannot be decoded as an image")
         if image.shape[:2] != reduced_size(self.info.height, self.info.width, factor):
@@ -116,6 +131,8 @@ class VideoFile:
     same numbering :func:`sotmot.io.video.video_info` counts and a ``det.txt``
     of the video uses.
     """
+
+    independent = False
 
     def __init__(self, info: SeqInfo) -> None:
         self.info = info
@@ -188,6 +205,8 @@ class ArrayFrames:
     ``frames[k]`` being frame ``k + 1``, each fetched when a stage asks for it. Never changed: the reader
     marks a view read-only, not the caller's array."""
 
+    independent = False  # nothing to decode ahead; and a window's frames come through another reader
+
     def __init__(self, info: SeqInfo) -> None:
         self.info = info
         self.decodes = 0
@@ -229,6 +248,9 @@ class FrameReader:
         video read backwards fills it with the frames before the one asked
         for (up to ``cache_size - 2``, one seek for them all) when the cache
         holds at least :data:`READ_BACK_CACHE` frames.
+
+    A reader is called from one thread; :meth:`prefetch` decodes ahead in a
+    thread of its own (at most :data:`PREFETCH_AHEAD` frames beside the cache).
     """
 
     def __init__(self, info: SeqInfo, cache_size: int = 8) -> None:
@@ -238,6 +260,27 @@ class FrameReader:
         self.cache_size = cache_size
         self.source = frame_source(info)
         self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
+        self._ahead: OrderedDict[int, Future] = OrderedDict()  # frame -> its decoding in the background
+        self._decoder: ThreadPoolExecutor | None = None
+
+    def prefetch(self, frame: int) -> None:
+        """Start decoding 1-based ``frame`` in the background, for a stage that will ask for it next.
+
+        Only a source whose frames decode independently does (a folder of
+        JPEGs; not a video, whose one decoder reads in order); a frame already
+        held or on its way, or outside the sequence, is left alone. At most
+        :data:`PREFETCH_AHEAD` frames are decoded ahead: the oldest not asked
+        for is forgotten. A frame that cannot be decoded raises its
+        :class:`InputError` when it is asked for, not here.
+        """
+        if not self.source.independent or frame in self._cache or frame in self._ahead \
+                or not 1 <= frame <= self.info.length:
+            return
+        if self._decoder is None:
+            self._decoder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-prefetch")
+        self._ahead[frame] = self._decoder.submit(self.source.read, frame)
+        if len(self._ahead) > PREFETCH_AHEAD:
+            self._ahead.popitem(last=False)[1].cancel()  # not asked for: dropped, or never started
 
     def __call__(self, frame: int) -> np.ndarray:
         """The image of 1-based ``frame``, shape ``(H, W, 3)`` BGR, read-only.
@@ -251,6 +294,9 @@ class FrameReader:
         if cached is not None:
             self._cache.move_to_end(frame)
             return cached
+        decoding = self._ahead.pop(frame, None)
+        if decoding is not None:
+            return self._keep(frame, decoding.result())
         position = getattr(self.source, "position", None)
         if position is not None and frame < position and self.cache_size >= READ_BACK_CACHE:
             # a video read backwards (the end extension before a trajectory's first box): one seek, then the
@@ -275,7 +321,12 @@ class FrameReader:
         return len(self._cache)
 
     def close(self) -> None:
-        """Release the source (an open video); the reader reopens it if called again."""
+        """Release the source (an open video) and the thread decoding ahead; the reader reopens both if called
+        again."""
+        if self._decoder is not None:
+            self._decoder.shutdown(wait=False, cancel_futures=True)
+            self._decoder = None
+        self._ahead.clear()
         self.source.close()
 
     def __del__(self) -> None:

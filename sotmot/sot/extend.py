@@ -120,6 +120,8 @@ class _Finder:
     def __init__(self, tracks: Tracks, read_frame: Callable[[int], np.ndarray], embedder: Embedder,
                  search: SotConfig, ends: EndsConfig, support: DetectorSupport | None = None) -> None:
         self.read_frame, self.embedder, self.support = read_frame, embedder, support
+        # the frame an end will search next decodes while this one is searched (a FrameReader of JPEGs)
+        self.prefetch: Callable[[int], None] = getattr(read_frame, "prefetch", lambda frame: None)
         self.search_config, self.ends = search, ends
         self.search = TemplateSearch(search, beyond_edge=True)  # MIN_INSIDE says how far out
         self.occupied: dict[int, list[tuple[int, np.ndarray]]] = {}  # frame -> (track id, box) of every box there
@@ -244,6 +246,7 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
         for direction in (1, -1):
             start = int(frames[-1] if direction == 1 else frames[0])
             box = boxes[-1 if direction == 1 else 0]
+            finder.prefetch(start + direction)
             template = finder.template(start, box)
             velocity = end_velocity(frames, motion.to_ref(frames, boxes), direction)
             for k in range(1, steps + 1):
@@ -251,6 +254,8 @@ def extend_ends(tracks: Tracks, features: dict[int, np.ndarray], read_frame: Cal
                 if not 1 <= g <= n_frames:
                     break
                 prior = motion.box_from_ref(g, motion.box_to_ref(g - direction, box) + np.r_[velocity, 0.0, 0.0])
+                if k < steps:
+                    finder.prefetch(g + direction)  # decoded while this frame is searched, used if the end grows
                 found, affinity, supported = finder.find(template, g, prior, identity, track_id)
                 if found is None:
                     break

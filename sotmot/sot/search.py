@@ -107,9 +107,10 @@ class TemplateSearch:
             return np.zeros((0, 4)), np.zeros(0)
         boxes_arr, scores_arr = np.asarray(boxes), np.clip(np.nan_to_num(np.asarray(scores)), 0.0, 1.0)
         order = np.argsort(-scores_arr, kind="stable")
+        overlaps = iou_matrix(boxes_arr, boxes_arr)
         keep: list[int] = []
         for i in order:  # spread the proposals: no two nearly the same box
-            if all(iou_matrix(boxes_arr[i], boxes_arr[j])[0, 0] < 0.7 for j in keep):
+            if not keep or overlaps[i, keep].max() < 0.7:
                 keep.append(int(i))
             if len(keep) == top:
                 break
