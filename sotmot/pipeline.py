@@ -398,7 +398,7 @@ def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.n
     from sotmot.sot.extend import extend_ends
 
     info, config = prepared.info, plan.config
-    reader, embedder = FrameReader(info, cache_size=8), embedder_for(plan.appearance, embedder)
+    reader, embedder = FrameReader.walking(info), embedder_for(plan.appearance, embedder)
     support = None
     if plan.weak_boxes:  # the preparation's, or the detector at the weak boxes' threshold on the frames searched
         support = prepared.support if prepared.support is not None else DetectorSupport.from_config(

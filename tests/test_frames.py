@@ -118,6 +118,14 @@ def test_a_video_is_never_decoded_ahead(tmp_path):
     assert reader.source.decodes == 0 and reader.cached == 0  # one decoder, read in order by the caller only
 
 
+def test_a_walking_reader_keeps_a_block_of_a_video_and_little_of_jpegs(tmp_path):
+    from sotmot.io.frames import READ_BACK_CACHE, WALK_CACHE
+
+    video = FrameReader.walking(read_seqinfo(write_video(tmp_path / "walk.avi", n=10)))
+    jpegs = FrameReader.walking(read_seqinfo(write_sequence(tmp_path, [], length=4)))
+    assert (video.cache_size, jpegs.cache_size) == (READ_BACK_CACHE, WALK_CACHE) and WALK_CACHE < READ_BACK_CACHE
+
+
 def test_a_video_tracks_with_no_temporary_frame_folder(clip_video, model_0288, tmp_path, monkeypatch):
     from sotmot.cli import main
 

@@ -41,6 +41,9 @@ READ_BACK_CACHE = 8
 
 #: Frames a :class:`FrameReader` decodes ahead at most (:meth:`FrameReader.prefetch`), beside its cache.
 PREFETCH_AHEAD = 2
+#: Frames :meth:`FrameReader.walking` keeps of a folder of JPEGs: with 2 the end extension decoded 271 frames of
+#: the MOT17-09 video, with 8 259, and each 1080p frame held is 6 MB (MOT16-09's peak memory 615 -> 569 MB).
+WALK_CACHE = 2
 
 
 class FrameSource(Protocol):
@@ -262,6 +265,16 @@ class FrameReader:
         self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
         self._ahead: OrderedDict[int, Future] = OrderedDict()  # frame -> its decoding in the background
         self._decoder: ThreadPoolExecutor | None = None
+
+    @classmethod
+    def walking(cls, info: SeqInfo) -> FrameReader:
+        """A reader for a stage that walks frame by frame away from many starting frames, forward and back (the
+        end extension): a video keeps :data:`READ_BACK_CACHE` frames, so a walk back seeks once a block; a folder
+        of JPEGs keeps :data:`WALK_CACHE` and its caller decodes each next step ahead (:meth:`prefetch`)."""
+        reader = cls(info, cache_size=READ_BACK_CACHE)
+        if reader.source.independent:
+            reader.cache_size = WALK_CACHE
+        return reader
 
     def prefetch(self, frame: int) -> None:
         """Start decoding 1-based ``frame`` in the background, for a stage that will ask for it next.
