@@ -42,7 +42,7 @@ READ_BACK_CACHE = 8
 #: Frames a :class:`FrameReader` decodes ahead at most (:meth:`FrameReader.prefetch`), beside its cache.
 PREFETCH_AHEAD = 2
 #: Frames :meth:`FrameReader.walking` keeps of a folder of JPEGs: with 2 the end extension decoded 271 frames of
-#: the MOT17-09 video, with 8 259, and each 1080p frame held is 6 MB (MOT16-09's peak memory 615 -> 569 MB).
+#: the MOT17-09 video, with 8 259, and each 1080p frame held is 6 MB (MOT16-09's peak memory 600 -> 556 MB).
 WALK_CACHE = 2
 
 
