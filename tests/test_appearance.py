@@ -131,3 +131,11 @@ def test_both_backends_refuse_a_model_of_the_wrong_shape_with_one_message(tmp_pa
     for backend in ("onnx", "torch"):
         with pytest.raises(ModelError, match="expected one input of shape N x 3 x 256 x 128"):
             make_embedder(AppearanceConfig(model=str(path), backend=backend))
+
+
+def test_mirrored_crops_are_the_crops_reversed_left_to_right_after_the_crops():
+    from sotmot.appearance.base import with_mirrored
+
+    crops = np.random.default_rng(0).integers(0, 256, (3, 8, 6, 3), dtype=np.uint8)
+    for given in (crops, crops[::-1]):  # a view with a negative stride too
+        np.testing.assert_array_equal(with_mirrored(given), np.concatenate([given, given[:, :, ::-1]]))

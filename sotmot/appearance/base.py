@@ -84,6 +84,19 @@ def crop_boxes(frame: np.ndarray, boxes: np.ndarray, height: int = CROP_HEIGHT,
     return out
 
 
+def with_mirrored(crops: np.ndarray) -> np.ndarray:
+    """``(2N, H, W, 3)``: the ``(N, H, W, 3)`` crops, then each mirrored left to right, in the same order (OpenCV
+    flips a crop about 20 times faster than numpy copies a reversed view; the same bytes)."""
+    import cv2
+
+    crops = np.ascontiguousarray(crops)
+    both = np.empty((2 * len(crops),) + crops.shape[1:], dtype=crops.dtype)
+    both[:len(crops)] = crops
+    for i, crop in enumerate(crops):
+        cv2.flip(crop, 1, dst=both[len(crops) + i])
+    return both
+
+
 class CropEmbedder:
     """Flip-averaged re-ID features (paper eq. 1) of boxes, batching crops through a runtime.
 
@@ -115,7 +128,7 @@ class CropEmbedder:
         """Flip-averaged unit features ``(N, D)`` of ``(N, 256, 128, 3)`` uint8 BGR crops."""
         if len(crops) == 0:
             return np.zeros((0, self.dim), dtype=np.float32)
-        raw = self._forward(np.concatenate([crops, crops[:, :, ::-1]]) if self.flip else crops)
+        raw = self._forward(with_mirrored(crops) if self.flip else crops)
         n = len(crops)
         return flip_average(raw[:n], raw[n:] if self.flip else None, self.path)
 

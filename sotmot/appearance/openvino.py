@@ -61,4 +61,6 @@ class OpenVinoReidEmbedder(CropEmbedder):
         log.info("re-ID model %s (OpenVINO %s): %d-d embedding", self.path, ov.__version__, self.dim)
 
     def _run(self, tensor: np.ndarray) -> np.ndarray:
-        return np.array(self._request.infer({0: tensor})[self._output], dtype=np.float32, copy=True)
+        # the batch is read where it lies (share_inputs: no copy of it into the runtime's own tensor)
+        return np.array(self._request.infer({0: tensor}, share_inputs=True)[self._output], dtype=np.float32,
+                        copy=True)

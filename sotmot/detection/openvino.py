@@ -120,7 +120,7 @@ class OpenVinoDetector:
         request, output = self._request(size, (height, width))
         tensor = cv2.resize(frame, (size[1], size[0]), interpolation=cv2.INTER_LINEAR)
         tensor = np.ascontiguousarray(tensor.transpose(2, 0, 1)[None], dtype=np.float32)
-        rows = np.asarray(request.infer({0: tensor})[output]).reshape(-1, 7)
+        rows = np.asarray(request.infer({0: tensor}, share_inputs=True)[output]).reshape(-1, 7)  # no input copy
         rows = rows[(rows[:, 0] >= 0) & (rows[:, 2] >= self.min_score)]
         corners = clip_xyxy(rows[:, 3:7].astype(np.float64) * [width, height, width, height], width, height)
         boxes, scores = rounded(xyxy_to_xywh(corners), rows[:, 2])
