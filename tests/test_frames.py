@@ -84,7 +84,7 @@ def test_the_frame_cache_never_holds_more_than_its_bound(tmp_path):
     assert again.source.decodes == 5
 
 
-def test_a_prefetched_jpeg_frame_is_the_frame_decoded_once_and_at_most_two_wait(tmp_path):
+def test_jpeg_frames_decoded_ahead_are_the_frames_once_each_two_ahead_at_most_errors_when_asked(tmp_path):
     from sotmot.io.frames import PREFETCH_AHEAD
 
     seq = write_sequence(tmp_path, [], length=8)
