@@ -301,3 +301,31 @@ def test_a_detector_box_beside_another_trajectory_extends_an_end_where_a_templat
     assert SUPPORTED_STOP_IOU == 0.7 and run() == [21, 22, 23, 24]
     monkeypatch.setattr(extend, "SUPPORTED_STOP_IOU", EndsConfig().stop_iou)
     assert run() == []
+
+
+def test_decoding_ahead_changes_no_extended_end(model_0288, monkeypatch):
+    """A real clip (MOT16-13, a camera on a vehicle): the end extension decoding the next frame in the background
+    gives the very tracks it gives decoding each frame when asked (and it did decode ahead)."""
+    from conftest import DATA, require
+    from sotmot.appearance import make_embedder
+    from sotmot.io import FrameReader
+    from sotmot.pipeline import finish_sequence, prepare_sequence
+
+    config = TrackerConfig().replace("appearance", model=str(model_0288))
+    prepared = prepare_sequence(require(DATA / "MOT16-13-clip30"), config)
+    embedder = make_embedder(config.appearance)
+    asked: list[int] = []
+    prefetch = FrameReader.prefetch
+
+    def counted(self, frame):
+        asked.append(frame)
+        prefetch(self, frame)
+
+    monkeypatch.setattr(FrameReader, "prefetch", counted)
+    ahead = finish_sequence(prepared, config, embedder).tracks
+    monkeypatch.setattr(FrameReader, "prefetch", lambda self, frame: None)
+    plain = finish_sequence(prepared, config, embedder).tracks
+    assert asked and ahead.from_sot.any()
+    for a, b in [(ahead.frames, plain.frames), (ahead.ids, plain.ids), (ahead.boxes, plain.boxes),
+                 (ahead.from_sot, plain.from_sot)]:
+        np.testing.assert_array_equal(a, b)
