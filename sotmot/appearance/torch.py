@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.appearance.base import CROP_HEIGHT, CROP_WIDTH, check_model_io, flip_average, resolve_model_path
+from sotmot.appearance.base import (CROP_HEIGHT, CROP_WIDTH, check_model_io, flip_average, resolve_model_path,
+                                    with_mirrored)
 from sotmot.boxes import pixel_bounds
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError
@@ -238,7 +239,7 @@ class TorchReidEmbedder:
 
         if len(crops) == 0:
             return np.zeros((0, self.dim), dtype=np.float32)
-        both = np.concatenate([crops, crops[:, :, ::-1]]) if self.flip else crops
+        both = with_mirrored(crops) if self.flip else crops
         out = []
         with torch.no_grad():
             for start in range(0, len(both), self.batch_size):
