@@ -71,6 +71,39 @@ def test_a_video_read_backwards_seeks_once_a_block_not_once_a_frame(tmp_path):
     assert reader.source.decodes <= 31 + 6
 
 
+def test_a_walking_reader_keeps_the_frames_it_passes_so_a_walk_back_from_there_needs_no_seek(tmp_path):
+    """The end extension reads a video forward, in frame order; a walk back from an end then finds the frames
+    before it in the cache: they were read on the way, not grabbed past."""
+    video = write_video(tmp_path / "walk.avi", n=40)
+    info = read_seqinfo(video)
+    in_order = [FrameReader(info, cache_size=1)(f).copy() for f in range(1, 41)]
+    reader = FrameReader.walking(info)
+    for f in (3, 12, 20):  # forward, a few frames apart
+        np.testing.assert_array_equal(reader(f), in_order[f - 1])
+    for f in range(19, 13, -1):  # six steps back from frame 20
+        np.testing.assert_array_equal(reader(f), in_order[f - 1])
+    assert reader.source.seeks == 0 and reader.cached <= reader.cache_size
+    reader(13)  # seven back: beyond the block kept, one seek
+    assert reader.source.seeks == 1
+
+
+def test_a_video_whose_seeks_cost_more_reads_farther_ahead(tmp_path):
+    from sotmot.io.frames import SKIP_AHEAD
+
+    info = read_seqinfo(write_video(tmp_path / "walk.avi", n=80))
+    in_order = [FrameReader(info, cache_size=1)(f).copy() for f in range(1, 81)]
+    video = VideoFile(info)
+    assert video.skip_ahead == SKIP_AHEAD  # nothing measured yet
+    np.testing.assert_array_equal(video.read(1), in_order[0])
+    np.testing.assert_array_equal(video.read(40), in_order[39])  # 39 ahead: a seek, timed
+    assert video.seeks == 1 and video.skip_ahead >= SKIP_AHEAD
+    video._seek_seconds, video._frame_seconds = 0.5, 0.005  # as an H.264 file with a key frame every 250
+    assert video.skip_ahead == 100
+    np.testing.assert_array_equal(video.read(80), in_order[79])  # 39 ahead again: read on, no seek
+    assert video.seeks == 1
+    video.close()
+
+
 def test_the_frame_cache_never_holds_more_than_its_bound(tmp_path):
     info = read_seqinfo(write_video(tmp_path / "walk.avi", n=30))
     reader = FrameReader(info, cache_size=3)

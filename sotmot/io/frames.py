@@ -15,6 +15,7 @@ images BGR ``uint8`` ``(H, W, 3)``, read-only.
 from __future__ import annotations
 
 import threading
+import time
 from collections import OrderedDict
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Protocol
@@ -25,8 +26,9 @@ from sotmot.errors import InputError
 from sotmot.io.mot import SeqInfo
 
 #: A video is read forward (grabbing the frames between) when the next frame asked for is at most this many
-#: frames ahead; farther, or behind, it seeks. Grabbing a 1080p MPEG-4 frame costs about 4 ms, a seek
-#: about 110 ms (it decodes from the last key frame).
+#: frames ahead; farther, or behind, it seeks. Grabbing a 1080p MPEG-4 frame costs about 2-4 ms, a seek 40-110 ms
+#: (it decodes from the last key frame). A video whose seeks cost more reads farther ahead (:class:`VideoFile`
+#: measures both): in an H.264 file with a key frame every 250 frames a seek costs 0.45 s, 150 frames grabbed.
 SKIP_AHEAD = 24
 
 
@@ -143,6 +145,16 @@ class VideoFile:
         self.seeks = 0
         self._capture = None
         self._next = 1  # the frame the capture returns on its next read
+        self._seek_seconds = 0.0  # the last seek's time, and a frame read forward's (a running mean)
+        self._frame_seconds = 0.0
+
+    @property
+    def skip_ahead(self) -> int:
+        """How far ahead a frame may be to be read forward rather than by a seek: :data:`SKIP_AHEAD`, or as many
+        frames as a seek of this video was measured to cost, if more."""
+        if self._frame_seconds <= 0:
+            return SKIP_AHEAD
+        return max(SKIP_AHEAD, int(self._seek_seconds / self._frame_seconds))
 
     @property
     def position(self) -> int:
@@ -162,8 +174,9 @@ class VideoFile:
             raise InputError(self.info.video, f"frame {frame} is outside the video's frames 1..{self.info.length}")
         if self._capture is None:
             self._capture, self._next = self._open(), 1
-        if frame < self._next or frame - self._next > SKIP_AHEAD:
+        if frame < self._next or frame - self._next > self.skip_ahead:
             self._seek(frame)
+        began, passed = time.perf_counter(), frame - self._next + 1
         while self._next < frame:  # a few frames ahead: grabbing them is cheaper than a seek
             if not self._capture.grab():
                 self._ended(frame)
@@ -173,6 +186,8 @@ class VideoFile:
             self._ended(frame)
         self._next += 1
         self.decodes += 1
+        each = (time.perf_counter() - began) / passed
+        self._frame_seconds = each if self._frame_seconds <= 0 else 0.9 * self._frame_seconds + 0.1 * each
         if image.shape[:2] != (self.info.height, self.info.width):
             raise InputError(self.info.video, f"frame {frame} is {image.shape[1]} x {image.shape[0]} px, not "
                              f"{self.info.width} x {self.info.height} as the first frame")
@@ -185,13 +200,16 @@ class VideoFile:
         import cv2
 
         self.seeks += 1
+        began = time.perf_counter()
         if self._capture.set(cv2.CAP_PROP_POS_FRAMES, frame - 1) and \
                 int(self._capture.get(cv2.CAP_PROP_POS_FRAMES)) == frame - 1:
             self._next = frame
+            self._seek_seconds = time.perf_counter() - began
             return
         # a container that cannot seek to a frame exactly: read again from the start
         self._capture.release()
         self._capture, self._next = self._open(), 1
+        self._seek_seconds = self._frame_seconds * frame  # what reaching the frame will cost from the start
 
     def _ended(self, frame: int) -> None:
         raise InputError(self.info.video, f"frame {frame} of {self.info.length} cannot be decoded; the video may "
@@ -247,10 +265,11 @@ class FrameReader:
         The sequence: a MOTChallenge folder or a video file (:func:`frame_source`).
     cache_size
         How many decoded frames to keep (least recently used are dropped), so
-        stages that revisit frames do not decode them again; never more. A
-        video read backwards fills it with the frames before the one asked
-        for (up to ``cache_size - 2``, one seek for them all) when the cache
-        holds at least :data:`READ_BACK_CACHE` frames.
+        stages that revisit frames do not decode them again; never more. When
+        it holds at least :data:`READ_BACK_CACHE` frames, a video fills it
+        with the frames before the one asked for (up to ``cache_size - 2``:
+        those it passes reading forward, or after one seek for them all when
+        read backwards).
 
     A reader is called from one thread; :meth:`prefetch` decodes ahead in a
     thread of its own (at most :data:`PREFETCH_AHEAD` frames beside the cache).
@@ -311,10 +330,13 @@ class FrameReader:
         if decoding is not None:
             return self._keep(frame, decoding.result())
         position = getattr(self.source, "position", None)
-        if position is not None and frame < position and self.cache_size >= READ_BACK_CACHE:
-            # a video read backwards (the end extension before a trajectory's first box): one seek, then the
-            # frames up to this one read forward into the cache, so the next steps back cost no seek each
+        if position is not None and self.cache_size >= READ_BACK_CACHE:
+            # a video walked (the end extension): the frames just before this one come into the cache with it, so
+            # a walk back from here finds them: read on the way forward (the end extension reads in frame order),
+            # or, behind, after one seek for the block rather than one a step
             first = max(1, frame - (self.cache_size - 2))
+            if frame >= position:
+                first = max(first, position)
             for earlier in range(first, frame):
                 if earlier not in self._cache:
                     self._keep(earlier, self.source.read(earlier))
