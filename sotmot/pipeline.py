@@ -407,7 +407,7 @@ def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.n
         before = len(tracks)
         tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, config.sot,
                              config.ends, support=support, motion=prepared.motion,
-                             progress=lambda items: as_progress(progress)(items, f"{info.name}: extend ends"))
+                             progress=lambda ends, total: as_progress(progress)(ends, f"{info.name}: extend ends", total))
         log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
     if support is not None:
         log.info("%s: the detector's boxes checked the SOT boxes (%d frames detected for it alone)", info.name,

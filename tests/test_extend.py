@@ -303,9 +303,11 @@ def test_a_detector_box_beside_another_trajectory_extends_an_end_where_a_templat
     assert run() == []
 
 
-def test_decoding_ahead_changes_no_extended_end(model_0288, monkeypatch):
+def test_neither_decoding_ahead_nor_walking_in_frame_order_changes_an_extended_end(model_0288, monkeypatch):
     """A real clip (MOT16-13, a camera on a vehicle): the end extension decoding the next frame in the background
-    gives the very tracks it gives decoding each frame when asked (and it did decode ahead)."""
+    gives the very tracks it gives decoding each frame when asked (and it did decode ahead); walking the ends in
+    frame order gives those of walking them one after another (and the frames were read in another order)."""
+    import sotmot.sot.extend as extend
     from conftest import DATA, require
     from sotmot.appearance import make_embedder
     from sotmot.io import FrameReader
@@ -315,17 +317,62 @@ def test_decoding_ahead_changes_no_extended_end(model_0288, monkeypatch):
     prepared = prepare_sequence(require(DATA / "MOT16-13-clip30"), config)
     embedder = make_embedder(config.appearance)
     asked: list[int] = []
-    prefetch = FrameReader.prefetch
+    prefetch, read = FrameReader.prefetch, FrameReader.__call__
 
     def counted(self, frame):
         asked.append(frame)
         prefetch(self, frame)
 
+    def reads(order: list[int]):
+        def call(self, frame):
+            order.append(frame)
+            return read(self, frame)
+        return call
+
+    in_frame_order: list[int] = []
     monkeypatch.setattr(FrameReader, "prefetch", counted)
+    monkeypatch.setattr(FrameReader, "__call__", reads(in_frame_order))
     ahead = finish_sequence(prepared, config, embedder).tracks
     monkeypatch.setattr(FrameReader, "prefetch", lambda self, frame: None)
     plain = finish_sequence(prepared, config, embedder).tracks
-    assert asked and ahead.from_sot.any()
-    for a, b in [(ahead.frames, plain.frames), (ahead.ids, plain.ids), (ahead.boxes, plain.boxes),
-                 (ahead.from_sot, plain.from_sot)]:
-        np.testing.assert_array_equal(a, b)
+    one_by_one: list[int] = []
+    monkeypatch.setattr(FrameReader, "__call__", reads(one_by_one))
+    monkeypatch.setattr(extend._End, "key", property(lambda end: 0))
+    in_end_order = finish_sequence(prepared, config, embedder).tracks
+    assert asked and ahead.from_sot.any() and in_frame_order != one_by_one
+    for run in (plain, in_end_order):
+        for a, b in [(ahead.frames, run.frames), (ahead.ids, run.ids), (ahead.boxes, run.boxes),
+                     (ahead.from_sot, run.from_sot)]:
+            np.testing.assert_array_equal(a, b)
+
+
+def test_ends_walked_in_frame_order_claim_each_frame_as_walking_them_one_after_another_does(monkeypatch):
+    """One walker, two tracks: id 2 holds frames 1-14, id 1 frames 19-26. Walked one end after another (id 1 first),
+    id 1's first end takes the gap (15-18) and id 2's last end finds it taken. In frame order id 2's end, which
+    reads frame 14 first, waits for id 1's at each frame: the same boxes. Without waiting it would take the gap."""
+    import sotmot.sot.extend as extend
+
+    images = frames_with_walker()
+    rows = [(f, 2, [walker_x(f), 40, 20, 40]) for f in range(1, 15)] + \
+        [(f, 1, [walker_x(f), 40, 20, 40]) for f in range(19, 27)]
+    frames, ids, boxes = zip(*rows)
+    tracks = Tracks(list(frames), list(ids), list(boxes), [0.9] * len(rows))
+
+    def added(asked: list[int]) -> dict[int, list[int]]:
+        def read(frame: int) -> np.ndarray:
+            asked.append(frame)
+            return images[frame]
+
+        out = extend_ends(tracks, {1: LOOK, 2: LOOK}, read, LENGTH, 10.0, GeometryEmbedder(), SotConfig(),
+                          EndsConfig(seconds=1.5))
+        return {i: out.frames[out.from_sot & (out.ids == i)].tolist() for i in (1, 2)}
+
+    in_frame_order: list[int] = []
+    assert added(in_frame_order) == {1: [15, 16, 17, 18, 27, 28, 29], 2: []}
+    monkeypatch.setattr(extend._End, "key", property(lambda end: 0))  # one end after another, in their order
+    one_by_one: list[int] = []
+    assert added(one_by_one) == {1: [15, 16, 17, 18, 27, 28, 29], 2: []}
+    assert in_frame_order != one_by_one and in_frame_order.index(14) < in_frame_order.index(26)
+    monkeypatch.undo()
+    monkeypatch.setattr(extend._End, "may_search", lambda end, frame: False)  # nobody waits
+    assert added([]) == {1: [27, 28, 29], 2: [15, 16, 17, 18]}
