@@ -293,20 +293,37 @@ def still_check_pairs(length: int, frame_rate: float, video: bool = False) -> li
     return [(int(a), int(a) + step) for a in starts]
 
 
-def camera_is_still(source: FrameSource, info: SeqInfo, detections: Detections, config: MotionConfig) -> bool:
+def still_check_frames(info: SeqInfo, config: MotionConfig) -> tuple[int, frozenset[int]] | None:
+    """For a video whose camera ``auto`` checks: the factor its frames are reduced by and the frames the still check
+    reads, which the pass that decodes every frame anyway keeps for it (:func:`sotmot.passes.grey_keeper`), so
+    that the check decodes none of them again (a video cannot be decoded small the way a JPEG can: the check cost
+    MOT16-09 from its video 1-2 s, a second decode of it). None otherwise: a JPEG frame decodes small on its own,
+    and its copy from the full image would not be the same bytes."""
+    if config.compensation != "auto" or info.video is None or info.length < 2:
+        return None
+    wanted = frozenset(f for pair in still_check_pairs(info.length, info.frame_rate, video=True) for f in pair)
+    return reduce_factor(info.width, STILL_CHECK_WIDTH), wanted
+
+
+def camera_is_still(source: FrameSource, info: SeqInfo, detections: Detections, config: MotionConfig,
+                    seen: dict[int, np.ndarray] | None = None) -> bool:
     """True when frames half a second apart never moved more than ``still_pixels`` (:func:`still_check_pairs`).
 
     Costs one small grey decode per half second of a JPEG sequence; a video
     is decoded on the way (its frames between are grabbed), so a long one is
-    looked at in :data:`STILL_CHECK_PAIRS` places only. A pair whose estimate
-    cannot be trusted counts as moving (the full estimate decides).
+    looked at in :data:`STILL_CHECK_PAIRS` places only, and frames a pass kept
+    already (``seen``, :func:`still_check_frames`) are not decoded again. A pair
+    whose estimate cannot be trusted counts as moving (the full estimate
+    decides).
     """
     factor = reduce_factor(info.width, STILL_CHECK_WIDTH)
+    seen = {} if seen is None else seen
     by_frame = detections.by_frame()
     grey: dict[int, np.ndarray] = {}
     for a, b in still_check_pairs(info.length, info.frame_rate, info.video is not None):
-        previous = grey.pop(a) if a in grey else source.read_grey(a, factor)
-        grey = {b: source.read_grey(b, factor)}  # a chain reads each frame once
+        previous = grey.pop(a) if a in grey else seen.pop(a, None)
+        previous = source.read_grey(a, factor) if previous is None else previous
+        grey = {b: seen.pop(b) if b in seen else source.read_grey(b, factor)}  # a chain reads each frame once
         transform, confidence = estimate_pair(previous, grey[b], factor,
                                               detections.boxes[by_frame.get(a, np.zeros(0, np.int64))])
         if confidence == 0.0 or _corner_motion(transform, info.width, info.height) > config.still_pixels:
@@ -315,14 +332,15 @@ def camera_is_still(source: FrameSource, info: SeqInfo, detections: Detections, 
 
 
 def estimate_motion(info: SeqInfo, detections: Detections, config: MotionConfig,
-                    progress: "bool | Progress" = False) -> CameraMotion:
+                    progress: "bool | Progress" = False, seen: dict[int, np.ndarray] | None = None) -> CameraMotion:
     """The camera's motion over the sequence as ``[motion]`` asks (``compensation``: auto, on or off).
 
     ``detections`` (image pixels) are masked out of the frames. Off, auto on
     a still camera, or auto on a folder without frames (detections and ground
     truth only): :meth:`CameraMotion.still`. A frame pair whose
     estimate is not trusted (fewer than :data:`MIN_INLIERS` corners agree, or
-    fewer than ``min_confidence`` of them) gets the identity.
+    fewer than ``min_confidence`` of them) gets the identity. ``seen``: the
+    still check's frames a pass kept already (:func:`still_check_frames`).
     """
     if config.compensation == "off" or info.length < 2:
         return CameraMotion.still(info.length)
@@ -331,7 +349,7 @@ def estimate_motion(info: SeqInfo, detections: Detections, config: MotionConfig,
         return CameraMotion.still(info.length)
     source = frame_source(info)
     try:
-        if config.compensation == "auto" and camera_is_still(source, info, detections, config):
+        if config.compensation == "auto" and camera_is_still(source, info, detections, config, seen):
             log.info("%s: the camera is still (no pair of frames half a second apart moved %.1f px)", info.name,
                      config.still_pixels)
             return CameraMotion.still(info.length)

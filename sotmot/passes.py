@@ -13,6 +13,7 @@ import numpy as np
 
 from sotmot.appearance import Embedder
 from sotmot.io import FrameReader, SeqInfo
+from sotmot.io.frames import grey_reduced
 from sotmot.progress import Progress, as_progress
 from sotmot.types import Detections
 
@@ -22,16 +23,31 @@ from sotmot.types import Detections
 PREFETCH_FRAMES = 8
 
 
+def grey_keeper(keep: tuple[int, frozenset[int]] | None, kept: dict[int, np.ndarray]):
+    """A ``tap`` for :func:`frame_pass`: ``keep`` is ``(factor, frames)``, and each of those frames goes into
+    ``kept`` grey and ``factor`` times smaller, as a video's ``read_grey`` gives it
+    (:func:`sotmot.motion.still_check_frames`); None when ``keep`` is."""
+    if keep is None:
+        return None
+    factor, frames = keep
+
+    def tap(frame: int, image: np.ndarray) -> None:
+        if frame in frames:
+            kept[frame] = grey_reduced(image, factor)
+    return tap
+
+
 def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
-                     progress: "bool | Progress" = False, timings: dict[str, float] | None = None) -> np.ndarray:
-    """Appearance features ``(N, D)`` of every detection (see :func:`frame_pass` for how frames are read); an
-    embedder of no features (``dim == 0``, the motion-only mode) reads no frame."""
+                     progress: "bool | Progress" = False, timings: dict[str, float] | None = None,
+                     tap: Callable[[int, np.ndarray], None] | None = None) -> np.ndarray:
+    """Appearance features ``(N, D)`` of every detection (see :func:`frame_pass` for how frames are read, and
+    ``tap``); an embedder of no features (``dim == 0``, the motion-only mode) reads no frame."""
     features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
     if embedder.dim == 0:
         return features
     per_frame = detections.by_frame()
     passed = frame_pass(info, sorted(per_frame), lambda frame, image: detections.boxes[per_frame[frame]],
-                        embedder, f"{info.name}: appearance", progress, timings)
+                        embedder, f"{info.name}: appearance", progress, timings, tap)
     for frame, _, feats in passed:
         features[per_frame[frame]] = feats
     return features
@@ -39,7 +55,8 @@ def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
 
 def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.ndarray], object],
                embedder: Embedder | None, desc: str, progress: "bool | Progress" = False,
-               timings: dict[str, float] | None = None) -> list[tuple[int, object, np.ndarray]]:
+               timings: dict[str, float] | None = None,
+               tap: Callable[[int, np.ndarray], None] | None = None) -> list[tuple[int, object, np.ndarray]]:
     """Read each of ``frames`` once, find its boxes and embed them: ``[(frame, found, features), ...]``.
 
     ``boxes_of(frame, image)`` gives the frame's boxes: an ``(N, 4)`` array,
@@ -57,7 +74,9 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
     are called once per frame. ``timings``, when given, receives ``"decode"``
     (the seconds spent reading and cropping frames) and ``"detect"``, both
     overlapped with the embedding, so part of, not added to, the stage's wall
-    time.
+    time. ``tap(frame, image)``, when given, sees each frame as it is decoded
+    (in the decoding thread; a later stage keeps what it needs of it instead of
+    decoding the frame again: :func:`grey_keeper`).
     """
     from concurrent.futures import ThreadPoolExecutor
 
@@ -72,6 +91,8 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
     def decode(frame: int) -> np.ndarray:
         start = time.perf_counter()
         image = frame_reader(frame)
+        if tap is not None:
+            tap(frame, image)
         spent["decode"] += time.perf_counter() - start
         return image
 
@@ -131,9 +152,11 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
 def detect_sequence(info: SeqInfo, detector, embedder: Embedder | None = None, progress: "bool | Progress" = False,
                     timings: dict[str, float] | None = None,
                     weak: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
-                    min_score: float | None = None) -> tuple[Detections, np.ndarray]:
+                    min_score: float | None = None,
+                    tap: Callable[[int, np.ndarray], None] | None = None) -> tuple[Detections, np.ndarray]:
     """Run ``detector`` on every frame: the detections in canonical order and, with ``embedder``, their features
-    from the same decoded frames (``(N, D)``; ``(N, 0)`` without).
+    from the same decoded frames (``(N, D)``; ``(N, 0)`` without); ``tap`` sees each frame decoded
+    (:func:`frame_pass`).
 
     ``min_score``, when given, keeps only boxes scoring at least this as the
     detections (and embeds only those); ``weak``, when given, receives every
@@ -152,7 +175,7 @@ def detect_sequence(info: SeqInfo, detector, embedder: Embedder | None = None, p
         return boxes[keep], scores[keep]
 
     passed = frame_pass(info, list(range(1, info.length + 1)), boxes_of, embedder, f"{info.name}: detection",
-                        progress, timings)
+                        progress, timings, tap)
     dim = embedder.dim if embedder is not None else 0
     frames = np.concatenate([np.full(len(found[0]), frame, np.int64) for frame, found, _ in passed] or [[]])
     raw = Detections(frames, np.concatenate([found[0] for _, found, _ in passed] or [np.zeros((0, 4))]),

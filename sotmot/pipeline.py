@@ -35,7 +35,7 @@ from sotmot.confirm import box_scorer, confirm
 from sotmot.detection import Detector, make_detector
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
 from sotmot.motion import CameraMotion, estimate_motion
-from sotmot.passes import detect_sequence, embed_detections
+from sotmot.passes import detect_sequence, embed_detections, grey_keeper
 from sotmot.plan import Plan, resolve
 from sotmot.postprocess import Occluders, line_checked, output_ids, to_tracks
 from sotmot.preprocess import nms_per_frame, preprocess_indices, resolve_nms
@@ -260,6 +260,7 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
     clock = _Clock(timings)
     info, config, sot = plan.info, plan.config, plan.sot
     detected = raw_features = support = None
+    seen: dict[int, np.ndarray] = {}  # the camera-motion check's frames of a video, kept by the pass over it
     if plan.source == "model":  # one pass over the frames: detection, and re-ID of what it found
         embed_now = features is None and not sot
         if embed_now:
@@ -272,7 +273,8 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
         # embedding too, the pass is the appearance stage with detection inside it (timed as "detect", like
         # "decode"); detection alone, the pass is the "detect" stage
         raw, raw_features = detect_sequence(info, detector, embedder if embed_now else None, progress,
-                                            timings if embed_now else None, weak=weak, min_score=split)
+                                            timings if embed_now else None, weak=weak, min_score=split,
+                                            tap=grey_keeper(plan.motion_frames, seen))
         if weak is not None:
             support = DetectorSupport.from_pass(weak)
         detected = raw
@@ -296,12 +298,13 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
         features = raw_features[kept]
     elif features is None and not sot:  # with SOT, the SOT step computes them from the frames it decodes
         embedder = embedder_for(plan.appearance, embedder)
-        features = embed_detections(info, dets, embedder, progress, timings)
+        features = embed_detections(info, dets, embedder, progress, timings, grey_keeper(plan.motion_frames, seen))
     elif features is not None and len(features) != len(dets):
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
     clock.lap("appearance")
     links, steps = np.zeros((0, 2), np.int64), 0
-    motion = estimate_motion(info, dets, config.motion, progress)
+    motion = estimate_motion(info, dets, config.motion, progress, seen=seen)
+    seen.clear()
     if config.motion.compensation != "off":
         clock.lap("motion")
     if plan.weak_boxes and support is None:  # public, refined: the detector runs on the frames the search visits
@@ -407,7 +410,7 @@ def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.n
         before = len(tracks)
         tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, config.sot,
                              config.ends, support=support, motion=prepared.motion,
-                             progress=lambda ends, total: as_progress(progress)(ends, f"{info.name}: extend ends", total))
+                             progress=lambda ends, n: as_progress(progress)(ends, f"{info.name}: extend ends", n))
         log.info("%s: end extension added %d boxes", info.name, len(tracks) - before)
     if support is not None:
         log.info("%s: the detector's boxes checked the SOT boxes (%d frames detected for it alone)", info.name,

@@ -20,6 +20,7 @@ from sotmot.config import AppearanceConfig, AssociationConfig, DetectionConfig, 
 from sotmot.detection import detection_source, detector_detections, known_family
 from sotmot.errors import ConfigError
 from sotmot.io import SeqInfo
+from sotmot.motion import still_check_frames
 from sotmot.sot.support import WEAK_MIN_SCORE
 
 
@@ -57,6 +58,11 @@ class Plan:
         installed on the CPU) and its threads no more than the machine's CPUs.
     association
         ``[association]`` with its gap limit in frames at the sequence's rate.
+    motion_frames
+        For a video whose camera ``[motion] compensation = "auto"`` checks:
+        ``(factor, frames)``, the frames the still check reads and their
+        reduction, which the pass over the frames keeps for it
+        (:func:`sotmot.motion.still_check_frames`); else None.
     """
 
     info: SeqInfo
@@ -69,6 +75,7 @@ class Plan:
     family: str | None
     appearance: AppearanceConfig
     association: AssociationConfig
+    motion_frames: tuple[int, frozenset[int]] | None = None
 
     @property
     def sot(self) -> bool:
@@ -113,7 +120,7 @@ def resolve(config: TrackerConfig, info: SeqInfo, given: bool = False) -> Plan:
         detector = detection if low == detection.min_score else dataclasses.replace(detection, min_score=low)
     return Plan(info, config, source, det_file, weak, detector, _weak(detection, weak),
                 known_family(detection, info), resolve_backend(config.appearance),
-                config.association.at(info.frame_rate))
+                config.association.at(info.frame_rate), still_check_frames(info, config.motion))
 
 
 def _weak(detection: DetectionConfig, needed: bool) -> DetectionConfig | None:

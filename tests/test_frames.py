@@ -210,3 +210,36 @@ def test_the_camera_motion_estimate_decodes_each_frame_of_a_video_at_most_twice(
     checked = {f for pair in still_check_pairs(info.length, info.frame_rate, video=True) for f in pair}
     assert set(decodes) == set(range(1, info.length + 1)) and max(decodes.values()) <= 2
     assert {f for f, n in decodes.items() if n == 2} <= checked  # the check stops at the first pair that moved
+
+
+def test_the_still_check_of_a_video_reads_the_frames_the_appearance_pass_decoded(tmp_path, monkeypatch):
+    """A still camera filmed as a video: the pass that embeds the detections decodes every frame, and the camera
+    check takes its small grey frames from there (passes.grey_keeper) instead of decoding them again."""
+    import cv2
+
+    import sotmot.pipeline as pipeline
+    from conftest import GeometryEmbedder
+    from sotmot.pipeline import prepare_sequence
+
+    rng = np.random.default_rng(0)
+    background = cv2.GaussianBlur(rng.integers(0, 256, (120, 160, 3), dtype=np.uint8), (5, 5), 0)  # corners
+    path, det = tmp_path / "still.avi", tmp_path / "det.txt"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (160, 120))
+    lines = []
+    for f in range(1, 31):
+        image = background.copy()
+        x = 10 + 3 * f
+        image[40:100, x:x + 20] = 30  # someone walking; the camera stays
+        writer.write(image)
+        lines.append(f"{f},-1,{x},40,20,60,0.9,-1,-1,-1")
+    writer.release()
+    det.write_text("\n".join(lines) + "\n")
+    config = TrackerConfig().replace("detection", file=str(det))
+    decodes = counting(monkeypatch)
+    prepared = prepare_sequence(path, config, embedder=GeometryEmbedder())
+    assert not prepared.motion.moving
+    assert decodes == Counter(range(1, 31))  # each frame once: the pass's decode served the check too
+    monkeypatch.setattr(pipeline, "grey_keeper", lambda keep, kept: None)
+    decodes.clear()
+    prepare_sequence(path, config, embedder=GeometryEmbedder())
+    assert max(decodes.values()) == 2  # without it, the check decodes its frames a second time

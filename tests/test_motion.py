@@ -301,7 +301,7 @@ def test_positions_compared_in_a_reference_of_another_scale_and_offset_give_the_
     config = TrackerConfig().replace("appearance", backend="none")
     still = track_sequence(seq, config, None)
 
-    def smaller(info, detections, motion_config, progress=False):
+    def smaller(info, detections, motion_config, progress=False, seen=None):
         reference = np.tile(np.array([[0.4, 0.0, 130.0], [0.0, 0.4, -70.0]]), (info.length + 1, 1, 1))
         return CameraMotion(reference, reference.copy(), np.ones(info.length + 1), True)
 
