@@ -15,6 +15,7 @@ Files it reads, each optional (a missing one leaves its section out):
 * ``speed_public.json``, ``speed_public_noflip.json`` (``--no-flip``), ``speed_private.json``:
   ``scripts/bench_speed.py``;
 * ``long.json``: ``scripts/bench_long.py``;
+* ``video.json``: ``scripts/bench_video.py`` (a sequence's frames read from JPEGs and from video files);
 * ``windows.json``: ``scripts/bench_long.py --windows`` (committed windows on long videos) merged with its
   ``--full-length`` run (the accuracy cost on each full-length sequence);
 * ``motion.json``: ``scripts/bench_motion.py`` (a moving camera, synthetic and real);
@@ -191,6 +192,25 @@ def long_section(data: dict | None) -> list[str]:
                      f"{r['fps']:.1f} | {r['peak_rss_mb']:.0f} | {r['peak_tmp_mb']:.1f} |")
     lines += ["", "Growth with length (slope of log cost against log frames; 1 is linear):", ""]
     lines += [f"- {name}: time {g['time']:.2f}, peak memory {g['memory']:.2f}" for name, g in data["growth"].items()]
+    return [*lines, "", f"Machine: {data['machine']}.", ""]
+
+
+def video_section(data: dict | None) -> list[str]:
+    if data is None:
+        return []
+    lines = ["## Video input", "", f"{data['sequence']}'s frames tracked from its JPEG folder and from video files of "
+             "the same frames (`scripts/bench_video.py`, in-process, models loaded once, one run each), with its "
+             "public detections and with the built-in detector's (private). `decode`: reading frames in the pass "
+             "over them; `motion`: the camera-motion stage (on a still camera, the check that compares frames half a "
+             "second apart); `extend`: the end extension; seeks: every seek of the run (a video goes back only by "
+             "one, decoding from the last key frame). Seconds.", "",
+             "| input | detections | wall s | fps | decode | motion | extend | seeks | seek s |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in data["rows"]:
+        st = r["stages"]
+        detections = {"file": "public", "model": "private"}[r["detections"]]
+        lines.append(f"| {r['input']} | {detections} | {r['seconds']:.1f} | {r['fps']:.1f} | {st['decode']:.2f} | "
+                     f"{st['motion']:.2f} | {st['extend']:.2f} | {r['seeks']} | {r['seek_seconds']:.2f} |")
     return [*lines, "", f"Machine: {data['machine']}.", ""]
 
 
@@ -747,6 +767,7 @@ def page() -> str:
     lines += ends_section()
     lines += misses_section(load("misses_public.json"), load("misses_private.json"))
     lines += long_section(load("long.json"))
+    lines += video_section(load("video.json"))
     lines += windows_section(load("windows.json"))
     lines += confidence_section(load("confidence_fit.json"), load("transfer.json"))
     lines += motion_section(load("motion.json"))
