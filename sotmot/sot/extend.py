@@ -146,7 +146,7 @@ class _Finder:
         return None if self.support is not None else TemplateSearch.template(self.read_frame(frame), box)
 
     def find(self, template: np.ndarray | None, frame: int, prior: np.ndarray, identity: np.ndarray,
-             track_id: int, ahead: list[int] = ()) -> tuple[np.ndarray | None, float, bool]:
+             track_id: int, ahead: tuple[int, ...] = ()) -> tuple[np.ndarray | None, float, bool]:
         """The best candidate for ``track_id`` in ``frame`` around ``prior``, its re-ID affinity with ``identity``,
         and whether it is a detector's weak box. The frames ``ahead`` are decoded while it searches (once
         ``frame`` is read, so that asking for them cannot drop it; a folder of JPEGs).
@@ -234,7 +234,7 @@ class _End:
             self.template = finder.template(self.start, self.box)
         g, direction = self.next, self.direction
         prior = motion.box_from_ref(g, motion.box_to_ref(g - direction, self.box) + np.r_[self.velocity, 0.0, 0.0])
-        ahead = ([g + direction] if g != self.last else []) + ([then] if then is not None else [])
+        ahead = ((g + direction,) if g != self.last else ()) + ((then,) if then is not None else ())
         found, affinity, supported = finder.find(self.template, g, prior, self.identity, self.track_id, ahead)
         self.k += 1
         if found is None:
