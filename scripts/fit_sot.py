@@ -102,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.weak:  # the detector at the weak boxes' threshold, on the frames the ends visit (per sequence)
             support = DetectorSupport.from_config(resolve(weak, info).weak_detector)
         trace: list[dict] = []
-        extend_ends(run.tracks, identity, FrameReader(info, cache_size=8), info.length, info.frame_rate,
+        extend_ends(run.tracks, identity, FrameReader.walking(info), info.length, info.frame_rate,
                     embedder_box[0], config.sot, loosest, trace=trace, support=support)
         traced[info.name] = (info, run.tracks, trace)
         print(f"{info.name}: {len(trace)} end boxes at the loosest gates, {sum(b['supported'] for b in trace)} "

@@ -85,6 +85,10 @@ def test_a_walking_reader_keeps_the_frames_it_passes_so_a_walk_back_from_there_n
     assert reader.source.seeks == 0 and reader.cached <= reader.cache_size
     reader(13)  # seven back: beyond the block kept, one seek
     assert reader.source.seeks == 1
+    plain = FrameReader(info, cache_size=8)  # not walking: forward, the frames between are grabbed past
+    for f in (3, 12, 20):
+        plain(f)
+    assert plain.source.decodes == 3 and plain.cached == 3
 
 
 def test_a_video_whose_seeks_cost_more_reads_farther_ahead(tmp_path):

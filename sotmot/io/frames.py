@@ -265,11 +265,11 @@ class FrameReader:
         The sequence: a MOTChallenge folder or a video file (:func:`frame_source`).
     cache_size
         How many decoded frames to keep (least recently used are dropped), so
-        stages that revisit frames do not decode them again; never more. When
-        it holds at least :data:`READ_BACK_CACHE` frames, a video fills it
-        with the frames before the one asked for (up to ``cache_size - 2``:
-        those it passes reading forward, or after one seek for them all when
-        read backwards).
+        stages that revisit frames do not decode them again; never more. A
+        video read backwards fills it with the frames before the one asked
+        for (up to ``cache_size - 2``, one seek for them all) when the cache
+        holds at least :data:`READ_BACK_CACHE` frames; a :meth:`walking`
+        reader does so reading forward too, with the frames it passes.
 
     A reader is called from one thread; :meth:`prefetch` decodes ahead in a
     thread of its own (at most :data:`PREFETCH_AHEAD` frames beside the cache).
@@ -284,13 +284,17 @@ class FrameReader:
         self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
         self._ahead: OrderedDict[int, Future] = OrderedDict()  # frame -> its decoding in the background
         self._decoder: ThreadPoolExecutor | None = None
+        self._walked = False  # keep the frames passed reading forward (walking)
 
     @classmethod
     def walking(cls, info: SeqInfo) -> FrameReader:
         """A reader for a stage that walks frame by frame away from many starting frames, forward and back (the
-        end extension): a video keeps :data:`READ_BACK_CACHE` frames, so a walk back seeks once a block; a folder
-        of JPEGs keeps :data:`WALK_CACHE` and its caller decodes each next step ahead (:meth:`prefetch`)."""
+        end extension, in frame order): a video keeps :data:`READ_BACK_CACHE` frames, and the frames before the
+        one asked for come into the cache with it, read on the way forward (not grabbed past) or, behind, after
+        one seek for the block, so a walk back from there seeks once a block at most; a folder of JPEGs keeps
+        :data:`WALK_CACHE` and its caller decodes each next step ahead (:meth:`prefetch`)."""
         reader = cls(info, cache_size=READ_BACK_CACHE)
+        reader._walked = True
         if reader.source.independent:
             reader.cache_size = WALK_CACHE
         return reader
@@ -330,10 +334,10 @@ class FrameReader:
         if decoding is not None:
             return self._keep(frame, decoding.result())
         position = getattr(self.source, "position", None)
-        if position is not None and self.cache_size >= READ_BACK_CACHE:
-            # a video walked (the end extension): the frames just before this one come into the cache with it, so
-            # a walk back from here finds them: read on the way forward (the end extension reads in frame order),
-            # or, behind, after one seek for the block rather than one a step
+        if position is not None and self.cache_size >= READ_BACK_CACHE and (frame < position or self._walked):
+            # a video read backwards (the end extension before a trajectory's first box): one seek, then the
+            # frames up to this one read forward into the cache, so the next steps back cost no seek each; walking
+            # forward, the frames on the way come into the cache too (not grabbed past), for a walk back from here
             first = max(1, frame - (self.cache_size - 2))
             if frame >= position:
                 first = max(first, position)
