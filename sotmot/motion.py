@@ -319,11 +319,14 @@ def camera_is_still(source: FrameSource, info: SeqInfo, detections: Detections, 
     factor = reduce_factor(info.width, STILL_CHECK_WIDTH)
     seen = {} if seen is None else seen
     by_frame = detections.by_frame()
+
+    def read(f: int) -> np.ndarray:
+        return seen.pop(f) if f in seen else source.read_grey(f, factor)
+
     grey: dict[int, np.ndarray] = {}
     for a, b in still_check_pairs(info.length, info.frame_rate, info.video is not None):
-        previous = grey.pop(a) if a in grey else seen.pop(a, None)
-        previous = source.read_grey(a, factor) if previous is None else previous
-        grey = {b: seen.pop(b) if b in seen else source.read_grey(b, factor)}  # a chain reads each frame once
+        previous = grey.pop(a) if a in grey else read(a)
+        grey = {b: read(b)}  # a chain reads each frame once
         transform, confidence = estimate_pair(previous, grey[b], factor,
                                               detections.boxes[by_frame.get(a, np.zeros(0, np.int64))])
         if confidence == 0.0 or _corner_motion(transform, info.width, info.height) > config.still_pixels:
