@@ -26,14 +26,16 @@ Boxes are ``x, y, w, h`` pixels, frames 1-based.
 
 from __future__ import annotations
 
+import hashlib
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from sotmot.boxes import centers, cxcywh_to_xywh
 from sotmot.config import MotionConfig
-from sotmot.io.frames import FrameSource, frame_source
+from sotmot.io.frames import FrameSource, frame_source, grey_reduced
 from sotmot.io.mot import SeqInfo
 from sotmot.progress import Progress, as_progress
 from sotmot.types import Detections
@@ -293,16 +295,21 @@ def still_check_pairs(length: int, frame_rate: float, video: bool = False) -> li
     return [(int(a), int(a) + step) for a in starts]
 
 
-def still_check_frames(info: SeqInfo, config: MotionConfig) -> tuple[int, frozenset[int]] | None:
-    """For a video whose camera ``auto`` checks: the factor its frames are reduced by and the frames the still check
-    reads, which the pass that decodes every frame anyway keeps for it (:func:`sotmot.passes.grey_keeper`), so
-    that the check decodes none of them again (a video cannot be decoded small the way a JPEG can: the check cost
-    MOT16-09 from its video 1-2 s, a second decode of it). None otherwise: a JPEG frame decodes small on its own,
-    and its copy from the full image would not be the same bytes."""
-    if config.compensation != "auto" or info.video is None or info.length < 2:
-        return None
-    wanted = frozenset(f for pair in still_check_pairs(info.length, info.frame_rate, video=True) for f in pair)
-    return reduce_factor(info.width, STILL_CHECK_WIDTH), wanted
+def in_pass(info: SeqInfo, config: MotionConfig) -> bool:
+    """Whether the pass that decodes every frame of ``info`` measures the camera too (:class:`PassMotion`): for a
+    video whose camera ``[motion]`` looks at, since a video cannot be decoded small the way a JPEG can (the
+    estimate's own decode cost MOT16-09 from its video 1-2 s). Not for a JPEG folder: its frames decode small on
+    their own, and small copies of the full images would not be the same bytes."""
+    return config.compensation != "off" and info.video is not None and info.length >= 2
+
+
+def _moved(previous: np.ndarray, current: np.ndarray, factor: int, people: np.ndarray, info: SeqInfo,
+           config: MotionConfig) -> bool:
+    """Whether the camera moved more than ``still_pixels`` between two frames of the still check (read
+    ``factor`` times smaller; ``people``: full-size boxes in ``previous``); an estimate that cannot be trusted
+    counts as moving (the full estimate decides)."""
+    transform, confidence = estimate_pair(previous, current, factor, people)
+    return confidence == 0.0 or _corner_motion(transform, info.width, info.height) > config.still_pixels
 
 
 def camera_is_still(source: FrameSource, info: SeqInfo, detections: Detections, config: MotionConfig,
@@ -312,9 +319,9 @@ def camera_is_still(source: FrameSource, info: SeqInfo, detections: Detections, 
     Costs one small grey decode per half second of a JPEG sequence; a video
     is decoded on the way (its frames between are grabbed), so a long one is
     looked at in :data:`STILL_CHECK_PAIRS` places only, and frames a pass kept
-    already (``seen``, :func:`still_check_frames`) are not decoded again. A pair
-    whose estimate cannot be trusted counts as moving (the full estimate
-    decides).
+    already (``seen``: frame -> small grey image, :class:`PassMotion`) are not
+    decoded again. A pair whose estimate cannot be trusted counts as moving
+    (the full estimate decides).
     """
     factor = reduce_factor(info.width, STILL_CHECK_WIDTH)
     seen = {} if seen is None else seen
@@ -327,52 +334,190 @@ def camera_is_still(source: FrameSource, info: SeqInfo, detections: Detections, 
     for a, b in still_check_pairs(info.length, info.frame_rate, info.video is not None):
         previous = grey.pop(a) if a in grey else read(a)
         grey = {b: read(b)}  # a chain reads each frame once
-        transform, confidence = estimate_pair(previous, grey[b], factor,
-                                              detections.boxes[by_frame.get(a, np.zeros(0, np.int64))])
-        if confidence == 0.0 or _corner_motion(transform, info.width, info.height) > config.still_pixels:
+        if _moved(previous, grey[b], factor, detections.boxes[by_frame.get(a, np.zeros(0, np.int64))], info,
+                  config):
             return False
     return True
 
 
+class _Chain:
+    """The full estimate: every frame pair in order, each estimate started where the one before put the corners.
+
+    Frames are added one after another from frame 1, small and grey (at
+    :func:`reduce_factor` of the width), with the full-size boxes of the
+    people in them; :meth:`motion` composes the pairs.
+    """
+
+    def __init__(self, info: SeqInfo, config: MotionConfig) -> None:
+        self.factor = reduce_factor(info.width)
+        self.min_confidence = config.min_confidence
+        self.pair = np.tile(_identity(), (info.length + 1, 1, 1))
+        self.confidence = np.zeros(info.length + 1)
+        self.confidence[:2] = 1.0
+        self.frame = 0  # the last frame added
+        self._previous: tuple[np.ndarray, np.ndarray] | None = None  # its grey image and people
+
+    def add(self, frame: int, grey: np.ndarray, people: np.ndarray) -> None:
+        """Frame ``frame`` (the one after the last added), small and grey, and the people in it."""
+        if self._previous is not None:
+            previous, left_out = self._previous
+            transform, share = estimate_pair(previous, grey, self.factor, left_out, guess=self.pair[frame - 1])
+            if share >= self.min_confidence:
+                self.pair[frame], self.confidence[frame] = transform, share
+        self.frame, self._previous = frame, (grey, people)
+
+    def motion(self) -> CameraMotion:
+        return CameraMotion.from_pairs(self.pair, self.confidence)
+
+
+def _people(detections: Detections, by_frame: dict[int, np.ndarray], frame: int) -> np.ndarray:
+    """The boxes of ``detections`` in ``frame`` (``(N, 4)``, canonical order): the people left out of it."""
+    return detections.boxes[by_frame.get(frame, np.zeros(0, np.int64))]
+
+
+def _fold(digest, frame: int, people: np.ndarray) -> None:
+    """Add a frame and the boxes the estimate was given for it to ``digest`` (the same boxes, the same bytes)."""
+    digest.update(np.int64(frame).tobytes())
+    digest.update(np.ascontiguousarray(people, dtype=np.float64).tobytes())
+
+
+class PassMotion:
+    """The camera's motion measured inside the pass that decodes every frame of a video (:func:`in_pass`), so
+    the estimate decodes none again.
+
+    The pass calls :meth:`see` with each frame in order, from frame 1: its
+    decoded image and what the pass found in it, from which ``people`` gives
+    the boxes the estimate leaves out (by default the boxes themselves; for a
+    detector, the boxes preprocessing will keep). The still check's frames are
+    kept small, and each of its pairs is judged once its second frame is seen,
+    as :func:`camera_is_still` judges them. When the first pair moved (or
+    from the start, with ``compensation = "on"``), every frame pair is
+    estimated as the frame arrives, as :func:`estimate_motion` does after a
+    pass; the frames up to that pair's second wait small and grey for it. A
+    camera still at first and found moving later is measured after the pass,
+    from a second decode.
+    :meth:`outcome` hands :func:`estimate_motion` what was measured, provided
+    the boxes left out were those of the detections the run goes on with.
+    Called from one thread at a time (the pass's, then the caller's).
+    """
+
+    def __init__(self, info: SeqInfo, config: MotionConfig,
+                 people: Callable[[int, object], np.ndarray] | None = None) -> None:
+        self.info, self.config = info, config
+        self._people = people if people is not None else (lambda frame, found: found)
+        self._pairs = still_check_pairs(info.length, info.frame_rate, video=True) \
+            if config.compensation == "auto" else []
+        self._check_factor = reduce_factor(info.width, STILL_CHECK_WIDTH)
+        self._check_frames = {f for pair in self._pairs for f in pair}
+        #: the still check's frames (small and grey) and their people, kept until their pairs are judged
+        self.kept: dict[int, np.ndarray] = {}
+        self._kept_people: dict[int, np.ndarray] = {}
+        self._judged = 0  # pairs judged
+        self._checked = hashlib.blake2b(digest_size=16)  # the people of each judged pair's first frame
+        #: the verdict: True moving, False still, None not yet
+        self.moving: bool | None = True if config.compensation == "on" else None
+        self._chain = _Chain(info, config)
+        self._chained = hashlib.blake2b(digest_size=16)  # the people of each frame added to the chain
+        self._waiting: list[tuple[int, np.ndarray, np.ndarray]] | None = []  # None: not measured here
+        self._last = 0  # the last frame seen
+
+    def see(self, frame: int, image: np.ndarray, found: object) -> None:
+        """Frame ``frame`` (the one after the last seen), decoded (BGR), and what the pass found in it."""
+        if frame != self._last + 1:  # a frame skipped: nothing after it can be measured here
+            self._waiting = None
+            self._last = -1
+            return
+        self._last = frame
+        checked = self.moving is None and frame in self._check_frames
+        if not checked and self._waiting is None:
+            return
+        people = np.ascontiguousarray(self._people(frame, found), dtype=np.float64).reshape(-1, 4)
+        if checked:
+            self.kept[frame], self._kept_people[frame] = grey_reduced(image, self._check_factor), people
+            self._judge(frame)
+        if self._waiting is None:
+            return
+        if self._judged and not self.moving:  # still at the start: if it moves later, measured after the pass
+            self._waiting = None
+            return
+        self._waiting.append((frame, grey_reduced(image, self._chain.factor), people))
+        if self.moving:
+            for waited in self._waiting:
+                _fold(self._chained, waited[0], waited[2])
+                self._chain.add(*waited)
+            self._waiting.clear()
+
+    def _judge(self, frame: int) -> None:
+        """Judge the still check's pairs that end at ``frame``, in order, until one moved."""
+        while self.moving is None and self._judged < len(self._pairs) and self._pairs[self._judged][1] <= frame:
+            a, b = self._pairs[self._judged]
+            self._judged += 1
+            _fold(self._checked, a, self._kept_people[a])
+            if _moved(self.kept[a], self.kept[b], self._check_factor, self._kept_people[a], self.info, self.config):
+                self.moving = True
+            for f in [f for f in self.kept if f < b]:  # frame b may begin the next pair
+                del self.kept[f], self._kept_people[f]
+        if self.moving is None and self._judged == len(self._pairs):
+            self.moving = False
+
+    def outcome(self, detections: Detections) -> "CameraMotion | bool | None":
+        """What the pass measured, given the ``detections`` the run goes on with: the camera's motion (still or
+        moving); True when the still check found it moving but the frames were not estimated here; None when
+        nothing here holds (the boxes left out were not ``detections``' own, or no verdict)."""
+        by_frame = detections.by_frame()
+        checked = hashlib.blake2b(digest_size=16)
+        for a, _ in self._pairs[:self._judged]:
+            _fold(checked, a, _people(detections, by_frame, a))
+        if self.moving is None or checked.digest() != self._checked.digest():
+            return None
+        if not self.moving:
+            return CameraMotion.still(self.info.length)
+        chained = hashlib.blake2b(digest_size=16)
+        for f in range(1, self._chain.frame + 1):
+            _fold(chained, f, _people(detections, by_frame, f))
+        if self._chain.frame == self.info.length and chained.digest() == self._chained.digest():
+            return self._chain.motion()
+        return True
+
+
 def estimate_motion(info: SeqInfo, detections: Detections, config: MotionConfig,
-                    progress: "bool | Progress" = False, seen: dict[int, np.ndarray] | None = None) -> CameraMotion:
+                    progress: "bool | Progress" = False, seen: PassMotion | None = None) -> CameraMotion:
     """The camera's motion over the sequence as ``[motion]`` asks (``compensation``: auto, on or off).
 
     ``detections`` (image pixels) are masked out of the frames. Off, auto on
     a still camera, or auto on a folder without frames (detections and ground
     truth only): :meth:`CameraMotion.still`. A frame pair whose
     estimate is not trusted (fewer than :data:`MIN_INLIERS` corners agree, or
-    fewer than ``min_confidence`` of them) gets the identity. ``seen``: the
-    still check's frames a pass kept already (:func:`still_check_frames`).
+    fewer than ``min_confidence`` of them) gets the identity. ``seen``: what
+    the pass over a video measured already (:class:`PassMotion`); what it
+    could not, is measured here.
     """
     if config.compensation == "off" or info.length < 2:
         return CameraMotion.still(info.length)
     if config.compensation == "auto" and info.video is None and info.frames is None and not info.frames_dir.is_dir():
         log.info("%s: no frames (%s missing): camera motion not estimated", info.name, info.frames_dir)
         return CameraMotion.still(info.length)
-    source = frame_source(info)
-    try:
-        if config.compensation == "auto" and camera_is_still(source, info, detections, config, seen):
-            log.info("%s: the camera is still (no pair of frames half a second apart moved %.1f px)", info.name,
-                     config.still_pixels)
-            return CameraMotion.still(info.length)
-        factor = reduce_factor(info.width)
-        by_frame = detections.by_frame()
-        pair = np.tile(_identity(), (info.length + 1, 1, 1))
-        confidence = np.zeros(info.length + 1)
-        confidence[:2] = 1.0
-        previous = source.read_grey(1, factor)
-        show = as_progress(progress)
-        for f in show(range(2, info.length + 1), f"{info.name}: camera motion"):
-            current = source.read_grey(f, factor)
-            transform, share = estimate_pair(previous, current, factor,
-                                             detections.boxes[by_frame.get(f - 1, np.zeros(0, np.int64))],
-                                             guess=pair[f - 1])
-            if share >= config.min_confidence:
-                pair[f], confidence[f] = transform, share
-            previous = current
-    finally:
-        source.close()
-    motion = CameraMotion.from_pairs(pair, confidence)
-    log.info("%s: camera motion %s", info.name, motion.summary())
+    known = seen.outcome(detections) if seen is not None else None
+    by_frame = detections.by_frame()
+    if isinstance(known, CameraMotion):
+        motion = known
+    else:
+        source = frame_source(info)
+        try:
+            if config.compensation == "auto" and known is None and \
+                    camera_is_still(source, info, detections, config, seen.kept if seen is not None else None):
+                motion = CameraMotion.still(info.length)
+            else:
+                chain = _Chain(info, config)
+                show = as_progress(progress)
+                for f in show(range(1, info.length + 1), f"{info.name}: camera motion"):
+                    chain.add(f, source.read_grey(f, chain.factor), _people(detections, by_frame, f))
+                motion = chain.motion()
+        finally:
+            source.close()
+    if motion.moving:
+        log.info("%s: camera motion %s", info.name, motion.summary())
+    else:
+        log.info("%s: the camera is still (no pair of frames half a second apart moved %.1f px)", info.name,
+                 config.still_pixels)
     return motion

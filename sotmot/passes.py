@@ -13,7 +13,6 @@ import numpy as np
 
 from sotmot.appearance import Embedder
 from sotmot.io import FrameReader, SeqInfo
-from sotmot.io.frames import grey_reduced
 from sotmot.progress import Progress, as_progress
 from sotmot.types import Detections
 
@@ -23,40 +22,30 @@ from sotmot.types import Detections
 PREFETCH_FRAMES = 8
 
 
-def grey_keeper(keep: tuple[int, frozenset[int]] | None, kept: dict[int, np.ndarray]):
-    """A ``tap`` for :func:`frame_pass`: ``keep`` is ``(factor, frames)``, and each of those frames goes into
-    ``kept`` grey and ``factor`` times smaller, as a video's ``read_grey`` gives it
-    (:func:`sotmot.motion.still_check_frames`); None when ``keep`` is."""
-    if keep is None:
-        return None
-    factor, frames = keep
-
-    def tap(frame: int, image: np.ndarray) -> None:
-        if frame in frames:
-            kept[frame] = grey_reduced(image, factor)
-    return tap
-
-
 def embed_detections(info: SeqInfo, detections: Detections, embedder: Embedder,
                      progress: "bool | Progress" = False, timings: dict[str, float] | None = None,
-                     tap: Callable[[int, np.ndarray], None] | None = None) -> np.ndarray:
-    """Appearance features ``(N, D)`` of every detection (see :func:`frame_pass` for how frames are read, and
-    ``tap``); an embedder of no features (``dim == 0``, the motion-only mode) reads no frame."""
+                     tap: Callable[[int, np.ndarray, object], None] | None = None) -> np.ndarray:
+    """Appearance features ``(N, D)`` of every detection (see :func:`frame_pass` for how frames are read); an
+    embedder of no features (``dim == 0``, the motion-only mode) reads no frame. The pass reads the frames that
+    have detections, and with a ``tap`` every frame (it sees each, with the frame's boxes)."""
     features = np.zeros((len(detections), embedder.dim), dtype=np.float32)
     if embedder.dim == 0:
         return features
     per_frame = detections.by_frame()
-    passed = frame_pass(info, sorted(per_frame), lambda frame, image: detections.boxes[per_frame[frame]],
+    none = np.zeros(0, np.int64)
+    frames = sorted(per_frame) if tap is None else list(range(1, info.length + 1))
+    passed = frame_pass(info, frames, lambda frame, image: detections.boxes[per_frame.get(frame, none)],
                         embedder, f"{info.name}: appearance", progress, timings, tap)
     for frame, _, feats in passed:
-        features[per_frame[frame]] = feats
+        if frame in per_frame:
+            features[per_frame[frame]] = feats
     return features
 
 
 def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.ndarray], object],
                embedder: Embedder | None, desc: str, progress: "bool | Progress" = False,
                timings: dict[str, float] | None = None,
-               tap: Callable[[int, np.ndarray], None] | None = None) -> list[tuple[int, object, np.ndarray]]:
+               tap: Callable[[int, np.ndarray, object], None] | None = None) -> list[tuple[int, object, np.ndarray]]:
     """Read each of ``frames`` once, find its boxes and embed them: ``[(frame, found, features), ...]``.
 
     ``boxes_of(frame, image)`` gives the frame's boxes: an ``(N, 4)`` array,
@@ -72,18 +61,19 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
     (``batch_size`` rows; with the flip a crop is two rows): a frame holds a
     few boxes, and small batches waste the runtime's time; other embedders
     are called once per frame. ``timings``, when given, receives ``"decode"``
-    (the seconds spent reading and cropping frames) and ``"detect"``, both
-    overlapped with the embedding, so part of, not added to, the stage's wall
-    time. ``tap(frame, image)``, when given, sees each frame as it is decoded
-    (in the decoding thread; a later stage keeps what it needs of it instead of
-    decoding the frame again: :func:`grey_keeper`).
+    (the seconds spent reading and cropping frames), ``"detect"`` and
+    ``"motion_in_pass"`` (the ``tap``'s), all overlapped with the embedding,
+    so part of, not added to, the stage's wall time. ``tap(frame, image, found)``, when given, sees each frame once its
+    boxes are found, in the order of ``frames`` (in the thread that searches
+    them; a later stage measures what it needs there instead of decoding the
+    frame again: :class:`sotmot.motion.PassMotion`).
     """
     from concurrent.futures import ThreadPoolExecutor
 
     from sotmot.appearance.base import CropEmbedder, crop_boxes
 
     frame_reader = FrameReader(info, cache_size=1)  # called from the decoding thread only
-    spent = {"decode": 0.0, "detect": 0.0, "crop": 0.0}  # each key written by one thread
+    spent = {"decode": 0.0, "detect": 0.0, "crop": 0.0, "motion_in_pass": 0.0}  # each key written by one thread
     batched = isinstance(embedder, CropEmbedder)
     per_call = max(1, embedder.batch_size // (2 if embedder.flip else 1)) if batched else 1  # crops: one forward pass
     out: list[tuple[int, object, np.ndarray]] = []
@@ -91,8 +81,6 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
     def decode(frame: int) -> np.ndarray:
         start = time.perf_counter()
         image = frame_reader(frame)
-        if tap is not None:
-            tap(frame, image)
         spent["decode"] += time.perf_counter() - start
         return image
 
@@ -107,6 +95,10 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
         found = boxes_of(frame, image)
         boxes = found[0] if isinstance(found, tuple) else found
         spent["detect" if isinstance(found, tuple) else "crop"] += time.perf_counter() - start
+        if tap is not None:
+            start = time.perf_counter()
+            tap(frame, image, found)
+            spent["motion_in_pass"] += time.perf_counter() - start
         start = time.perf_counter()
         if batched:
             image = crop_boxes(image, boxes)
@@ -153,10 +145,10 @@ def detect_sequence(info: SeqInfo, detector, embedder: Embedder | None = None, p
                     timings: dict[str, float] | None = None,
                     weak: dict[int, tuple[np.ndarray, np.ndarray]] | None = None,
                     min_score: float | None = None,
-                    tap: Callable[[int, np.ndarray], None] | None = None) -> tuple[Detections, np.ndarray]:
+                    tap: Callable[[int, np.ndarray, object], None] | None = None) -> tuple[Detections, np.ndarray]:
     """Run ``detector`` on every frame: the detections in canonical order and, with ``embedder``, their features
-    from the same decoded frames (``(N, D)``; ``(N, 0)`` without); ``tap`` sees each frame decoded
-    (:func:`frame_pass`).
+    from the same decoded frames (``(N, D)``; ``(N, 0)`` without); ``tap`` sees each frame and the boxes found
+    in it, ``(boxes, scores)`` (:func:`frame_pass`).
 
     ``min_score``, when given, keeps only boxes scoring at least this as the
     detections (and embeds only those); ``weak``, when given, receives every

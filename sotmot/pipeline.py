@@ -34,11 +34,11 @@ from sotmot.config import PostprocessConfig, TrackerConfig
 from sotmot.confirm import box_scorer, confirm
 from sotmot.detection import Detector, make_detector
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
-from sotmot.motion import CameraMotion, estimate_motion
-from sotmot.passes import detect_sequence, embed_detections, grey_keeper
+from sotmot.motion import CameraMotion, PassMotion, estimate_motion
+from sotmot.passes import detect_sequence, embed_detections
 from sotmot.plan import Plan, resolve
 from sotmot.postprocess import Occluders, line_checked, output_ids, to_tracks
-from sotmot.preprocess import nms_per_frame, preprocess_indices, resolve_nms
+from sotmot.preprocess import frame_preprocessor, nms_per_frame, preprocess_indices, resolve_nms
 from sotmot.progress import Progress, as_progress
 from sotmot.sot.support import WEAK_MIN_SCORE, DetectorSupport
 from sotmot.tracklets import build_tracklets
@@ -119,7 +119,10 @@ class TrackResult:
     tracks
         The final output (the confirmed boxes).
     timings
-        Seconds spent per stage.
+        Seconds spent per stage; ``"decode"``, ``"detect"`` and
+        ``"motion_in_pass"`` are the shares of the pass over the frames
+        (:func:`sotmot.passes.frame_pass`) that read them, found the boxes and
+        measured the camera, inside its stage's time, not added to it.
     confidence
         ``(N,)`` confidence in [0, 1] of each of ``detections`` (``[preprocess] confidence``).
     dropped
@@ -260,7 +263,7 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
     clock = _Clock(timings)
     info, config, sot = plan.info, plan.config, plan.sot
     detected = raw_features = support = None
-    seen: dict[int, np.ndarray] = {}  # the camera-motion check's frames of a video, kept by the pass over it
+    seen = None  # the camera's motion, measured by the pass over a video
     if plan.source == "model":  # one pass over the frames: detection, and re-ID of what it found
         embed_now = features is None and not sot
         if embed_now:
@@ -272,9 +275,11 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
         weak = {} if plan.weak_boxes and low is not None and low <= WEAK_MIN_SCORE else None
         # embedding too, the pass is the appearance stage with detection inside it (timed as "detect", like
         # "decode"); detection alone, the pass is the "detect" stage
+        if plan.motion_in_pass:  # the estimate leaves out the boxes preprocessing will keep
+            seen = PassMotion(info, config.motion, frame_preprocessor(config.preprocess))
         raw, raw_features = detect_sequence(info, detector, embedder if embed_now else None, progress,
                                             timings if embed_now else None, weak=weak, min_score=split,
-                                            tap=grey_keeper(plan.motion_frames, seen))
+                                            tap=seen.see if seen is not None else None)
         if weak is not None:
             support = DetectorSupport.from_pass(weak)
         detected = raw
@@ -298,13 +303,15 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
         features = raw_features[kept]
     elif features is None and not sot:  # with SOT, the SOT step computes them from the frames it decodes
         embedder = embedder_for(plan.appearance, embedder)
-        features = embed_detections(info, dets, embedder, progress, timings, grey_keeper(plan.motion_frames, seen))
+        if plan.motion_in_pass:
+            seen = PassMotion(info, config.motion)
+        features = embed_detections(info, dets, embedder, progress, timings, seen.see if seen is not None else None)
     elif features is not None and len(features) != len(dets):
         raise ValueError(f"{len(features)} precomputed features for {len(dets)} detections")
     clock.lap("appearance")
     links, steps = np.zeros((0, 2), np.int64), 0
     motion = estimate_motion(info, dets, config.motion, progress, seen=seen)
-    seen.clear()
+    seen = None
     if config.motion.compensation != "off":
         clock.lap("motion")
     if plan.weak_boxes and support is None:  # public, refined: the detector runs on the frames the search visits

@@ -20,7 +20,7 @@ from sotmot.config import AppearanceConfig, AssociationConfig, DetectionConfig, 
 from sotmot.detection import detection_source, detector_detections, known_family
 from sotmot.errors import ConfigError
 from sotmot.io import SeqInfo
-from sotmot.motion import still_check_frames
+from sotmot.motion import in_pass
 from sotmot.sot.support import WEAK_MIN_SCORE
 
 
@@ -58,11 +58,10 @@ class Plan:
         installed on the CPU) and its threads no more than the machine's CPUs.
     association
         ``[association]`` with its gap limit in frames at the sequence's rate.
-    motion_frames
-        For a video whose camera ``[motion] compensation = "auto"`` checks:
-        ``(factor, frames)``, the frames the still check reads and their
-        reduction, which the pass over the frames keeps for it
-        (:func:`sotmot.motion.still_check_frames`); else None.
+    motion_in_pass
+        Whether the pass over the frames measures the camera's motion too
+        (a video whose camera ``[motion]`` looks at:
+        :func:`sotmot.motion.in_pass`).
     """
 
     info: SeqInfo
@@ -75,7 +74,7 @@ class Plan:
     family: str | None
     appearance: AppearanceConfig
     association: AssociationConfig
-    motion_frames: tuple[int, frozenset[int]] | None = None
+    motion_in_pass: bool = False
 
     @property
     def sot(self) -> bool:
@@ -120,7 +119,7 @@ def resolve(config: TrackerConfig, info: SeqInfo, given: bool = False) -> Plan:
         detector = detection if low == detection.min_score else dataclasses.replace(detection, min_score=low)
     return Plan(info, config, source, det_file, weak, detector, _weak(detection, weak),
                 known_family(detection, info), resolve_backend(config.appearance),
-                config.association.at(info.frame_rate), still_check_frames(info, config.motion))
+                config.association.at(info.frame_rate), in_pass(info, config.motion))
 
 
 def _weak(detection: DetectionConfig, needed: bool) -> DetectionConfig | None:

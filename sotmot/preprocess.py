@@ -5,6 +5,8 @@ Boxes are ``x, y, w, h`` pixels, frames 1-based.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from sotmot.boxes import nms
@@ -44,3 +46,16 @@ def preprocess_indices(detections: Detections, config: PreprocessConfig) -> np.n
     kept = np.flatnonzero(detections.scores >= config.score_threshold) if config.score_threshold is not None \
         else np.arange(len(detections))
     return kept[nms_per_frame(detections.subset(kept), resolve_nms(config, detections), config.nms_threshold)]
+
+
+def frame_preprocessor(config: PreprocessConfig) -> Callable[[int, tuple[np.ndarray, np.ndarray]], np.ndarray]:
+    """For a pass that finds the boxes frame by frame: ``(frame, (boxes, scores))`` -> the boxes of that frame that
+    :func:`preprocess` keeps, in canonical order; the same as it keeps of the whole sequence when ``nms = "auto"``
+    decides on one frame's scores as on all of them (:func:`resolve_nms`; a detector's probabilities do)."""
+    def kept(frame: int, found: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        boxes, scores = found
+        one = Detections(np.full(len(scores), frame, np.int64), boxes, scores)
+        one = one.subset(one.canonical_order())
+        return one.boxes[preprocess_indices(one, config)]
+    return kept
+

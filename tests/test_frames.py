@@ -218,10 +218,10 @@ def test_the_camera_motion_estimate_decodes_each_frame_of_a_video_at_most_twice(
 
 def test_the_still_check_of_a_video_reads_the_frames_the_appearance_pass_decoded(tmp_path, monkeypatch):
     """A still camera filmed as a video: the pass that embeds the detections decodes every frame, and the camera
-    check takes its small grey frames from there (passes.grey_keeper) instead of decoding them again."""
+    check judges its pairs there (motion.PassMotion) instead of decoding their frames again."""
     import cv2
 
-    import sotmot.pipeline as pipeline
+    import sotmot.plan
     from conftest import GeometryEmbedder
     from sotmot.pipeline import prepare_sequence
 
@@ -243,7 +243,76 @@ def test_the_still_check_of_a_video_reads_the_frames_the_appearance_pass_decoded
     prepared = prepare_sequence(path, config, embedder=GeometryEmbedder())
     assert not prepared.motion.moving
     assert decodes == Counter(range(1, 31))  # each frame once: the pass's decode served the check too
-    monkeypatch.setattr(pipeline, "grey_keeper", lambda keep, kept: None)
+    monkeypatch.setattr(sotmot.plan, "in_pass", lambda info, config: False)
     decodes.clear()
-    prepare_sequence(path, config, embedder=GeometryEmbedder())
-    assert max(decodes.values()) == 2  # without it, the check decodes its frames a second time
+    again = prepare_sequence(path, config, embedder=GeometryEmbedder())
+    assert not again.motion.moving and max(decodes.values()) == 2  # without it, the check decodes its frames again
+
+
+def test_a_moving_camera_filmed_as_a_video_is_measured_in_the_pass_that_decodes_it(clip_video, monkeypatch):
+    """MOT16-05 is filmed walking: the pass over the video judges the still check's first pair moving and
+    estimates every frame pair as it decodes the frame, so the whole preparation decodes each frame once, and
+    the camera's motion is to the bit the estimate made after the pass from a second decode."""
+    import sotmot.plan
+    from conftest import GeometryEmbedder
+    from sotmot.pipeline import prepare_sequence
+
+    video, det = clip_video
+    for compensation in ("auto", "on"):
+        config = TrackerConfig().replace("detection", file=str(det)).replace("motion", compensation=compensation)
+        decodes = counting(monkeypatch)
+        measured = prepare_sequence(video, config, embedder=GeometryEmbedder())
+        assert measured.motion.moving and decodes == Counter(range(1, measured.info.length + 1))
+        with monkeypatch.context() as patched:
+            patched.setattr(sotmot.plan, "in_pass", lambda info, config: False)
+            decodes.clear()
+            after = prepare_sequence(video, config, embedder=GeometryEmbedder())
+        assert min(decodes.values()) >= 2  # the estimate after the pass decodes every frame again
+        np.testing.assert_array_equal(measured.motion.pair, after.motion.pair)
+        np.testing.assert_array_equal(measured.motion.confidence, after.motion.confidence)
+        np.testing.assert_array_equal(measured.in_ref.boxes, after.in_ref.boxes)
+
+
+def test_the_detectors_pass_over_a_moving_video_leaves_out_the_boxes_preprocessing_keeps(clip_video, monkeypatch):
+    """With the detector's boxes the estimate masks the boxes preprocessing keeps, known only after the pass:
+    the pass preprocesses each frame alone (preprocess.frame_preprocessor) and the run checks that the boxes
+    came out the same. Probabilities (a detector's scores): measured in the pass, each frame decoded once. One
+    score outside [0, 1] in the last frame: ``nms = "auto"`` takes IoM for the sequence where each frame before
+    took IoU, a small box inside a larger one in frame 1 survives only the latter, so the pass's estimate is set
+    aside and the motion measured again, the same as without the pass."""
+    import sotmot.plan
+    from conftest import GeometryEmbedder
+    from sotmot.io import read_detections
+    from sotmot.pipeline import prepare_sequence
+
+    video, det = clip_video
+    info = read_seqinfo(video)
+    public = read_detections(det, info.length)
+
+    class Replay:
+        """Gives each frame, in the order asked, the public boxes of that frame as probabilities."""
+
+        def __init__(self, odd: bool):
+            self.frame, self.odd = 0, odd
+
+        def detect(self, image):
+            self.frame += 1
+            mine = public.frames == self.frame
+            boxes, scores = public.boxes[mine], 1 / (1 + np.exp(-public.scores[mine]))
+            if self.odd and self.frame == 1:  # a head inside the first person's box
+                x, y, w, h = boxes[0]
+                boxes, scores = np.vstack([boxes, [x + w / 4, y, w / 2, h / 4]]), np.append(scores, 0.01)
+            if self.odd and self.frame == info.length:
+                scores = np.append(scores[:-1], 5.0)
+            return boxes, scores
+
+    config = TrackerConfig().replace("detection", source="model", weak_boxes="off")
+    for odd in (False, True):
+        decodes = counting(monkeypatch)
+        measured = prepare_sequence(video, config, embedder=GeometryEmbedder(), detector=Replay(odd))
+        assert measured.motion.moving and (decodes == Counter(range(1, info.length + 1))) is not odd
+        with monkeypatch.context() as patched:
+            patched.setattr(sotmot.plan, "in_pass", lambda info, config: False)
+            after = prepare_sequence(video, config, embedder=GeometryEmbedder(), detector=Replay(odd))
+        np.testing.assert_array_equal(measured.motion.pair, after.motion.pair)
+        np.testing.assert_array_equal(measured.detections.boxes, after.detections.boxes)

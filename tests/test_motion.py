@@ -312,3 +312,79 @@ def test_positions_compared_in_a_reference_of_another_scale_and_offset_give_the_
     np.testing.assert_array_equal(scaled.tracks.ids, still.tracks.ids)
     np.testing.assert_array_equal(scaled.tracks.frames, still.tracks.frames)
     np.testing.assert_allclose(scaled.tracks.boxes, still.tracks.boxes, atol=1e-9)
+
+
+def _panning_frames(still: int, length: int = 40) -> list[np.ndarray]:
+    """BGR frames of the world: the camera still for ``still`` frames, then panning right 4 px a frame."""
+    import cv2
+
+    base = world()
+    return [cv2.cvtColor(shifted(base, 40 + 4.0 * max(0, f - still), 20, (320, 100)), cv2.COLOR_GRAY2BGR)
+            for f in range(1, length + 1)]
+
+
+@pytest.mark.parametrize("still", [0, 12, 40])
+def test_the_motion_measured_in_the_pass_is_the_estimate_after_it(still):
+    """PassMotion sees each frame as the pass decodes it: a camera moving from the start is estimated there, to
+    the bit what estimate_motion gives after the pass; one still at first and moving later is found moving there
+    and estimated after; a still one is found still. Boxes other than the detections' (people left out), or a
+    frame the pass skipped, set the pass's estimate aside: it is measured again, the same."""
+    import sotmot.motion
+    from sotmot.io import SeqInfo
+    from sotmot.motion import PassMotion
+    from sotmot.types import Detections
+
+    frames = _panning_frames(still)
+    info = SeqInfo(path=Path("<pan>"), name="pan", frame_rate=10.0, length=len(frames), width=320, height=100,
+                   frames=frames)
+    people = Detections(np.arange(1, 41), np.c_[np.arange(100.0, 140.0), np.tile([30.0, 20.0, 50.0], (40, 1))],
+                        np.ones(40))
+    config = MotionConfig()
+    masked = []
+    with pytest.MonkeyPatch.context() as patched:  # each pair leaves out the people of its earlier frame
+        patched.setattr(sotmot.motion, "estimate_pair",
+                        lambda *args, **kwargs: masked.append(args[3][0, 0]) or estimate_pair(*args, **kwargs))
+        after = estimate_motion(info, people, config)
+    assert masked[-(info.length - 1):] == list(np.arange(100.0, 139.0)) or not after.moving
+    assert after.moving is (still < 40)
+    by_frame = people.by_frame()
+
+    def passed(skip: int = 0, other: int = 0) -> PassMotion:
+        measure = PassMotion(info, config)
+        for f in range(1, info.length + 1):
+            if f != skip:
+                boxes = people.boxes[by_frame[f]]
+                measure.see(f, frames[f - 1], boxes[:0] if f == other else boxes)
+        return measure
+
+    known = passed().outcome(people)
+    if still == 12:
+        assert known is True  # found moving in the pass (its second pair), estimated after it
+    else:
+        assert isinstance(known, CameraMotion) and known.moving is (still == 0)
+    for measure in (passed(), passed(skip=20), passed(other=1), passed(other=6)):
+        motion = estimate_motion(info, people, config, seen=measure)
+        np.testing.assert_array_equal(motion.pair, after.pair)
+        np.testing.assert_array_equal(motion.confidence, after.confidence)
+    assert passed(other=1).outcome(people) is None  # frame 1 begins the still check's first pair
+
+
+def test_one_frame_preprocessed_alone_keeps_what_the_whole_sequence_keeps():
+    from sotmot.config import PreprocessConfig
+    from sotmot.preprocess import frame_preprocessor, preprocess
+    from sotmot.types import Detections
+
+    rng = np.random.default_rng(3)
+    n = 60
+    xy = rng.uniform(0, 60, (n, 2))
+    boxes = np.hstack([xy, rng.uniform(10, 30, (n, 2))])
+    dets = Detections(rng.integers(1, 6, n), boxes, rng.uniform(0, 1, n)).sorted()
+    for config in (PreprocessConfig(), PreprocessConfig(score_threshold=0.3, nms="iom", nms_threshold=0.5)):
+        whole = preprocess(dets, config)
+        one = frame_preprocessor(config)
+        for f in range(1, 6):
+            mine = dets.frames == f
+            shuffled = rng.permutation(np.flatnonzero(mine))  # a detector gives a frame's boxes in any order
+            np.testing.assert_array_equal(one(f, (dets.boxes[shuffled], dets.scores[shuffled])),
+                                          whole.boxes[whole.frames == f])
+        assert len(whole) < len(dets)  # NMS and the threshold removed boxes: the test compares something
