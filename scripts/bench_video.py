@@ -12,8 +12,10 @@ frame, so the stages that read frames out of order (the end extension; the
 camera-motion check, every half second) cost more than from JPEGs, the more
 the farther apart a file's key frames lie. Per input and detections: wall
 seconds and frames/s, the seconds of the stages that read frames
-(``decode``: the appearance pass's reading; ``motion``; ``extend``), and the
-seeks the video made (count and seconds; every seek of the run). The tracks
+(``decode``: the appearance pass's reading; ``motion_in_pass``: a video's
+camera-motion estimate inside that pass; ``motion``: the camera-motion stage
+after it; ``extend``), and the seeks the video made (count and seconds;
+every seek of the run). The tracks
 differ between inputs (each codec decodes other pixels), not between runs of
 one.
 
@@ -26,6 +28,15 @@ sotmot; any build with libx264 does):
 
     ffmpeg -framerate 30 -i ../shared/data/MOT16-09/img1/%06d.jpg -c:v libx264 -preset veryfast -crf 23 -g 250 \
         -pix_fmt yuv420p /tmp/MOT16-09-g250.mp4
+
+A moving camera (the results page's "A moving camera" under "Video input"): MOT16-09 seen by a camera driving
+forward (``scripts/make_moving.py``), whose motion a video's pass measures as it decodes the frames:
+
+    .venv/bin/python scripts/make_moving.py ../shared/data/MOT16-09 .cache/moving/MOT16-09-fwd --forward 1.6 \
+        --rotate 3 --turn 200
+    .venv/bin/python scripts/bench_video.py --model ... --detector-model ... --data .cache/moving \
+        --sequence MOT16-09-fwd --video "H.264, key frame every 250=/tmp/MOT16-09-fwd-g250.mp4" \
+        --note "..." --json docs/results/video_moving.json
 """
 
 from __future__ import annotations
@@ -47,7 +58,7 @@ from sotmot.io.frames import VideoFile
 from sotmot.pipeline import pass_detector, track_sequence
 from sotmot.plan import resolve
 
-STAGES = ("decode", "appearance", "motion", "extend")
+STAGES = ("decode", "appearance", "motion_in_pass", "motion", "extend")
 
 
 @contextmanager
@@ -96,6 +107,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="where the MPEG-4 video is kept (default: %(default)s)")
     parser.add_argument("--detector-model", metavar="PATH.xml", help="also track every input with this person "
                         "detector's boxes (private detections: the detector runs in the pass)")
+    parser.add_argument("--note", default="", help="what the sequence is, for the results page (e.g. how a moving "
+                        "camera was made)")
     parser.add_argument("--json", type=Path, help="write every number here")
     args = parser.parse_args(argv)
     seq = args.data / args.sequence
@@ -124,8 +137,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{label:<40} {row['detections']:>7} {row['seconds']:6.1f} {row['fps']:6.1f} {stages} "
                   f"{row['seeks']:6d} {row['seek_seconds']:7.2f}", flush=True)
     if args.json:
-        write_text_atomic(args.json, json.dumps({"machine": machine(), "sequence": args.sequence, "rows": rows},
-                                                indent=1) + "\n")
+        record = {"machine": machine(), "sequence": args.sequence, "note": args.note, "rows": rows}
+        write_text_atomic(args.json, json.dumps(record, indent=1) + "\n")
     return 0
 
 

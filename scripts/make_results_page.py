@@ -16,6 +16,7 @@ Files it reads, each optional (a missing one leaves its section out):
   ``scripts/bench_speed.py``;
 * ``long.json``: ``scripts/bench_long.py``;
 * ``video.json``: ``scripts/bench_video.py`` (a sequence's frames read from JPEGs and from video files);
+  ``video_moving.json``: the same of a moving camera (``--note``: how it was made);
 * ``windows.json``: ``scripts/bench_long.py --windows`` (committed windows on long videos) merged with its
   ``--full-length`` run (the accuracy cost on each full-length sequence);
 * ``motion.json``: ``scripts/bench_motion.py`` (a moving camera, synthetic and real);
@@ -195,23 +196,33 @@ def long_section(data: dict | None) -> list[str]:
     return [*lines, "", f"Machine: {data['machine']}.", ""]
 
 
-def video_section(data: dict | None) -> list[str]:
+def video_section(data: dict | None, moving: dict | None = None) -> list[str]:
     if data is None:
         return []
     lines = ["## Video input", "", f"{data['sequence']}'s frames tracked from its JPEG folder and from video files of "
              "the same frames (`scripts/bench_video.py`, in-process, models loaded once, one run each), with its "
              "public detections and with the built-in detector's (private). `decode`: reading frames in the pass "
-             "over them; `motion`: the camera-motion stage (on a still camera, the check that compares frames half a "
-             "second apart); `extend`: the end extension; seeks: every seek of the run (a video goes back only by "
-             "one, decoding from the last key frame). Seconds.", "",
-             "| input | detections | wall s | fps | decode | motion | extend | seeks | seek s |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "over them; `motion in pass`: the camera-motion estimate inside that pass (a video's: the still check "
+             "that compares frames half a second apart, and on a moving camera every frame pair), both part of the "
+             "pass's time; `motion`: the camera-motion stage after the pass (a JPEG folder's check and estimate, "
+             "which decode their frames small); `extend`: the end extension; seeks: every seek of the run (a video "
+             "goes back only by one, decoding from the last key frame). Seconds.", "", *_video_table(data)]
+    if moving is not None:
+        lines += ["", "### A moving camera", "", f"{moving['sequence']}: {moving['note']}", "",
+                  *_video_table(moving), "", f"Machine: {moving['machine']}."]
+    return [*lines, "", f"Machine: {data['machine']}.", ""]
+
+
+def _video_table(data: dict) -> list[str]:
+    lines = ["| input | detections | wall s | fps | decode | motion in pass | motion | extend | seeks | seek s |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in data["rows"]:
         st = r["stages"]
         detections = {"file": "public", "model": "private"}[r["detections"]]
         lines.append(f"| {r['input']} | {detections} | {r['seconds']:.1f} | {r['fps']:.1f} | {st['decode']:.2f} | "
-                     f"{st['motion']:.2f} | {st['extend']:.2f} | {r['seeks']} | {r['seek_seconds']:.2f} |")
-    return [*lines, "", f"Machine: {data['machine']}.", ""]
+                     f"{st['motion_in_pass']:.2f} | {st['motion']:.2f} | {st['extend']:.2f} | {r['seeks']} | "
+                     f"{r['seek_seconds']:.2f} |")
+    return lines
 
 
 def windows_section(data: dict | None) -> list[str]:
@@ -767,7 +778,7 @@ def page() -> str:
     lines += ends_section()
     lines += misses_section(load("misses_public.json"), load("misses_private.json"))
     lines += long_section(load("long.json"))
-    lines += video_section(load("video.json"))
+    lines += video_section(load("video.json"), load("video_moving.json"))
     lines += windows_section(load("windows.json"))
     lines += confidence_section(load("confidence_fit.json"), load("transfer.json"))
     lines += motion_section(load("motion.json"))
