@@ -206,11 +206,14 @@ def video_section(data: dict | None, moving: dict | None = None) -> list[str]:
              "that compares frames half a second apart, and on a moving camera every frame pair), both part of the "
              "pass's time; `motion`: the camera-motion stage after the pass (a JPEG folder's check and estimate, "
              "which decode their frames small); `extend`: the end extension; seeks: every seek of the run (a video "
-             "goes back only by one, decoding from the last key frame). Seconds.", "", *_video_table(data)]
+             "goes back only by one, decoding from the last key frame). Seconds.", "", *_video_table(data), "",
+             f"Machine: {data['machine']}.", ""]
     if moving is not None:
-        lines += ["", "### A moving camera", "", f"{moving['sequence']}: {moving['note']}", "",
-                  *_video_table(moving), "", f"Machine: {moving['machine']}."]
-    return [*lines, "", f"Machine: {data['machine']}.", ""]
+        lines += ["### A moving camera", "", f"{moving['sequence']}: {moving['note']}. Every frame pair is "
+                  "estimated: after the pass from the JPEG folder (its frames decode small), inside the pass from a "
+                  "video (its frames decoded once).", "", *_video_table(moving), "", f"Machine: {moving['machine']}.",
+                  ""]
+    return lines
 
 
 def _video_table(data: dict) -> list[str]:
