@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
+from contextlib import closing
 from collections.abc import Callable
 
 import numpy as np
@@ -52,7 +53,8 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
     or ``(boxes, scores)`` from a detector (whose call is timed as
     ``"detect"``); ``embedder`` None skips the embedding (features
     ``(N, 0)``). Three threads share the work, each releasing the GIL in its
-    native code: one decodes frames (one frame ahead of the search), one
+    native code: one decodes frames (one frame ahead of the search: the
+    reader's own, :class:`~sotmot.io.FrameReader` made to decode ``ahead``), one
     searches them (the detector) and, for the crop-based backends (onnx and
     openvino), crops the boxes, :data:`PREFETCH_FRAMES` frames ahead of the
     caller's thread, which embeds. So on two cores decoding, detection and
@@ -72,25 +74,17 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
 
     from sotmot.appearance.base import CropEmbedder, crop_boxes
 
-    frame_reader = FrameReader(info, cache_size=1)  # called from the decoding thread only
-    spent = {"decode": 0.0, "detect": 0.0, "crop": 0.0, "motion_in_pass": 0.0}  # each key written by one thread
+    frame_reader = FrameReader(info, cache_size=1, ahead=True)  # called from the finding thread only
+    spent = {"detect": 0.0, "crop": 0.0, "motion_in_pass": 0.0}  # each key written by one thread
     batched = isinstance(embedder, CropEmbedder)
     per_call = max(1, embedder.batch_size // (2 if embedder.flip else 1)) if batched else 1  # crops: one forward pass
     out: list[tuple[int, object, np.ndarray]] = []
 
-    def decode(frame: int) -> np.ndarray:
-        start = time.perf_counter()
-        image = frame_reader(frame)
-        spent["decode"] += time.perf_counter() - start
-        return image
-
-    decoded: dict[int, object] = {}  # index into frames -> future of its image; touched by the finding thread only
-
     def find(k: int) -> tuple[np.ndarray, object, np.ndarray]:
-        for ahead in (k, k + 1):  # the next frame decodes while this one is searched: two frames held, not eight
-            if ahead < len(frames) and ahead not in decoded:
-                decoded[ahead] = decoding.submit(decode, frames[ahead])
-        frame, image = frames[k], decoded.pop(k).result()
+        for ahead in frames[k:k + 2]:  # the next frame decodes while this one is searched: two held, not eight
+            frame_reader.prefetch(ahead)
+        frame = frames[k]
+        image = frame_reader(frame)
         start = time.perf_counter()
         found = boxes_of(frame, image)
         boxes = found[0] if isinstance(found, tuple) else found
@@ -115,8 +109,7 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
                 out[k] = (out[k][0], out[k][1], part)
         pending.clear()
 
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-decode") as decoding, \
-            ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-find") as finding:
+    with closing(frame_reader), ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-find") as finding:
         # a few frames ahead: one call of the model consumes several frames' crops at once; each frame is decoded
         # in one thread, then searched (detected) and cropped in the next
         upcoming = deque(finding.submit(find, k) for k in range(min(PREFETCH_FRAMES, len(frames))))
@@ -134,7 +127,7 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
             if sum(len(c) for _, c in pending) >= per_call or k + 1 == len(frames):
                 flush()
     if timings is not None:
-        spent["decode"] += spent.pop("crop")
+        spent["decode"] = frame_reader.decode_seconds + spent.pop("crop")
         for stage, seconds in spent.items():
             if seconds:
                 timings[stage] = timings.get(stage, 0.0) + seconds

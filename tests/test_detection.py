@@ -214,18 +214,19 @@ def test_decoding_detection_and_re_id_run_in_three_threads_with_two_frames_held(
 
     import sotmot.passes as passes
     from conftest import GeometryEmbedder, write_sequence
-    from sotmot.io import FrameReader, read_seqinfo
+    from sotmot.io import read_seqinfo
+    from sotmot.io.frames import JpegFolder
 
     seq = write_sequence(tmp_path, [], length=12, images=True)
     info = read_seqinfo(seq)
     decoded, searched, threads = [], [], {}
+    read = JpegFolder.read
 
-    class Reader(FrameReader):
-        def __call__(self, frame):
-            threads.setdefault("decode", set()).add(threading.current_thread().name)
-            decoded.append(frame)
-            assert len(decoded) - len(searched) <= 2, "the decoder ran more than one frame ahead of the detector"
-            return super().__call__(frame)
+    def decode(self, frame):
+        threads.setdefault("decode", set()).add(threading.current_thread().name)
+        decoded.append(frame)
+        assert len(decoded) - len(searched) <= 2, "the decoder ran more than one frame ahead of the detector"
+        return read(self, frame)
 
     class Detector(_CornerDetector):
         def detect(self, frame):
@@ -238,7 +239,7 @@ def test_decoding_detection_and_re_id_run_in_three_threads_with_two_frames_held(
             threads.setdefault("embed", set()).add(threading.current_thread().name)
             return super().embed(image, boxes)
 
-    monkeypatch.setattr(passes, "FrameReader", Reader)
+    monkeypatch.setattr(JpegFolder, "read", decode)
     found, features = passes.detect_sequence(info, Detector(), Embedder())
     assert decoded == list(range(1, 13)) and len(searched) == 12
     assert len(set.union(*threads.values())) == 3 and all(len(names) == 1 for names in threads.values())

@@ -149,10 +149,29 @@ def test_jpeg_frames_decoded_ahead_are_the_frames_once_each_two_ahead_at_most_er
     reader.close()
 
 
-def test_a_video_is_never_decoded_ahead(tmp_path):
-    reader = FrameReader(read_seqinfo(write_video(tmp_path / "walk.avi", n=10)), cache_size=2)
+def test_a_video_is_decoded_ahead_only_by_a_reader_that_owns_its_decoding(tmp_path):
+    """A plain reader never decodes a video ahead (one decoder, which the caller reads in order); a reader made to
+    decode ``ahead`` (the pass over the frames) decodes every frame in its own thread, in the order asked: the
+    frames are those read in order, and the caller's thread never touches the video."""
+    import threading
+
+    info = read_seqinfo(write_video(tmp_path / "walk.avi", n=10))
+    reader = FrameReader(info, cache_size=2)
     reader.prefetch(2)
-    assert reader.source.decodes == 0 and reader.cached == 0  # one decoder, read in order by the caller only
+    assert reader.source.decodes == 0 and reader.cached == 0
+    plain = [FrameReader(info, cache_size=1)(f).copy() for f in range(1, 11)]
+    owner = FrameReader(info, cache_size=1, ahead=True)
+    threads = set()
+    read = owner.source.read
+    owner.source.read = lambda frame: threads.add(threading.current_thread().name) or read(frame)
+    frames = [1, 2, 4, 5, 9, 10]
+    for k, f in enumerate(frames):  # as the pass asks: this frame, and the next one ahead
+        for ahead in frames[k:k + 2]:
+            owner.prefetch(ahead)
+        np.testing.assert_array_equal(owner(f), plain[f - 1])
+    assert threading.current_thread().name not in threads and len(threads) == 1
+    assert owner.source.seeks == 0 and owner.decode_seconds > 0
+    owner.close()
 
 
 def test_a_walking_reader_keeps_a_block_of_a_video_and_little_of_jpegs(tmp_path):

@@ -17,6 +17,7 @@ from __future__ import annotations
 import threading
 import time
 from collections import OrderedDict
+from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Protocol
 
@@ -270,20 +271,30 @@ class FrameReader:
         for (up to ``cache_size - 2``, one seek for them all) when the cache
         holds at least :data:`READ_BACK_CACHE` frames; a :meth:`walking`
         reader does so reading forward too, with the frames it passes.
+    ahead
+        Decode every frame in the reader's thread, never the caller's, so that
+        any source can be decoded ahead (:meth:`prefetch`), a video too, whose
+        one decoder then reads the frames in the order they were asked for
+        (:func:`sotmot.passes.frame_pass`: each next frame decodes while this
+        one is searched).
 
     A reader is called from one thread; :meth:`prefetch` decodes ahead in a
     thread of its own (at most :data:`PREFETCH_AHEAD` frames beside the cache).
+    ``decode_seconds`` adds up the time spent decoding, in whichever thread.
     """
 
-    def __init__(self, info: SeqInfo, cache_size: int = 8) -> None:
+    def __init__(self, info: SeqInfo, cache_size: int = 8, ahead: bool = False) -> None:
         if cache_size < 1:
             raise ValueError("a frame reader keeps at least one frame")
         self.info = info
         self.cache_size = cache_size
         self.source = frame_source(info)
+        self.decode_seconds = 0.0
+        self._timing = threading.Lock()
         self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
         self._ahead: OrderedDict[int, Future] = OrderedDict()  # frame -> its decoding in the background
         self._decoder: ThreadPoolExecutor | None = None
+        self._owned = ahead  # every decode in the reader's thread
         self._walked = False  # keep the frames passed reading forward (walking)
 
     @classmethod
@@ -303,20 +314,32 @@ class FrameReader:
         """Start decoding 1-based ``frame`` in the background, for a stage that will ask for it next.
 
         Only a source whose frames decode independently does (a folder of
-        JPEGs; not a video, whose one decoder reads in order); a frame already
-        held or on its way, or outside the sequence, is left alone. At most
+        JPEGs), or a reader made to decode ``ahead`` (a video: its one decoder
+        reads in order, in the reader's thread alone); a frame already held or
+        on its way, or outside the sequence, is left alone. At most
         :data:`PREFETCH_AHEAD` frames are decoded ahead: the oldest not asked
         for is forgotten. A frame that cannot be decoded raises its
         :class:`InputError` when it is asked for, not here.
         """
-        if not self.source.independent or frame in self._cache or frame in self._ahead \
+        if not (self.source.independent or self._owned) or frame in self._cache or frame in self._ahead \
                 or not 1 <= frame <= self.info.length:
             return
-        if self._decoder is None:
-            self._decoder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-prefetch")
-        self._ahead[frame] = self._decoder.submit(self.source.read, frame)
+        self._ahead[frame] = self._in_thread(self._read, frame)
         if len(self._ahead) > PREFETCH_AHEAD:
             self._ahead.popitem(last=False)[1].cancel()  # not asked for: dropped, or never started
+
+    def _in_thread(self, work: Callable, *args) -> Future:
+        if self._decoder is None:
+            self._decoder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="sotmot-decode")
+        return self._decoder.submit(work, *args)
+
+    def _read(self, frame: int) -> np.ndarray:
+        began = time.perf_counter()
+        try:
+            return self.source.read(frame)
+        finally:
+            with self._timing:  # a JPEG folder's frames decode in the caller's thread too
+                self.decode_seconds += time.perf_counter() - began
 
     def __call__(self, frame: int) -> np.ndarray:
         """The image of 1-based ``frame``, shape ``(H, W, 3)`` BGR, read-only.
@@ -333,6 +356,13 @@ class FrameReader:
         decoding = self._ahead.pop(frame, None)
         if decoding is not None:
             return self._keep(frame, decoding.result())
+        if self._owned:
+            return self._in_thread(self._missed, frame).result()
+        return self._missed(frame)
+
+    def _missed(self, frame: int) -> np.ndarray:
+        """Decode ``frame``, not held nor on its way, into the cache (in the reader's thread when it owns the
+        decoding; the caller waits)."""
         position = getattr(self.source, "position", None)
         if position is not None and self.cache_size >= READ_BACK_CACHE and (frame < position or self._walked):
             # a video read backwards (the end extension before a trajectory's first box): one seek, then the
@@ -343,8 +373,8 @@ class FrameReader:
                 first = max(first, position)
             for earlier in range(first, frame):
                 if earlier not in self._cache:
-                    self._keep(earlier, self.source.read(earlier))
-        return self._keep(frame, self.source.read(frame))
+                    self._keep(earlier, self._read(earlier))
+        return self._keep(frame, self._read(frame))
 
     def _keep(self, frame: int, image: np.ndarray) -> np.ndarray:
         image.setflags(write=False)
