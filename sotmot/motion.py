@@ -516,7 +516,8 @@ def estimate_motion(info: SeqInfo, detections: Detections, config: MotionConfig,
         finally:
             source.close()
     if motion.moving:
-        log.info("%s: camera motion %s", info.name, motion.summary())
+        log.info("%s: camera motion %s%s", info.name, motion.summary(),
+                 " (measured in the pass over the frames)" if motion is known else "")
     else:
         log.info("%s: the camera is still (no pair of frames half a second apart moved %.1f px)", info.name,
                  config.still_pixels)
