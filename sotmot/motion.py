@@ -334,8 +334,7 @@ def camera_is_still(source: FrameSource, info: SeqInfo, detections: Detections, 
     for a, b in still_check_pairs(info.length, info.frame_rate, info.video is not None):
         previous = grey.pop(a) if a in grey else read(a)
         grey = {b: read(b)}  # a chain reads each frame once
-        if _moved(previous, grey[b], factor, detections.boxes[by_frame.get(a, np.zeros(0, np.int64))], info,
-                  config):
+        if _moved(previous, grey[b], factor, _people(detections, by_frame, a), info, config):
             return False
     return True
 

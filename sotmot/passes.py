@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from contextlib import closing
 from collections.abc import Callable
+from contextlib import closing
 
 import numpy as np
 
@@ -65,10 +65,11 @@ def frame_pass(info: SeqInfo, frames: list[int], boxes_of: Callable[[int, np.nda
     are called once per frame. ``timings``, when given, receives ``"decode"``
     (the seconds spent reading and cropping frames), ``"detect"`` and
     ``"motion_in_pass"`` (the ``tap``'s), all overlapped with the embedding,
-    so part of, not added to, the stage's wall time. ``tap(frame, image, found)``, when given, sees each frame once its
-    boxes are found, in the order of ``frames`` (in the thread that searches
-    them; a later stage measures what it needs there instead of decoding the
-    frame again: :class:`sotmot.motion.PassMotion`).
+    so part of, not added to, the stage's wall time. ``tap(frame, image,
+    found)``, when given, sees each frame once its boxes are found, in the
+    order of ``frames`` (in the thread that searches them; a later stage
+    measures what it needs there instead of decoding the frame again:
+    :class:`sotmot.motion.PassMotion`).
     """
     from concurrent.futures import ThreadPoolExecutor
 
