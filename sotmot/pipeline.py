@@ -19,6 +19,7 @@ import functools
 import logging
 import time
 from collections.abc import Callable
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -57,7 +58,8 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, 
     the frames it decodes, window by window, so each frame is decoded once
     for appearance, SOT and the added boxes' features. ``timings``, when given, receives ``"appearance"``
     (the seconds of re-ID inside the step: detections, candidates, added
-    boxes) and ``"decode"`` (frame reading).
+    boxes) and ``"decode"`` (frame reading, in a thread of its own one frame
+    ahead).
 
     ``support`` (the detector's weak boxes, ``[detection] weak_boxes``), when
     given, regresses each found box onto a detector box and ends extensions no
@@ -79,11 +81,14 @@ def run_sot(info: SeqInfo, detections: Detections, features: np.ndarray | None, 
             return out
         return run
 
-    tracker = SotTracker(config.sot, timed("decode", FrameReader(info, cache_size=1)), info.length,
-                         embed=timed("appearance", embedder.embed), det_features=features, motion=motion,
-                         support=support)
+    reader = FrameReader(info, cache_size=1, ahead=True)  # decodes ahead in its thread, a video too
+    tracker = SotTracker(config.sot, reader, info.length, embed=timed("appearance", embedder.embed),
+                         det_features=features, motion=motion, support=support)
     show = as_progress(progress)
-    result = tracker.run(detections, progress=lambda items: show(items, f"{info.name}: SOT ({config.sot.variant})"))
+    with closing(reader):
+        result = tracker.run(detections,
+                             progress=lambda items: show(items, f"{info.name}: SOT ({config.sot.variant})"))
+    spent["decode"] = reader.decode_seconds
     if timings is not None:
         for stage, seconds in spent.items():
             timings[stage] = timings.get(stage, 0.0) + seconds

@@ -130,6 +130,7 @@ def test_with_sot_each_frame_is_decoded_once_and_the_features_are_those_of_the_s
                                                                                               monkeypatch):
     import sotmot.pipeline as pipeline
     from sotmot.io import read_detections, read_seqinfo
+    from sotmot.io.frames import JpegFolder
     from sotmot.passes import embed_detections
     from sotmot.preprocess import preprocess
 
@@ -147,8 +148,13 @@ def test_with_sot_each_frame_is_decoded_once_and_the_features_are_those_of_the_s
         return original(self, frame)
 
     monkeypatch.setattr(pipeline.FrameReader, "__call__", counting)
+    prefetched, decoded = [], []  # the step decodes each next frame whose detections it embeds ahead
+    prefetch, decode = pipeline.FrameReader.prefetch, JpegFolder.read
+    monkeypatch.setattr(pipeline.FrameReader, "prefetch", lambda self, f: prefetched.append(f) or prefetch(self, f))
+    monkeypatch.setattr(JpegFolder, "read", lambda self, f: decoded.append(f) or decode(self, f))
     once = prepare_sequence(seq, cfg, emb)
     assert max(reads.values()) == 1 and len(reads) == info.length
+    assert prefetched and sorted(decoded) == list(range(1, info.length + 1))  # none decoded twice, nor wasted
     assert np.array_equal(once.detections.boxes, before.detections.boxes)
     assert np.allclose(once.features, before.features, atol=1e-6)
 

@@ -104,7 +104,9 @@ class SotTracker:
     config
         The SOT thresholds and variant.
     read_frame
-        ``frame number -> BGR image``.
+        ``frame number -> BGR image``; one with a ``prefetch(frame)`` (a
+        :class:`~sotmot.io.FrameReader`) decodes each next frame whose
+        detections are embedded while this one's are.
     n_frames
         Sequence length (frames are ``1..n_frames``).
     embed
@@ -136,6 +138,7 @@ class SotTracker:
             raise ValueError("the deep SOT variant needs an embedder")
         self.config = config
         self.read_frame = read_frame
+        self._prefetch: Callable[[int], None] = getattr(read_frame, "prefetch", lambda frame: None)
         self.n_frames = n_frames
         self.embed = embed
         self.det_features = det_features
@@ -213,10 +216,13 @@ class SotTracker:
 
             in_frame: dict[int, list[int]] = {f: list(per_frame.get(f, [])) for f in range(w0, w1 + 1)}
             if self.det_features is None and self.embed is not None:  # the detections' features, from these frames
-                for f, idx in in_frame.items():
-                    if idx:
-                        for d, feature in zip(idx, self.embed(image(f), detections.boxes[idx])):
-                            self._features[d] = feature
+                wanted = [f for f, idx in in_frame.items() if idx]
+                for k, f in enumerate(wanted):
+                    bgr = image(f)
+                    if k + 1 < len(wanted):  # the next one decodes while this one's boxes are embedded
+                        self._prefetch(wanted[k + 1])
+                    for d, feature in zip(in_frame[f], self.embed(bgr, detections.boxes[in_frame[f]])):
+                        self._features[d] = feature
             first_added = len(self._boxes)
             ends: dict[int, set[int]] = {}
             heap: list[_End] = []
