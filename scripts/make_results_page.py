@@ -13,7 +13,9 @@ Files it reads, each optional (a missing one leaves its section out):
   docs/validation/noflip.toml`` (``[appearance] flip = false``);
 * ``peers_public.json``, ``peers_private.json``: ``peers.json`` of ``scripts/bench_peers.py``;
 * ``speed_public.json``, ``speed_public_noflip.json`` (``--no-flip``), ``speed_private.json``:
-  ``scripts/bench_speed.py``;
+  ``scripts/bench_speed.py``; ``speed_public_motion.json``, ``speed_private_motion.json``: the same with
+  ``--appearance none`` (the motion-only mode), beside ``accuracy_public_motion.json`` and
+  ``accuracy_private_motion.json`` (``bench_accuracy.py --config docs/validation/motion-only.toml``);
 * ``long.json``: ``scripts/bench_long.py``;
 * ``video.json``: ``scripts/bench_video.py`` (a sequence's frames read from JPEGs and from video files);
   ``video_moving.json``: the same of a moving camera (``--note``: how it was made);
@@ -134,24 +136,57 @@ def speed_section(*runs: tuple[str, dict | None]) -> list[str]:
              "`busy`: the CPU seconds of all its threads over its wall seconds times the cores (1 - busy is the "
              "cores' idle share). Re-ID detections per second of the appearance stage. `flip`: each crop is "
              "embedded with its mirror image and the two averaged (the paper's eq. 1, the default); `--no-flip` "
-             "embeds it once (its accuracy: \"The flip\" below).", "",
+             "embeds it once (its accuracy: \"The flip\" below); `none`: `--appearance none`, the motion-only mode, "
+             "no re-ID at all (its accuracy: \"Without re-ID\" below).", "",
              "| sequence | detections | re-ID | frames | whole fps | peak RSS MB | in-process fps | busy | "
              "re-ID det/s |", "|---|---|---|---|---|---|---|---|---|"]
     for label, data in runs:
-        features = "flip" if data["flip"] else "`--no-flip`"
+        motion_only = data["appearance"] == "none"
+        features = "none" if motion_only else "flip" if data["flip"] else "`--no-flip`"
         for name, row in data["rows"].items():
             if row["frames"] <= FULL_LENGTH:
                 continue
-            reid = f"{row['reid_per_s']:.0f}" if label == "public" else "–"
+            reid = f"{row['reid_per_s']:.0f}" if label == "public" and not motion_only else "–"
             whole = row.get("whole")
             cells = f"{whole['fps']:.1f} | {whole['peak_rss_mb']:.0f}" if whole else "– | –"
             busy = f"{100 * row['busy']:.0f} %" if "busy" in row else "–"
             lines.append(f"| {name} | {label} | {features} | {row['frames']} | {cells} | {row['fps']:.1f} | {busy} | "
                          f"{reid} |")
     for label, data in runs:
-        lines.append(f"\n{label}, flip {'on' if data['flip'] else 'off'}: {data['detections']}; re-ID "
-                     f"{data['appearance']} on {data['device']}; machine: {data['machine']}.")
+        if data["appearance"] == "none":
+            lines.append(f"\n{label}, motion only (`--appearance none`): {data['detections']}; no re-ID; machine: "
+                         f"{data['machine']}.")
+        else:
+            lines.append(f"\n{label}, flip {'on' if data['flip'] else 'off'}: {data['detections']}; re-ID "
+                         f"{data['appearance']} on {data['device']}; machine: {data['machine']}.")
     return [*lines, ""]
+
+
+def motion_only_section(*runs: tuple[str, dict | None, dict | None, dict | None, dict | None]) -> list[str]:
+    """The motion-only mode against re-ID: ``runs`` are (protocol, ``bench_accuracy.py`` JSON of the defaults, of
+    ``--appearance none``, ``bench_speed.py`` JSON of the defaults, of ``--appearance none``); each full-length
+    sequence's HOTA / IDF1 / MOTA and whole-process frames per second with and without re-ID."""
+    runs = tuple(run for run in runs if all(data is not None for data in run[1:]))
+    if not runs:
+        return []
+    lines = ["### Without re-ID", "", "`--appearance none` (`[appearance] backend = \"none\"`): no re-ID model, "
+             "tracklets matched by IoU, long-term links ranked and gated by how well the two trajectories' motion "
+             "agrees, no SOT step and no end extension; everything else the default's (the confirmation without "
+             "its appearance feature). `bench_accuracy.py --config docs/validation/motion-only.toml` beside the "
+             "defaults, one run each, and `sotmot track`'s whole-process frames per second from the speed runs "
+             "above (`whole fps`; with the detector's boxes MOT17-09-FRCNN and -SDP are MOT16-09's video, timed "
+             "once as MOT16-09).",
+             "", "| sequence | detections | HOTA re-ID / none | IDF1 re-ID / none | MOTA re-ID / none | "
+             "whole fps re-ID / none |", "|---|---|---|---|---|---|"]
+    for label, reid, none, reid_speed, none_speed in runs:
+        for name in full_length(reid):
+            a, b = reid["after"]["all"]["sequences"][name], none["after"]["all"]["sequences"][name]
+            fast = [data["rows"].get(name, {}).get("whole") for data in (reid_speed, none_speed)]
+            fps = f"{fast[0]['fps']:.1f} / {fast[1]['fps']:.1f}" if all(fast) else "–"
+            lines.append(f"| {name} | {label} | " + " | ".join(f"{a[m]:.1f} / {b[m]:.1f} ({b[m] - a[m]:+.1f})"
+                                                            for m in ("HOTA", "IDF1", "MOTA")) + f" | {fps} |")
+    machines = sorted({data["machine"] for run in runs for data in run[1:]})
+    return [*lines, "", f"Machine: {'; '.join(machines)}.", ""]
 
 
 def flip_section(*runs: tuple[str, dict | None, dict | None]) -> list[str]:
@@ -774,9 +809,14 @@ def page() -> str:
                               "against MOT16's and MOT17's ground truth, and counted three times in the combined "
                               "row.")
     lines += speed_section(("public", load("speed_public.json")), ("public", load("speed_public_noflip.json")),
-                           ("private", load("speed_private.json")))
+                           ("private", load("speed_private.json")), ("public", load("speed_public_motion.json")),
+                           ("private", load("speed_private_motion.json")))
     lines += flip_section(("public", load("accuracy_public.json"), load("accuracy_public_noflip.json")),
                           ("private", load("accuracy_private.json"), load("accuracy_private_noflip.json")))
+    lines += motion_only_section(("public", load("accuracy_public.json"), load("accuracy_public_motion.json"),
+                                  load("speed_public.json"), load("speed_public_motion.json")),
+                                 ("private", load("accuracy_private.json"), load("accuracy_private_motion.json"),
+                                  load("speed_private.json"), load("speed_private_motion.json")))
     lines += ablation_section(load("ablation_public.json"), load("ablation_private.json"))
     lines += ends_section()
     lines += misses_section(load("misses_public.json"), load("misses_private.json"))

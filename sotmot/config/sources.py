@@ -190,11 +190,14 @@ class AppearanceConfig:
         long-term links ranked and gated by how well the two trajectories'
         motion agrees (``sotmot.association.affinity``), confirmation without
         its appearance feature; no SOT step, no end extension. Several times
-        faster, and what ``scripts/bench_validation.py`` tracks label-only
-        sequences with; ahead of SORT, ByteTrack and OC-SORT there (combined
-        HOTA 47.7 against at most 44.3, docs/results.md). On the five
-        full-length sequences with frames it trails re-ID by 17 HOTA combined
-        (46.7 against 63.6; docs/benchmarks.md). Where the camera moves,
+        faster with a ``det.txt``, about twice as fast with the built-in
+        detector (which then does most of the work: MOT16-09's 1080p frames
+        at 39.5 against 19.3 frames/s on two cores), and what
+        ``scripts/bench_validation.py`` tracks label-only sequences with;
+        ahead of SORT, ByteTrack and OC-SORT there (combined HOTA 47.7
+        against at most 44.3). Where frames exist it trails re-ID by 5 to 25
+        HOTA on each full-length sequence (docs/results.md, "Without
+        re-ID"). Where the camera moves,
         nothing compensates it here (no frames): the line check
         (``[postprocess] line_check_seconds``) fills gaps only as far as the
         straight line holds on the sequence.
