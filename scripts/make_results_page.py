@@ -40,10 +40,12 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Collection
 from pathlib import Path
 
 from sotmot.benchmarks import FULL_LENGTH
 from sotmot.io import write_text_atomic
+from sotmot.peers import TRACKERS_ROWS
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
@@ -71,12 +73,13 @@ def full_length(accuracy: dict) -> list[str]:
     return [n for n, r in accuracy["speed"].items() if r["frames"] > FULL_LENGTH]
 
 
-def best_peer(peers: dict | None, key: str, metric: str) -> tuple[str, float] | None:
-    """The best peer (not a sotmot row) on ``metric`` for sequence or group ``key``."""
+def best_peer(peers: dict | None, key: str, metric: str, among: "Collection[str] | None" = None
+              ) -> tuple[str, float] | None:
+    """The best peer (not a sotmot row; of ``among`` if given) on ``metric`` for sequence or group ``key``."""
     if peers is None:
         return None
     rows = [(name, t[key][metric]) for name, t in peers["table"].items()
-            if not name.startswith("sotmot") and key in t and metric in t[key]]
+            if not name.startswith("sotmot") and (among is None or name in among) and key in t and metric in t[key]]
     return max(rows, key=lambda r: r[1]) if rows else None
 
 
@@ -162,11 +165,13 @@ def speed_section(*runs: tuple[str, dict | None]) -> list[str]:
     return [*lines, ""]
 
 
-def motion_only_section(*runs: tuple[str, dict | None, dict | None, dict | None, dict | None]) -> list[str]:
+def motion_only_section(*runs: tuple[str, dict | None, dict | None, dict | None, dict | None, dict | None]
+                        ) -> list[str]:
     """The motion-only mode against re-ID: ``runs`` are (protocol, ``bench_accuracy.py`` JSON of the defaults, of
-    ``--appearance none``, ``bench_speed.py`` JSON of the defaults, of ``--appearance none``); each full-length
-    sequence's HOTA / IDF1 / MOTA and whole-process frames per second with and without re-ID."""
-    runs = tuple(run for run in runs if all(data is not None for data in run[1:]))
+    ``--appearance none``, ``bench_speed.py`` JSON of the defaults, of ``--appearance none``, ``bench_peers.py``
+    JSON or None); each full-length sequence's HOTA / IDF1 / MOTA and whole-process frames per second with and
+    without re-ID, and the best of the peers that read no appearance either (:data:`TRACKERS_ROWS`)."""
+    runs = tuple(run for run in runs if all(data is not None for data in run[1:5]))
     if not runs:
         return []
     lines = ["### Without re-ID", "", "`--appearance none` (`[appearance] backend = \"none\"`): no re-ID model, "
@@ -175,17 +180,21 @@ def motion_only_section(*runs: tuple[str, dict | None, dict | None, dict | None,
              "its appearance feature). `bench_accuracy.py --config docs/validation/motion-only.toml` beside the "
              "defaults, one run each, and `sotmot track`'s whole-process frames per second from the speed runs "
              "above (`whole fps`; with the detector's boxes MOT17-09-FRCNN and -SDP are MOT16-09's video, timed "
-             "once as MOT16-09).",
+             "once as MOT16-09). The last column: the best on each metric of the peers that read no appearance "
+             f"either ({', '.join(TRACKERS_ROWS)}; `bench_peers.py`, the same boxes, results above), named.",
              "", "| sequence | detections | HOTA re-ID / none | IDF1 re-ID / none | MOTA re-ID / none | "
-             "whole fps re-ID / none |", "|---|---|---|---|---|---|"]
-    for label, reid, none, reid_speed, none_speed in runs:
+             "whole fps re-ID / none | best peer without appearance HOTA / IDF1 / MOTA |",
+             "|---|---|---|---|---|---|---|"]
+    for label, reid, none, reid_speed, none_speed, peers in runs:
         for name in full_length(reid):
             a, b = reid["after"]["all"]["sequences"][name], none["after"]["all"]["sequences"][name]
             fast = [data["rows"].get(name, {}).get("whole") for data in (reid_speed, none_speed)]
             fps = f"{fast[0]['fps']:.1f} / {fast[1]['fps']:.1f}" if all(fast) else "–"
+            best = [best_peer(peers, name, m, TRACKERS_ROWS) for m in ("HOTA", "IDF1", "MOTA")]
+            peer = " / ".join(f"{v:.1f} ({n})" for n, v in best) if all(best) else "not measured"
             lines.append(f"| {name} | {label} | " + " | ".join(f"{a[m]:.1f} / {b[m]:.1f} ({b[m] - a[m]:+.1f})"
-                                                            for m in ("HOTA", "IDF1", "MOTA")) + f" | {fps} |")
-    machines = sorted({data["machine"] for run in runs for data in run[1:]})
+                                                            for m in ("HOTA", "IDF1", "MOTA")) + f" | {fps} | {peer} |")
+    machines = sorted({data["machine"] for run in runs for data in run[1:] if data is not None})
     return [*lines, "", f"Machine: {'; '.join(machines)}.", ""]
 
 
@@ -814,9 +823,11 @@ def page() -> str:
     lines += flip_section(("public", load("accuracy_public.json"), load("accuracy_public_noflip.json")),
                           ("private", load("accuracy_private.json"), load("accuracy_private_noflip.json")))
     lines += motion_only_section(("public", load("accuracy_public.json"), load("accuracy_public_motion.json"),
-                                  load("speed_public.json"), load("speed_public_motion.json")),
+                                  load("speed_public.json"), load("speed_public_motion.json"),
+                                  load("peers_public.json")),
                                  ("private", load("accuracy_private.json"), load("accuracy_private_motion.json"),
-                                  load("speed_private.json"), load("speed_private_motion.json")))
+                                  load("speed_private.json"), load("speed_private_motion.json"),
+                                  load("peers_private.json")))
     lines += ablation_section(load("ablation_public.json"), load("ablation_private.json"))
     lines += ends_section()
     lines += misses_section(load("misses_public.json"), load("misses_private.json"))
