@@ -12,9 +12,10 @@ Files it reads, each optional (a missing one leaves its section out):
 * ``accuracy_public_noflip.json``, ``accuracy_private_noflip.json``: the same with ``--config
   docs/validation/noflip.toml`` (``[appearance] flip = false``);
 * ``peers_public.json``, ``peers_private.json``: ``peers.json`` of ``scripts/bench_peers.py``;
-* ``speed_public.json``, ``speed_public_noflip.json`` (``--no-flip``), ``speed_private.json``:
-  ``scripts/bench_speed.py``; ``speed_public_motion.json``, ``speed_private_motion.json``: the same with
-  ``--appearance none`` (the motion-only mode), beside ``accuracy_public_motion.json`` and
+* ``speed_public.json``, ``speed_public_noflip.json`` (``--no-flip``), ``speed_private.json``,
+  ``speed_private_noflip.json``: ``scripts/bench_speed.py``; ``speed_public_motion.json``,
+  ``speed_private_motion.json``: the same with ``--appearance none`` (the motion-only mode), beside
+  ``accuracy_public_motion.json`` and
   ``accuracy_private_motion.json`` (``bench_accuracy.py --config docs/validation/motion-only.toml``);
 * ``long.json``: ``scripts/bench_long.py``;
 * ``video.json``: ``scripts/bench_video.py`` (a sequence's frames read from JPEGs and from video files);
@@ -818,7 +819,8 @@ def page() -> str:
                               "against MOT16's and MOT17's ground truth, and counted three times in the combined "
                               "row.")
     lines += speed_section(("public", load("speed_public.json")), ("public", load("speed_public_noflip.json")),
-                           ("private", load("speed_private.json")), ("public", load("speed_public_motion.json")),
+                           ("private", load("speed_private.json")), ("private", load("speed_private_noflip.json")),
+                           ("public", load("speed_public_motion.json")),
                            ("private", load("speed_private_motion.json")))
     lines += flip_section(("public", load("accuracy_public.json"), load("accuracy_public_noflip.json")),
                           ("private", load("accuracy_private.json"), load("accuracy_private_noflip.json")))
