@@ -15,8 +15,8 @@ Files it reads, each optional (a missing one leaves its section out):
 * ``speed_public.json``, ``speed_public_noflip.json`` (``--no-flip``), ``speed_private.json``,
   ``speed_private_noflip.json``: ``scripts/bench_speed.py``; ``speed_public_motion.json``,
   ``speed_private_motion.json``: the same with ``--appearance none`` (the motion-only mode), beside
-  ``accuracy_public_motion.json`` and
-  ``accuracy_private_motion.json`` (``bench_accuracy.py --config docs/validation/motion-only.toml``);
+  ``accuracy_public_motion.json`` and ``accuracy_private_motion.json`` (``bench_accuracy.py --config
+  docs/validation/motion-only.toml``);
 * ``long.json``: ``scripts/bench_long.py``;
 * ``video.json``: ``scripts/bench_video.py`` (a sequence's frames read from JPEGs and from video files);
   ``video_moving.json``: the same of a moving camera (``--note``: how it was made);
