@@ -497,7 +497,6 @@ def estimate_motion(info: SeqInfo, detections: Detections, config: MotionConfig,
         log.info("%s: no frames (%s missing): camera motion not estimated", info.name, info.frames_dir)
         return CameraMotion.still(info.length)
     known = seen.outcome(detections) if seen is not None else None
-    by_frame = detections.by_frame()
     if isinstance(known, CameraMotion):
         motion = known
     else:
@@ -508,6 +507,7 @@ def estimate_motion(info: SeqInfo, detections: Detections, config: MotionConfig,
                 motion = CameraMotion.still(info.length)
             else:
                 chain = _Chain(info, config)
+                by_frame = detections.by_frame()
                 show = as_progress(progress)
                 for f in show(range(1, info.length + 1), f"{info.name}: camera motion"):
                     chain.add(f, source.read_grey(f, chain.factor), _people(detections, by_frame, f))
