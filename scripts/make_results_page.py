@@ -166,6 +166,11 @@ def speed_section(*runs: tuple[str, dict | None]) -> list[str]:
     return [*lines, ""]
 
 
+def versus(a: dict, b: dict) -> str:
+    """HOTA, IDF1 and MOTA of two scored rows as table cells: ``a / b (b - a)`` each."""
+    return " | ".join(f"{a[m]:.1f} / {b[m]:.1f} ({b[m] - a[m]:+.1f})" for m in ("HOTA", "IDF1", "MOTA"))
+
+
 def motion_only_section(*runs: tuple[str, dict | None, dict | None, dict | None, dict | None, dict | None]
                         ) -> list[str]:
     """The motion-only mode against re-ID: ``runs`` are (protocol, ``bench_accuracy.py`` JSON of the defaults, of
@@ -193,8 +198,7 @@ def motion_only_section(*runs: tuple[str, dict | None, dict | None, dict | None,
             fps = f"{fast[0]['fps']:.1f} / {fast[1]['fps']:.1f}" if all(fast) else "–"
             best = [best_peer(peers, name, m, TRACKERS_ROWS) for m in ("HOTA", "IDF1", "MOTA")]
             peer = " / ".join(f"{v:.1f} ({n})" for n, v in best) if all(best) else "not measured"
-            lines.append(f"| {name} | {label} | " + " | ".join(f"{a[m]:.1f} / {b[m]:.1f} ({b[m] - a[m]:+.1f})"
-                                                            for m in ("HOTA", "IDF1", "MOTA")) + f" | {fps} | {peer} |")
+            lines.append(f"| {name} | {label} | {versus(a, b)} | {fps} | {peer} |")
     machines = sorted({data["machine"] for run in runs for data in run[1:] if data is not None})
     return [*lines, "", f"Machine: {'; '.join(machines)}.", ""]
 
@@ -218,9 +222,7 @@ def flip_section(*runs: tuple[str, dict | None, dict | None]) -> list[str]:
         for name in full_length(flip):
             a, b = flip["after"]["all"]["sequences"][name], noflip["after"]["all"]["sequences"][name]
             before = [data["before"]["all"]["sequences"][name]["MOTA"] for data in (flip, noflip)]
-            lines.append(f"| {name} | {label} | " + " | ".join(f"{a[m]:.1f} / {b[m]:.1f} ({b[m] - a[m]:+.1f})"
-                                                            for m in ("HOTA", "IDF1", "MOTA"))
-                         + f" | {before[0]:.1f} / {before[1]:.1f} |")
+            lines.append(f"| {name} | {label} | {versus(a, b)} | {before[0]:.1f} / {before[1]:.1f} |")
     machines = sorted({data["machine"] for _, flip, noflip in runs for data in (flip, noflip)})
     return [*lines, "", f"Machine: {'; '.join(machines)}.", ""]
 
