@@ -49,7 +49,7 @@ from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import METRICS, EvalReport, evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
-from sotmot.postprocess import line_checked, to_tracks
+from sotmot.postprocess import line_checked
 
 COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 BEST_PEER_MOTA = {  # issue #11, same detections and embeddings; not re-measured here
@@ -126,8 +126,7 @@ def main(argv: list[str] | None = None) -> int:
                     kept = [t for t in result.trajectories
                             if int((~prepared.detections.from_sot[t.det_index]).sum()) >= k]
                     post = line_checked(online.postprocess, kept, result.info.frame_rate)
-                    tracks = to_tracks(kept, prepared.detections, post, None, result.info.frame_rate,
-                                       occluders=prepared.occluders)
+                    tracks = prepared.written(kept, post)
                     path = results_path(out / f"min_hits_{k}", result.info.name)
                     write_results(path, tracks)
                     pairs[f"min_hits {k}"].append((path, result.info.gt_path, result.info.length, result.info.name))

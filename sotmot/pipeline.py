@@ -38,7 +38,7 @@ from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
 from sotmot.motion import CameraMotion, PassMotion, estimate_motion
 from sotmot.passes import detect_sequence, embed_detections
 from sotmot.plan import Plan, resolve
-from sotmot.postprocess import Occluders, line_checked, output_ids, to_tracks
+from sotmot.postprocess import BoxScorer, Occluders, line_checked, output_ids, to_tracks
 from sotmot.preprocess import frame_preprocessor, nms_per_frame, preprocess_indices, resolve_nms
 from sotmot.progress import Progress, as_progress
 from sotmot.sot.support import WEAK_MIN_SCORE, DetectorSupport
@@ -222,6 +222,20 @@ class Prepared:
         came from, whether the weak boxes are at hand) with ``config``'s association and trajectory ends."""
         return self.plan if config is self.plan.config else self.plan.finishing(config)
 
+    def written(self, trajectories: list[Tracklet], post: PostprocessConfig, scorer: BoxScorer | None = None,
+                ids: list[int | None] | None = None) -> Tracks:
+        """``trajectories`` as the tracker writes them, before confirmation: post-processed by ``post``
+        (:func:`~sotmot.postprocess.to_tracks`, in the trajectories' coordinates), then, when the camera moves, each
+        box in its own frame's pixels, a box wholly outside the image left out (a person the camera turned away from
+        is still filled in where the world says they were). :func:`finish_sequence` writes these; the confidence
+        fits (:mod:`sotmot.fitting.confidence`) label the very same boxes."""
+        info = self.info
+        tracks = to_tracks(trajectories, self.detections, post, scorer, info.frame_rate, ids, self.occluders)
+        if self.motion is not None and self.motion.moving:
+            tracks = tracks.with_boxes(self.motion.from_ref(tracks.frames, tracks.boxes))
+            tracks = tracks.subset(inside_share(tracks.boxes, info.width, info.height) > 0)
+        return tracks
+
 
 class _Clock:
     def __init__(self, timings: dict[str, float]) -> None:
@@ -380,12 +394,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
                  "line_check_seconds): gaps are filled up to %g s", prepared.info.name,
                  config.postprocess.line_check_seconds, post.interpolate_max_seconds)
     ids = output_ids(trajectories, post, prepared.info.frame_rate, occluders)
-    tracks = to_tracks(trajectories, prepared.detections, post, scorer, prepared.info.frame_rate, ids, occluders)
-    motion = prepared.motion
-    if motion is not None and motion.moving:  # interpolated and smoothed in the reference frame; written in each own
-        tracks = tracks.with_boxes(motion.from_ref(tracks.frames, tracks.boxes))
-        # a person the camera turned away from is still filled in where the world says they were, out of the frame
-        tracks = tracks.subset(inside_share(tracks.boxes, prepared.info.width, prepared.info.height) > 0)
+    tracks = prepared.written(trajectories, post, scorer, ids)
     clock.lap("postprocess")
     tracks, dropped = (confirm(tracks, config, prepared.confidence_method) if config.confirm.enabled
                        else (tracks, Tracks.empty()))
@@ -402,7 +411,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
              len(dropped), config.association.solver)
     return TrackResult(prepared.info, prepared.detections, prepared.features, prepared.tracklets,
                        association, trajectories, tracks, timings, prepared.confidence, dropped, prepared.detected,
-                       ids, motion, prepared.confidence_method, occluders, post)
+                       ids, prepared.motion, prepared.confidence_method, occluders, post)
 
 
 def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.ndarray], tracks: Tracks,

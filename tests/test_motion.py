@@ -126,6 +126,28 @@ def test_a_person_standing_still_while_the_camera_pans_is_one_tracklet(tmp_path)
     np.testing.assert_allclose(result.tracks.boxes[rows][:, 0], dets.boxes[:, 0], atol=1.0)
 
 
+def test_the_confidence_fits_label_the_boxes_the_tracker_writes_when_the_camera_moves(tmp_path):
+    """The fits (sotmot.fitting.confidence) label and score the very boxes finish_sequence writes: in each frame's
+    own pixels, not the reference frame's (they once matched the ground truth in frame 1's pixels, so every box of
+    a panning camera's person was a false positive)."""
+    from sotmot.fitting.confidence import label_sequence, unconfirmed_tracks
+    from sotmot.pipeline import finish_sequence
+
+    seq = _panning_sequence(tmp_path, pan=28.0)
+    (seq / "gt").mkdir()
+    rows = [line.split(",") for line in (seq / "det" / "det.txt").read_text().split()]
+    (seq / "gt" / "gt.txt").write_text("".join(f"{r[0]},1,{','.join(r[2:6])},1,1,1\n" for r in rows))
+    config = TrackerConfig().replace("confirm", enabled=False).replace("ends", seconds=0.0)
+    prepared = prepare_sequence(seq, config, GeometryEmbedder())
+    assert prepared.motion.moving
+    labelled = label_sequence(prepared, prepared.detections.scores, config, tmp_path / "labels")
+    written = finish_sequence(prepared, config).tracks
+    fitted = unconfirmed_tracks(labelled, config)
+    np.testing.assert_array_equal(fitted.frames, written.frames)
+    np.testing.assert_allclose(fitted.boxes, written.boxes)
+    assert len(labelled.labels) == len(written) == 7 and set(labelled.labels.values()) == {1}
+
+
 def test_a_still_camera_gives_the_identity_and_identical_results(tmp_path):
     seq = _panning_sequence(tmp_path, pan=0.0, name="STILL")
     info = read_seqinfo(seq)

@@ -40,7 +40,7 @@ from sotmot.confirm import box_scorer, confirm
 from sotmot.fitting.logistic import fit_box_model
 from sotmot.pipeline import Prepared, associate
 from sotmot.preprocess import preprocess
-from sotmot.postprocess import expand, line_checked, output_ids, to_tracks
+from sotmot.postprocess import expand, line_checked, output_ids
 from sotmot.types import Tracklet, Tracks
 
 
@@ -124,10 +124,9 @@ def label_sequence(prepared: Prepared, raw_scores: np.ndarray, config: TrackerCo
     """Associate, post-process without confirmation, and label every output box; the detector ``family``, else
     guessed from the scores."""
     _, trajectories = associate(prepared.tracklets, prepared.finishing(config))
-    occluders = prepared.occluders
     post = line_checked(config.postprocess, trajectories, prepared.info.frame_rate)
-    ids = output_ids(trajectories, post, prepared.info.frame_rate, occluders)
-    tracks = to_tracks(trajectories, prepared.detections, post, None, prepared.info.frame_rate, ids, occluders)
+    ids = output_ids(trajectories, post, prepared.info.frame_rate, prepared.occluders)
+    tracks = prepared.written(trajectories, post, None, ids)
     labels = box_labels(tracks, prepared.info, workdir)
     keyed = {(int(f), int(i)): int(v) for f, i, v in zip(tracks.frames, tracks.ids, labels) if v >= 0}
     return Labelled(prepared, trajectories, family or detector_family(raw_scores, prepared.info.name),
@@ -215,8 +214,7 @@ def confirmed_tracks(seq: Labelled, confidence: np.ndarray, model: BoxModel, thr
     """The output of ``seq`` after confirmation with ``model`` at ``threshold``."""
     p = seq.prepared
     scorer = box_scorer(model, p.detections, p.features, confidence, p.info.frame_rate)
-    tracks = to_tracks(seq.trajectories, p.detections, seq.postprocess(config), scorer, p.info.frame_rate,
-                       seq.track_ids, p.occluders)
+    tracks = p.written(seq.trajectories, seq.postprocess(config), scorer, seq.track_ids)
     return confirm(tracks, config.replace("confirm", threshold=threshold))[0]
 
 
@@ -246,9 +244,7 @@ def objective(report: EvalReport, base: EvalReport) -> float:
 
 def unconfirmed_tracks(seq: Labelled, config: TrackerConfig) -> Tracks:
     """The output of ``seq`` without confirmation (post-processing as configured)."""
-    p = seq.prepared
-    return to_tracks(seq.trajectories, p.detections, seq.postprocess(config), None, p.info.frame_rate,
-                     seq.track_ids, p.occluders)
+    return seq.prepared.written(seq.trajectories, seq.postprocess(config), None, seq.track_ids)
 
 
 @dataclass
