@@ -108,11 +108,12 @@ class ConfirmConfig:
         Run the confirmation stage (False writes every box, as before). Its
         box models were fitted on three videos (MOT16-09, PETS09-S2L1,
         TUD-Stadtmitte), and so was the built-in detector's score map; with
-        that detector's boxes on other scenes it can drop true boxes: turning it off (``--unconfirmed keep``) gained
-        2.9 to 13.2 HOTA on four of the five MOT16 clips (other streets, a
-        camera on a vehicle) and lost 0.1 on the fifth, but cost MOT16-09 3.6
-        HOTA and 12.2 MOTA (docs/benchmarks.md, "The built-in detector on
-        small people"). Compare both on a labelled video of your own scene.
+        that detector's boxes on other scenes it can drop true boxes: turning
+        it off (``--unconfirmed keep``) gained 2.9 to 13.2 HOTA on four of the
+        five MOT16 clips (other streets, a camera on a vehicle) and lost 0.1
+        on the fifth, but cost MOT16-09 3.6 HOTA and 12.2 MOTA
+        (docs/benchmarks.md, "The built-in detector on small people"). Compare
+        both on a labelled video of your own scene.
     threshold
         Boxes with a lower probability are dropped. ``None``: the value fitted
         with the calibration (leave-one-sequence-out, ``docs/calibration.md``).
