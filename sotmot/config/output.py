@@ -112,7 +112,7 @@ class ConfirmConfig:
         it off (``--unconfirmed keep``) gained 2.9 to 13.2 HOTA on four of the
         five MOT16 clips (other streets, a camera on a vehicle) and lost 0.1
         on the fifth, but cost MOT16-09 3.6 HOTA and 12.2 MOTA
-        (docs/benchmarks.md, "The built-in detector on small people"). Compare
+        (docs/benchmarks.md, "The detector on small people"). Compare
         both on a labelled video of your own scene.
     threshold
         Boxes with a lower probability are dropped. ``None``: the value fitted
