@@ -50,23 +50,24 @@ class DetectionConfig:
     backend
         The runtime that runs ``model`` (``sotmot.plugins.DETECTORS``).
     min_score
-        Boxes the detector scores below this never leave it. Low on purpose:
-        confirmation (``[confirm]``) decides which boxes are kept. 0.4 for
-        person-detection-0202, fitted leave-one-video-out with its confirmation
-        model (``scripts/fit_detector_confidence.py``): 0.4 in two folds of
-        three; on all three videos mean HOTA 68.20 / 68.19 / 67.60 at 0.3 /
-        0.4 / 0.5, a tie with 0.3, kept at 0.4 (fewer boxes to embed, and the
-        end extension's weak boxes, those below it, were fitted with 0.4).
+        Boxes the detector scores below this never leave it. 0.4 for
+        person-detection-0202, fitted leave-one-out on eight scenes (three
+        videos, five MOT16 clips) with its confirmation model
+        (``scripts/fit_detector_confidence.py``): 0.4 in seven folds of
+        eight; on all eight mean HOTA 58.75 / 59.15 / 58.34 at 0.3 / 0.4 /
+        0.5. Since that fit's confirmation drops nothing (``[confirm]``), this
+        is the one filter of the detector's boxes; the end extension's weak
+        boxes are those below it.
     input_height, input_width
         The network's input size in pixels (multiples of 32); 0 keeps the
         frame's aspect ratio at the area of 512 x 672 (448 x 768 for 16:9,
         512 x 672 for 4:3), or, for frames that would be shrunk more than 2x
         to it, the frame shrunk 2x, up to 1.5x those sides: 544 x 960 for
         1080p, whose far people 448 x 768 left unfound (MOT16-09 with the
-        detector: HOTA / MOTA / IDF1 65.1 / 77.7 / 83.9 -> 68.6 / 82.3 / 89.3;
-        the 1080p clips +2.8 to +5.9 HOTA), for about 1.5x the detector's
-        time. ``input_height = 448``, ``input_width = 768`` is the faster
-        choice for 1080p.
+        detector and the confirmation of then: HOTA / MOTA / IDF1 65.1 / 77.7
+        / 83.9 -> 68.6 / 82.3 / 89.3; the 1080p clips +2.8 to +5.9 HOTA), for
+        about 1.5x the detector's time. ``input_height = 448``,
+        ``input_width = 768`` is the faster choice for 1080p.
     threads
         CPU threads of the detector (0: the runtime's choice; with
         ``--workers N``: each process's share of the cores).
