@@ -35,7 +35,7 @@ from sotmot.io import (
     SeqInfo, detections_from_array, format_results, is_plain_name, read_results, read_seqinfo, refuse_overwriting,
     write_text_atomic,
 )
-from sotmot.io.video import is_video
+from sotmot.io.sequence import takes_frame_rate
 from sotmot.types import Tracks
 
 
@@ -118,7 +118,8 @@ def _config(config: TrackerConfig | dict | str | Path | None) -> TrackerConfig:
 def _in_memory(frames: Any, frame_rate: float | None, name: str, stack: contextlib.ExitStack) -> SeqInfo:
     """The sequence of frames held by the caller (spooled to a temporary folder when they come one pass only)."""
     if frame_rate is None:
-        raise ConfigError("frame_rate is needed for frames held in memory (a video or a folder says its own)")
+        raise ConfigError("frame_rate is needed for frames held in memory (a video or a MOTChallenge folder says "
+                          "its own)")
     frame_rate = TrackerConfig().replace("input", fps=frame_rate).input.fps  # checked as --fps is
     if not is_plain_name(name):
         raise ConfigError(f"name must be a plain file name (no path separators); got {name!r}")
@@ -148,7 +149,9 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
     Parameters
     ----------
     frames
-        A video file, a MOTChallenge folder (``seqinfo.ini``, ``img1/``), or the
+        A video file, a MOTChallenge folder (``seqinfo.ini``, ``img1/``), a
+        folder of images without ``seqinfo.ini`` (frames in the order of their
+        names, numbers compared as numbers; ``frame_rate`` needed), or the
         frames themselves: a list, a 4-D array or any sequence of BGR ``uint8``
         images (as ``cv2.imread`` gives them), each fetched when a stage needs
         it, or any iterable of them (read once, kept on disk in a temporary
@@ -160,8 +163,9 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         ``(N, 6)`` array ``frame, x, y, w, h, score`` (frames 1-based, boxes in
         pixels), checked as a file is.
     frame_rate
-        Frames per second: needed for frames in memory; for a video it
-        replaces the container's rate; a folder's ``seqinfo.ini`` says its own.
+        Frames per second: needed for frames in memory and for a folder of
+        images; for a video it replaces the container's rate; a folder's
+        ``seqinfo.ini`` says its own.
     config
         A :class:`~sotmot.config.TrackerConfig`, a dict of sections as a config
         file holds them (e.g. ``{"association": {"l_max_seconds": 3}}``), or the
@@ -191,8 +195,9 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         if isinstance(frames, (str, Path)):
             path = Path(frames)
             if not path.exists():
-                raise InputError(path, "not found; expected a video file or a MOTChallenge folder (seqinfo.ini)")
-            if frame_rate is not None and is_video(path):
+                raise InputError(path, "not found; expected a video file, a MOTChallenge folder (seqinfo.ini) or a "
+                                       "folder of images")
+            if frame_rate is not None and takes_frame_rate(path):
                 cfg = cfg.replace("input", fps=frame_rate)
             info = read_seqinfo(path, cfg.input.fps)
             if frame_rate is not None and frame_rate != info.frame_rate:
@@ -249,7 +254,7 @@ def evaluate(results: "Result | Tracks | str | Path", gt: str | Path, *, length:
 
     gt = Path(gt)
     if gt.is_dir():
-        folder = read_seqinfo(gt)
+        folder = read_seqinfo(gt, rate_needed=False)
         gt, length, name = folder.gt_path, length or folder.length, name or folder.name
     if isinstance(results, Result):
         length, name = length or results.info.length, name or results.info.name

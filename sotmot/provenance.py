@@ -81,7 +81,8 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
         "reid_model": {"path": model, "sha256": file_sha256(model) if model else None},
         "confidence_calibration": {"path": calibration or "packaged",
                                    "sha256": file_sha256(calibration or str(packaged))},
-        "inputs": {"seqinfo.ini": None if info.video is not None else file_sha256(info.source),  # a video: below
+        "inputs": {"seqinfo.ini": None if info.video is not None or info.files is not None  # video, images: below
+                   else file_sha256(info.source),
                    "detections": {"source": source, "path": None if det_file is None else str(det_file),
                                   "sha256": None if det_file is None else file_sha256(det_file)},
                    "frames (names, sizes)": frames_fingerprint(info)},

@@ -335,14 +335,14 @@ def frame_errors(results: str | Path, gt: str | Path, length: int, name: str) ->
 def evaluate(results_dir: str | Path, seq_dirs: Sequence[str | Path]) -> EvalReport:
     """Score ``results_dir/<name>.txt`` for each MOTChallenge sequence folder in ``seq_dirs``.
 
-    ``<name>`` is the ``name`` in the sequence's ``seqinfo.ini``.
+    ``<name>`` is the ``name`` in the sequence's ``seqinfo.ini`` (a folder of images without one: the folder's).
     """
     results_dir = Path(results_dir)
     if not results_dir.is_dir():
         raise InputError(results_dir, "results folder not found")
     pairs = []
     for seq in seq_dirs:
-        info = read_seqinfo(seq)
+        info = read_seqinfo(seq, rate_needed=False)
         results = results_path(results_dir, info.name)
         if not results.is_file():
             raise InputError(results, f"no results for sequence {info.name}; run 'sotmot track {seq} "

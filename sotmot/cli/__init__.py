@@ -25,6 +25,7 @@ examples:
   sotmot track street.mp4 --out results   # a plain video: the bundled detector finds the people
   sotmot track SEQ --out results --reid-model my-reid.onnx --detector-model my-detector.xml   # other models
   sotmot track street.mp4 --det street_det.txt --out results   # a video and its detections
+  sotmot track frames/ --fps 25 --out results   # a folder of images (no seqinfo.ini): frames in name order
   sotmot track ../shared/data/MOT16-09 --detections model --out results   # the detector, not det/det.txt
 
 The models are the two sotmot ships with (`sotmot models` lists them): Intel's
@@ -35,7 +36,8 @@ file; a plain video (or --detections model) from the detector's boxes, written b
 results as <name>.det.txt (MOTChallenge det format) so that the run can be repeated with --det.
 Results are written as DIR/<name>.txt (MOTChallenge format: frame, id, x, y, w, h,
 score, -1, -1, -1; boxes in pixels, frames 1-based), each file atomically; <name> is
-the name in seqinfo.ini and must be a plain file name (no path separators). Beside it:
+the name in seqinfo.ini (a video's or a folder of images' own name) and must be a plain file name (no path
+separators). Beside it:
 <name>.flags.csv (interpolated / SOT boxes, each box's confidence) and <name>.run.json
 (sotmot version, full configuration, solver, model and input hashes, time); --resume
 skips a sequence only when that record matches the current run.
@@ -73,7 +75,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="sotmot",
         description="Multi-object tracking of people by detection, after 'SOT for MOT' (He et al.): "
                     "Hungarian tracklets in 1-second batches, long-term association under IoU, velocity "
-                    "and gap constraints, interpolation and smoothing. Input: MOTChallenge folders.")
+                    "and gap constraints, interpolation and smoothing. Input: MOTChallenge folders, videos or "
+                    "folders of images.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
     from sotmot.provenance import sotmot_version
 
@@ -81,10 +84,13 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("track", help="track sequences and write MOTChallenge results",
-                       description="Track one or more MOTChallenge sequence folders.",
+                       description="Track one or more MOTChallenge sequence folders, videos or folders of images.",
                        epilog=EPILOG_TRACK, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR",
-                   help="folder with seqinfo.ini, img1/ and (usually) det/det.txt, or a video file (.mp4, .avi, ...)")
+                   help="folder with seqinfo.ini, img1/ and (usually) det/det.txt; a video file (.mp4, .avi, ...); "
+                        "or a folder of images without seqinfo.ini (the images in it, or in its img1/, in the order "
+                        "of their names, numbers compared as numbers: frame_2 before frame_10; --fps gives the rate; "
+                        "det/det.txt and gt/gt.txt read as in a sequence folder)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="where <name>.txt results go")
     add_tracker_flags(p, "track")
     p.add_argument("--det", type=Path, metavar="DET.txt",
@@ -155,7 +161,11 @@ def build_parser() -> argparse.ArgumentParser:
                                    "With --gt, the ground truth is drawn beside them with the errors of "
                                    "the CLEAR matching: FP red, FN dashed red, ID switches flagged.")
     p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR",
-                   help="the sequence the results are of (frames from img1/), or the video file they were tracked on")
+                   help="the sequence the results are of (frames from img1/), the video file or the folder of "
+                        "images they were tracked on")
+    p.add_argument("--fps", type=_positive_float, metavar="N",
+                   help="frame rate of the video written: a folder of images without seqinfo.ini needs it (give "
+                        "the rate it was tracked at); a video's replaces the container's")
     p.add_argument("results", type=Path, metavar="RESULTS.txt",
                    help="MOTChallenge results, e.g. from sotmot track (its .flags.csv beside it marks SOT and "
                         "interpolated boxes)")
@@ -181,7 +191,9 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + ". The sequence is "
                            "tracked first, with the same options as 'sotmot track'; track ids are those "
                            "of the results file that run writes.")
-        p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR", help="folder with seqinfo.ini, det/det.txt and img1/")
+        p.add_argument("seq_dir", type=Path, metavar="SEQ_DIR",
+                       help="folder with seqinfo.ini, det/det.txt and img1/, a video file, or a folder of images "
+                            "(with --fps)")
         if name == "graph":
             p.add_argument("--out", type=Path, required=True, metavar="DIR",
                            help="folder for graph.graphml, graph.json, graph.png and graph.html")

@@ -124,7 +124,7 @@ def _check_json(path: Path | None, seq_dirs: list[Path], results_dir: Path | Non
         raise SotmotError(f"{path}: --json must name a file, but this is a folder")
     inputs = []
     for seq in seq_dirs:
-        info = read_seqinfo(seq)
+        info = read_seqinfo(seq, rate_needed=False)
         inputs += [info.source, info.det_path, info.gt_path]
         if results_dir is not None:
             inputs.append(results_path(results_dir, info.name))
@@ -163,7 +163,7 @@ def cmd_eval(args: argparse.Namespace) -> int:
     _check_json(args.json, args.seq_dirs, args.results_dir)
     report = evaluate(args.results_dir, args.seq_dirs)
     for seq in args.seq_dirs:
-        for doubt in results_doubts(results_path(args.results_dir, read_seqinfo(seq).name)):
+        for doubt in results_doubts(results_path(args.results_dir, read_seqinfo(seq, rate_needed=False).name)):
             print(f"sotmot: warning: {doubt}", file=sys.stderr)
     print(format_table(report))
     print("TrackEval rules: " + ", ".join(f"{name} {rules}" for name, rules in report.benchmark.items())
@@ -221,7 +221,7 @@ def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
     from sotmot.io.flags import flags_path, read_flags
     from sotmot.provenance import side_file_doubt
 
-    info = read_seqinfo(seq_dir)
+    info = read_seqinfo(seq_dir, args.fps)
     check_render_target(info, args.out, inputs)  # before reading and matching anything
     tracks = read_results(args.results, info.length)
     doubt = side_file_doubt(args.results, flags_path(args.results))
@@ -301,7 +301,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
     from sotmot.inspect.graph_view import SHOWN, html_page, png_bytes, shown_edges, tracklet_crops
     from sotmot.io import check_output_dir, read_seqinfo, write_files_atomic
 
-    frames = parse_frames(args.frames, read_seqinfo(args.seq_dir).length)
+    frames = parse_frames(args.frames, read_seqinfo(args.seq_dir, build_config(args).input.fps).length)
     check_output_dir(args.out)  # a file, a read-only folder: said now, not after the tracking
     config, result = _track_for_inspection(args)
     graph = inspection_graph(result, config, frames)

@@ -106,7 +106,7 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--appearance",), "appearance", "backend", choices=_backends,
          note="none: no re-ID, the motion-only mode (several times faster with a det.txt, about twice with "
               "the built-in detector; 5 to 25 HOTA lower where frames exist: docs/results.md, \"Without re-ID\")."),
-    Flag(("--fps",), "input", "fps", metavar="N", commands=frozenset({"track"})),
+    Flag(("--fps",), "input", "fps", metavar="N", commands=frozenset({"track", "graph", "explain"})),
     Flag(("--no-flip",), "appearance", "flip", switch=False, note="Embed each crop once, without its mirror image."),
     Flag(("--device",), "appearance", "device"),
     Flag(("--weights",), "appearance", "weights", metavar="FILE.pt", note="Implies --appearance torch.",

@@ -12,13 +12,14 @@ from sotmot.plugins import BACKENDS, DETECTORS
 
 @dataclass(frozen=True)
 class InputConfig:
-    """How a video file is read (a MOTChallenge folder's ``seqinfo.ini`` says all of it).
+    """How a video file or a folder of images is read (a MOTChallenge folder's ``seqinfo.ini`` says all of it).
 
     Attributes
     ----------
     fps
-        Frame rate of a video input (``--fps``): every stage counts time in
-        frames from it; None takes the container's.
+        Frame rate of a video or of a folder of images without a
+        ``seqinfo.ini`` (``--fps``): every stage counts time in frames from it;
+        None takes the video container's (a folder of images needs it).
     """
 
     fps: float | None = None

@@ -122,8 +122,10 @@ class JpegFolder:
         if image is None:
             raise InputError(path, f"frame {frame} cannot be decoded as an image")
         if image.shape[:2] != reduced_size(self.info.height, self.info.width, factor):
+            said = (f"frame 1 is {self.info.width} x {self.info.height}" if self.info.files is not None
+                    else f"seqinfo.ini says imWidth={self.info.width}, imHeight={self.info.height}")
             raise InputError(path, f"frame {frame} is {image.shape[1] * factor} x {image.shape[0] * factor} px but "
-                             f"seqinfo.ini says imWidth={self.info.width}, imHeight={self.info.height}")
+                             f"{said}")
         return image
 
     def close(self) -> None:

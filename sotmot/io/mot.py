@@ -61,6 +61,10 @@ class SeqInfo:
         For a sequence whose frames the caller holds (:func:`sotmot.track` on images in memory):
         a sequence of BGR ``uint8`` images, ``frames[k]`` being frame ``k + 1``
         (:class:`sotmot.io.frames.ArrayFrames` reads them); ``path`` then only names it.
+    files
+        For a folder of images without a ``seqinfo.ini`` (:func:`sotmot.io.images.image_folder_info`):
+        the image of each frame, ``files[k]`` being frame ``k + 1``; None otherwise (frames are named
+        ``NNNNNN<imExt>``).
     """
 
     path: Path
@@ -73,11 +77,14 @@ class SeqInfo:
     im_ext: str = ".jpg"
     video: Path | None = None
     frames: Any = field(default=None, compare=False, repr=False)
+    files: tuple[Path, ...] | None = field(default=None, compare=False, repr=False)
 
     @property
     def source(self) -> Path:
-        """The file that describes the sequence: ``seqinfo.ini``, or the video file."""
-        return self.video if self.video is not None else self.path / "seqinfo.ini"
+        """The file that describes the sequence: ``seqinfo.ini``, the video file, or a folder of images itself."""
+        if self.video is not None:
+            return self.video
+        return self.path if self.files is not None else self.path / "seqinfo.ini"
 
     @property
     def det_path(self) -> Path:
@@ -113,6 +120,8 @@ class SeqInfo:
 
     def frame_path(self, frame: int) -> Path:
         """Image file of a 1-based ``frame``."""
+        if self.files is not None and 1 <= frame <= len(self.files):
+            return self.files[frame - 1]
         return self.frames_dir / f"{frame:06d}{self.im_ext}"
 
 
