@@ -175,6 +175,17 @@ def test_auto_learns_a_family_the_calibration_lacks_from_the_sequence():
         confidence_knots("acf", acf_like, partial)
 
 
+def test_scores_that_are_all_the_same_are_learned_from_the_sequence_not_read_as_a_family(caplog):
+    """A detector file that carries no score (-1 or 1 on every row): read as DPM's -1 every box was dropped."""
+    for value in (-1.0, 1.0):
+        with caplog.at_level("WARNING"):
+            assert confidence_knots("auto", np.full(50, value), name="street")[0] == "self"
+        assert f"street: every detection scores {value:g}, so the scores tell nothing" in caplog.text
+    assert confidence_knots("auto", np.full(50, -1.0), name="MOT17-04-SDP")[0] == "self"  # not the name's map
+    assert confidence_knots("auto", np.array([-1.0, 0.5]))[0] == "dpm"
+    assert confidence_knots("auto", np.full(50, 0.9), family="pd0202")[0] == "pd0202"  # a known detector's own
+
+
 def test_the_built_in_detector_has_its_own_map_model_and_threshold_and_needs_all_three():
     """The packaged calibration holds person-detection-0202's family (scripts/fit_detector_confidence.py) beside
     the public families, with its own box model: public runs keep theirs."""
@@ -240,3 +251,15 @@ def test_self_confidence_tracks_a_sequence_end_to_end(tmp_path):
     result = track_sequence(seq, TrackerConfig().replace("preprocess", confidence="self"),
                             embedder=GeometryEmbedder())
     assert 40 in np.unique(result.tracks.ids, return_counts=True)[1]  # the 40-frame person stays whole
+
+
+def test_a_detections_file_without_scores_tracks_its_people(tmp_path):
+    """Every row scored -1 (a detector file that carries none): the 40-frame person is kept, not dropped as a run
+    of weak DPM boxes."""
+    from sotmot.pipeline import track_sequence
+
+    seq = _scene(tmp_path, short_score=-1.0, long_score=-1.0)
+    det = seq / "det" / "det.txt"
+    det.write_text("".join(",".join(line.split(",")[:6] + ["-1"]) + "\n" for line in det.read_text().splitlines()))
+    result = track_sequence(seq, TrackerConfig(), embedder=GeometryEmbedder())
+    assert 40 in np.unique(result.tracks.ids, return_counts=True)[1]

@@ -115,6 +115,25 @@ def test_absurd_box_is_an_error_with_its_line_and_outside_boxes_a_warning(tmp_pa
     assert "1 box(es) lie mostly outside the 64 x 48 image (first on line 2)" in caplog.text
 
 
+def test_common_mistakes_in_a_detections_file_are_named(tmp_path, caplog):
+    """Frames counted from 0, boxes relative to the image, corners instead of width and height: each said."""
+    seq = write_sequence(tmp_path, ["0,-1,10,10,5,8,0.9", "1,-1,12,10,5,8,0.9"], images=False)
+    info = read_seqinfo(seq)
+    size = (info.width, info.height)
+    with pytest.raises(InputError, match="frame 0 is outside 1..5.*start at 0: add 1 to the first column"):
+        read_detections(info.det_path, info.length, size)
+    (seq / "det" / "det.txt").write_text("1,-1,0,10,5,8,0.9\n9,-1,2,10,5,8,0.9\n")
+    with pytest.raises(InputError, match=r"frame 9 is outside 1..5, the sequence's frames$"):
+        read_detections(info.det_path, info.length, size)
+    (seq / "det" / "det.txt").write_text("1,-1,0.1,0.2,0.1,0.5,0.9\n2,-1,0.12,0.2,0.1,0.5,0.9\n")
+    with pytest.raises(InputError, match=r"every box lies within 0..1 .*multiply x and w by 64, y and h by 48"):
+        read_detections(info.det_path, info.length, size)
+    (seq / "det" / "det.txt").write_text("1,-1,10,10,40,30,0.9\n2,-1,30,20,60,44,0.9\n")  # x1, y1, x2, y2
+    with caplog.at_level("WARNING"):
+        assert len(read_detections(info.det_path, info.length, size)) == 2
+    assert "if its columns are x1, y1, x2, y2" in caplog.text
+
+
 def test_frame_of_the_wrong_size_and_frames_read_as_bytes(tmp_path):
     from sotmot.io import FrameReader
 

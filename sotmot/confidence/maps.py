@@ -10,6 +10,7 @@ Boxes are ``x, y, w, h`` pixels, frames 1-based.
 
 from __future__ import annotations
 
+import logging
 import typing
 from collections.abc import Sequence
 
@@ -21,10 +22,19 @@ from sotmot.config import ConfidenceMethod
 from sotmot.errors import ConfigError
 from sotmot.types import Detections, Tracklet
 
+log = logging.getLogger(__name__)
+
 #: Detector families with a stored calibration, and the names ``[preprocess] confidence`` accepts. ``pd0202`` is
 #: the built-in detector (Intel's person-detection-0202): never guessed from scores, known from the detector run.
 METHODS: tuple[str, ...] = typing.get_args(ConfidenceMethod)
 FAMILIES = METHODS[4:]
+
+
+def scores_are_uninformative(scores: np.ndarray) -> bool:
+    """Whether every detection has the same score (a detector file that carries none, ``-1`` or ``1`` on every
+    row): no family can be told from it and no box ranked by it."""
+    scores = np.asarray(scores)
+    return len(scores) > 1 and bool(scores.min() == scores.max())
 
 
 def scores_are_probabilities(scores: np.ndarray) -> bool:
@@ -102,14 +112,23 @@ def confidence_knots(method: str, reference: np.ndarray, calibration: Calibratio
     detector is known (the built-in one), else of :func:`detector_family` (the
     sequence ``name``, then the scores), or ``"self"`` when ``calibration`` has
     none for that family (held out, a detector never seen: self-fitted maps
-    tracked better than the ranks, ``scripts/transfer_confidence.py``).
+    tracked better than the ranks, ``scripts/transfer_confidence.py``) or when
+    every score is the same (:func:`scores_are_uninformative`: a family's map
+    would read the one value as it reads that score from its detector, and a
+    file of ``-1`` throughout read as DPM's had every box dropped).
     """
     if method not in METHODS:
         raise ConfigError(f"[preprocess] confidence must be one of {', '.join(METHODS)}; got {method!r}")
     if method not in ("raw", "quantile"):
         calibration = calibration or load_calibration()
     if method == "auto":
-        method = family or detector_family(reference, name)
+        if family is None and scores_are_uninformative(reference):
+            log.warning("%s: every detection scores %g, so the scores tell nothing: confidence is learned from "
+                        "the sequence's own trajectories ('self'), as for a detector never seen", name or "detections",
+                        float(np.asarray(reference)[0]))
+            method = "self"
+        else:
+            method = family or detector_family(reference, name)
         if method not in calibration.families:  # a family the calibration never saw: learn it from the sequence
             method = "self"
     if method == "raw":

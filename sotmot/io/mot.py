@@ -266,7 +266,9 @@ def check_rows(arr: np.ndarray, lines: list[int], path: str | Path, seq_length: 
         raise InputError(path, f"frame number '{row[0]:g}' is not an integer", line=line)
     if checks[2][k]:
         limit = f"1..{seq_length}" if seq_length is not None else ">= 1"
-        raise InputError(path, f"frame {int(row[0])} is outside {limit}, the sequence's frames", line=line)
+        hint = ("; MOTChallenge files count frames from 1, and this one's start at 0: add 1 to the first column"
+                if row[0] == 0 and frame.min() == 0 else "")
+        raise InputError(path, f"frame {int(row[0])} is outside {limit}, the sequence's frames{hint}", line=line)
     if checks[3][k]:
         raise InputError(path, f"id '{row[1]:g}' must be an integer from 1 to {MAX_ID}", line=line)
     raise InputError(path, f"box width and height must be positive, got w={row[4]:g}, h={row[5]:g}", line=line)
@@ -338,12 +340,20 @@ def _detections(arr: np.ndarray, lines: list[int], path: Path, image_size: tuple
             k = int(huge[0])
             raise InputError(path, f"box {arr[k, 4]:g} x {arr[k, 5]:g} px is far larger than the "
                              f"{width} x {height} image", line=lines[k])
+        if min(width, height) > 2 and (arr[:, 2:6] >= 0).all() and (arr[:, 2] + arr[:, 4] <= 1).all() \
+                and (arr[:, 3] + arr[:, 5] <= 1).all():
+            raise InputError(path, f"every box lies within 0..1 ({arr[0, 4]:g} x {arr[0, 5]:g} here): these look "
+                             f"like coordinates relative to the image; boxes are x, y, w, h in pixels (multiply x "
+                             f"and w by {width}, y and h by {height})", line=lines[0])
         ix = np.clip(arr[:, 2] + arr[:, 4], 0, width) - np.clip(arr[:, 2], 0, width)
         iy = np.clip(arr[:, 3] + arr[:, 5], 0, height) - np.clip(arr[:, 3], 0, height)
         outside = np.flatnonzero(ix * iy < 0.5 * arr[:, 4] * arr[:, 5])
         if len(outside):
-            log.warning("%s: %d box(es) lie mostly outside the %d x %d image (first on line %d)", path,
-                        len(outside), width, height, lines[int(outside[0])])
+            corners = np.mean((arr[:, 4] > arr[:, 2]) & (arr[:, 5] > arr[:, 3])) >= 0.9  # w > x, h > y: x2, y2?
+            log.warning("%s: %d box(es) lie mostly outside the %d x %d image (first on line %d)%s", path,
+                        len(outside), width, height, lines[int(outside[0])],
+                        "; nearly every row has w > x and h > y: if its columns are x1, y1, x2, y2, write x, y, "
+                        "x2 - x1, y2 - y1 (MOTChallenge's x, y, w, h)" if corners else "")
     return Detections(arr[:, 0].astype(np.int64), arr[:, 2:6], arr[:, 6]).sorted()
 
 
