@@ -396,3 +396,13 @@ def test_resume_skips_a_copied_sequence_and_a_video_decoded_again(tmp_path, mode
     assert main(args) == 0
     record = (tmp_path / "v" / "street.run.json").stat().st_mtime_ns
     assert main(args) == 0 and (tmp_path / "v" / "street.run.json").stat().st_mtime_ns == record  # skipped
+
+
+def test_a_folder_without_its_frames_says_how_to_track_without_them(tmp_path, capsys):
+    from sotmot.cli import main
+
+    seq = write_sequence(tmp_path, ["1,-1,10,10,5,8,0.9", "2,-1,11,10,5,8,0.9"], images=False)
+    assert main(["track", str(seq), "--out", str(tmp_path / "out"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "frame 1 is missing from img1/ (there is no img1/ folder" in err and "--appearance none" in err
+    assert main(["track", str(seq), "--out", str(tmp_path / "out"), "-q", "--appearance", "none"]) == 0

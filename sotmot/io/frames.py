@@ -110,7 +110,10 @@ class JpegFolder:
 
         path = self.info.frame_path(frame)
         if not path.is_file():
-            raise InputError(path, f"frame {frame} is missing from {self.info.im_dir}/")
+            absent = "" if self.info.frames_dir.is_dir() else (
+                f" (there is no {self.info.im_dir}/ folder: put the frames there, or track from the detections "
+                f"alone with --appearance none, the motion-only mode)")
+            raise InputError(path, f"frame {frame} is missing from {self.info.im_dir}/{absent}")
         # bytes read by Python, decoded by OpenCV: cv2.imread crashes on some paths (not valid UTF-8)
         try:
             data = np.fromfile(path, dtype=np.uint8)
