@@ -93,3 +93,6 @@ def test_what_is_missing_or_wrong_is_one_clear_error(tmp_path, capsys):
     empty.mkdir()
     with pytest.raises(InputError, match="seqinfo.ini: missing"):  # no images: still asked for as a sequence folder
         read_seqinfo(empty)
+    shutil.copytree(seq, empty / "MOT16-02", ignore=shutil.ignore_patterns("img1"))
+    with pytest.raises(InputError, match=r"holds 1 sequence folder\(s\) \(MOT16-02\): give those, e.g. .*empty/\*"):
+        read_seqinfo(empty)  # the folder above the sequences

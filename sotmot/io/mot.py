@@ -145,7 +145,13 @@ def read_seqinfo_ini(seq_dir: str | Path) -> SeqInfo:
         raise InputError(seq_dir, "not a sequence folder (it does not exist or is not a folder)")
     path = seq_dir / "seqinfo.ini"
     if not path.is_file():
-        raise InputError(path, "missing; a MOTChallenge sequence folder needs seqinfo.ini")
+        try:
+            inside = sorted(p.name for p in seq_dir.iterdir() if (p / "seqinfo.ini").is_file())
+        except OSError:  # an unreadable folder: the missing file is the news
+            inside = []
+        hint = (f"; {seq_dir} holds {len(inside)} sequence folder(s) ({', '.join(inside[:3])}"
+                f"{', ...' if len(inside) > 3 else ''}): give those, e.g. {seq_dir / '*'}" if inside else "")
+        raise InputError(path, f"missing; a MOTChallenge sequence folder needs seqinfo.ini{hint}")
     parser = configparser.ConfigParser(interpolation=None)  # a '%' in a value is just a character
     parser.optionxform = str  # keep key case: frameRate, seqLength
     try:
