@@ -39,6 +39,8 @@ def test_a_folder_of_images_tracks_as_its_motchallenge_folder(tmp_path):
     seq = require(CLIP)
     expected = sotmot.track(str(seq)).save(tmp_path / "mot.txt").read_bytes()
     plain = _renamed_frames(seq, tmp_path / "street")
+    (plain / "._frame_1.jpg").write_bytes(b"macOS metadata")  # hidden: not a frame
+    (plain / "notes.txt").write_text("not a frame either")
     info = read_seqinfo(plain, 30)
     assert (info.name, info.length, info.width, info.height, info.frame_rate) == ("street", 30, 1920, 1080, 30.0)
     assert info.frame_path(10).name == "frame_10.jpg" and info.frame_path(2).name == "frame_2.jpg"

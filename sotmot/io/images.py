@@ -29,10 +29,12 @@ def natural_key(name: str) -> tuple:
 
 
 def image_files(folder: Path) -> list[Path]:
-    """The image files directly in ``folder``, in :func:`natural_key` order of their names (none: empty)."""
+    """The image files directly in ``folder``, in :func:`natural_key` order of their names (none: empty). Hidden
+    files are not frames (macOS leaves a ``._name.jpg`` beside each image it copies to some drives)."""
     if not folder.is_dir():
         return []
-    found = [p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file()]
+    found = [p for p in folder.iterdir()
+             if p.suffix.lower() in IMAGE_SUFFIXES and not p.name.startswith(".") and p.is_file()]
     return sorted(found, key=lambda p: natural_key(p.name))
 
 
