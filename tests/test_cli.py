@@ -108,6 +108,10 @@ def test_the_run_record_names_the_backend_that_ran(tmp_path, model_0288, capsys)
     record = json.loads((tmp_path / "MOT16-05-clip30.run.json").read_text())
     assert record["config"]["appearance"]["backend"] == "openvino"
     assert "re-ID by openvino" in capsys.readouterr().err
+    # on --device cuda auto takes onnxruntime; the notice says why, not to install what is installed
+    main(["track", str(seq), "--out", str(tmp_path / "cuda"), "--device", "cuda"])  # fails later here: no CUDA
+    err = capsys.readouterr().err
+    assert "re-ID by onnx" in err and "not used on --device cuda" in err and "pip install openvino" not in err
 
 
 def test_graph_and_explain_commands_run_to_the_end(tmp_path, model_0288, capsys):

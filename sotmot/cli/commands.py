@@ -90,8 +90,12 @@ def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
         from sotmot.appearance import resolve_backend
 
         ran = resolve_backend(config.appearance).backend
-        other = ("--appearance onnx runs onnxruntime" if ran == "openvino"
-                 else "openvino, a dependency of sotmot, gives a backend about twice as fast: pip install openvino")
+        if ran == "openvino":
+            other = "--appearance onnx runs onnxruntime"
+        elif config.appearance.device != "cpu":
+            other = f"OpenVINO, the faster backend on the CPU, is not used on --device {config.appearance.device}"
+        else:
+            other = "openvino, a dependency of sotmot, gives a backend about twice as fast: pip install openvino"
         print(f"sotmot: re-ID by {ran} (--appearance auto; {other})", file=sys.stderr)
     made = not args.out.exists()
     outcomes = track_many(seq_dirs, args.out, config, workers=args.workers,
