@@ -175,13 +175,14 @@ def test_auto_learns_a_family_the_calibration_lacks_from_the_sequence():
         confidence_knots("acf", acf_like, partial)
 
 
-def test_scores_that_are_all_the_same_are_learned_from_the_sequence_not_read_as_a_family(caplog):
+def test_scores_that_are_all_the_same_make_every_box_one_the_detector_stands_behind(caplog):
     """A detector file that carries no score (-1 or 1 on every row): read as DPM's -1 every box was dropped."""
     for value in (-1.0, 1.0):
         with caplog.at_level("WARNING"):
-            assert confidence_knots("auto", np.full(50, value), name="street")[0] == "self"
+            method, knots = confidence_knots("auto", np.full(50, value), name="street")
+        assert method == "raw" and (detection_confidence(np.full(50, value), knots) == 1.0).all()
         assert f"street: every detection scores {value:g}, so the scores tell nothing" in caplog.text
-    assert confidence_knots("auto", np.full(50, -1.0), name="MOT17-04-SDP")[0] == "self"  # not the name's map
+    assert confidence_knots("auto", np.full(50, -1.0), name="MOT17-04-SDP")[0] == "raw"  # not the name's map
     assert confidence_knots("auto", np.array([-1.0, 0.5]))[0] == "dpm"
     assert confidence_knots("auto", np.full(50, 0.9), family="pd0202")[0] == "pd0202"  # a known detector's own
 

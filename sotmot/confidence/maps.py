@@ -105,30 +105,32 @@ def quantile_map(reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def confidence_knots(method: str, reference: np.ndarray, calibration: Calibration | None = None,
                      family: str | None = None, name: str = "") -> tuple[str, tuple[np.ndarray, np.ndarray] | None]:
-    """Resolve ``method`` for a sequence: the method actually used and its knots (None for ``"raw"``).
+    """Resolve ``method`` for a sequence: the method actually used and its knots (None for ``"raw"``, but for
+    scores all the same, below).
 
     ``reference`` are the sequence's detector scores (the quantile map and
     ``"auto"`` look at them). ``"auto"`` takes the map of ``family`` when the
     detector is known (the built-in one), else of :func:`detector_family` (the
     sequence ``name``, then the scores), or ``"self"`` when ``calibration`` has
     none for that family (held out, a detector never seen: self-fitted maps
-    tracked better than the ranks, ``scripts/transfer_confidence.py``) or when
-    every score is the same (:func:`scores_are_uninformative`: a family's map
-    would read the one value as it reads that score from its detector, and a
-    file of ``-1`` throughout read as DPM's had every box dropped).
+    tracked better than the ranks, ``scripts/transfer_confidence.py``). When
+    every score is the same (:func:`scores_are_uninformative`: a detector file
+    that carries none) ``"auto"`` gives ``"raw"`` with every box at confidence
+    1, a box the detector stands behind, whatever the one value is: a family's
+    map would read it as that score from its detector (a file of ``-1``
+    throughout, read as DPM's, had every box dropped).
     """
     if method not in METHODS:
         raise ConfigError(f"[preprocess] confidence must be one of {', '.join(METHODS)}; got {method!r}")
     if method not in ("raw", "quantile"):
         calibration = calibration or load_calibration()
+    if method == "auto" and family is None and scores_are_uninformative(reference):
+        value = float(np.asarray(reference)[0])
+        log.warning("%s: every detection scores %g, so the scores tell nothing: each box is taken as one the detector "
+                    "stands behind (confidence 1; the confirmation judges its trajectory)", name or "detections", value)
+        return "raw", (np.array([value]), np.array([1.0]))
     if method == "auto":
-        if family is None and scores_are_uninformative(reference):
-            log.warning("%s: every detection scores %g, so the scores tell nothing: confidence is learned from "
-                        "the sequence's own trajectories ('self'), as for a detector never seen", name or "detections",
-                        float(np.asarray(reference)[0]))
-            method = "self"
-        else:
-            method = family or detector_family(reference, name)
+        method = family or detector_family(reference, name)
         if method not in calibration.families:  # a family the calibration never saw: learn it from the sequence
             method = "self"
     if method == "raw":
