@@ -406,3 +406,17 @@ def test_a_folder_without_its_frames_says_how_to_track_without_them(tmp_path, ca
     err = capsys.readouterr().err
     assert "frame 1 is missing from img1/ (there is no img1/ folder" in err and "--appearance none" in err
     assert main(["track", str(seq), "--out", str(tmp_path / "out"), "-q", "--appearance", "none"]) == 0
+
+
+def test_a_file_that_is_neither_folder_nor_known_video_says_so(tmp_path):
+    from sotmot.io.video import is_video
+
+    camcorder = tmp_path / "street.MTS"
+    camcorder.write_bytes(b"")
+    assert is_video(camcorder) and is_video(tmp_path / "clip.ts")
+    notes = tmp_path / "det.txt"
+    notes.write_text("1,-1,10,10,5,8,0.9\n")
+    with pytest.raises(InputError, match=r"det\.txt: a file, not a sequence folder; a video is known by its extension"):
+        read_seqinfo(notes)
+    with pytest.raises(InputError, match="not a sequence folder .it does not exist"):
+        read_seqinfo(tmp_path / "missing")

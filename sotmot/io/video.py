@@ -19,7 +19,8 @@ from sotmot.errors import InputError
 from sotmot.io.mot import MAX_FRAME_RATE, SeqInfo, is_plain_name
 
 #: File extensions taken for videos (anything else is a sequence folder).
-VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov", ".m4v", ".webm", ".mpg", ".mpeg")
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov", ".m4v", ".webm", ".mpg", ".mpeg", ".ts", ".mts", ".m2ts", ".3gp",
+                  ".wmv", ".flv", ".ogv")
 log = logging.getLogger(__name__)
 
 
