@@ -53,7 +53,7 @@ def collect_crops(seq_dirs: Sequence[str | Path], per_identity: int,
     crops, labels = [], []
     next_label = 0
     for seq in seq_dirs:
-        info = read_seqinfo(seq)
+        info = read_seqinfo(seq, rate_needed=False)  # crops of the ground truth: no stage counts time
         gt = read_ground_truth(info.gt_path, info.length).pedestrians(min_visibility)
         chosen = []
         for tid in np.unique(gt.ids):

@@ -60,6 +60,21 @@ def test_a_folder_of_images_tracks_as_its_motchallenge_folder(tmp_path):
     assert scores["HOTA"] == pytest.approx(sotmot.evaluate(tmp_path / "mot.txt", seq)["HOTA"])
 
 
+def test_an_annotation_export_without_seqinfo_is_compared_and_scored(tmp_path, capsys):
+    """img1/, gt/gt.txt and det/det.txt but no seqinfo.ini, as annotation tools export MOT: compare takes --fps."""
+    seq = require(CLIP)
+    export = tmp_path / "export"
+    _renamed_frames(seq, export / "img1", "frame_{:06d}.jpg")
+    for part in ("det", "gt"):
+        (export / part).mkdir()
+        shutil.copyfile(seq / part / f"{part}.txt", export / part / f"{part}.txt")
+    assert main(["compare", str(export), "--fps", "30", "--solvers", "greedy,flow"]) == 0
+    out = capsys.readouterr().out
+    assert "export" in out and "greedy" in out and "flow" in out
+    assert main(["compare", str(export), "--solvers", "greedy"]) == 2  # no rate: said, not guessed
+    assert "--fps N" in capsys.readouterr().err
+
+
 def test_the_detector_runs_on_a_folder_of_images_without_detections(tmp_path):
     seq = require(CLIP)
     plain = _renamed_frames(seq, tmp_path / "few", count=8)

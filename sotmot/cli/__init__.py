@@ -139,7 +139,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "--appearance torch --weights FILE.",
                        epilog="example:\n  sotmot train-appearance ../shared/data/PETS09-S2L1 --out tuned.pt",
                        formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequences with gt/gt.txt and img1/")
+    p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR",
+                   help="sequences with gt/gt.txt and img1/ (seqinfo.ini optional: without it the frames are read "
+                        "in name order)")
     p.add_argument("--init", metavar="MODEL.onnx",
                    help="the re-ID model to start from (default: the bundled person-reidentification-retail-0288, "
                         "or SOTMOT_REID_MODEL)")

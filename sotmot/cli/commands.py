@@ -190,15 +190,15 @@ def cmd_compare(args: argparse.Namespace) -> int:
         get_solver(m)  # unknown names fail here, listing the valid ones
     from sotmot.io import read_seqinfo
 
+    config = build_config(args)
     for seq in args.seq_dirs:  # every solver is scored: the ground truth must be there, said before the work
-        info = read_seqinfo(seq)
+        info = read_seqinfo(seq, config.input.fps)
         if info.video is not None:
             raise SotmotError(f"{seq}: compare scores each solver against ground truth (gt/gt.txt of a sequence "
                               f"folder); a video has none")
         if not info.gt_path.is_file():
             raise SotmotError(f"{info.gt_path}: compare scores each solver against the ground truth of {info.name}, "
                               f"and there is none")
-    config = build_config(args)
     _check_json(args.json, args.seq_dirs)
     result = compare(args.seq_dirs, solvers, config, progress=_progress(args))
     print(format_comparison(result))

@@ -100,13 +100,13 @@ class Flag:
 #: Every tracker flag, in the order the help lists them and the configuration receives them.
 FLAGS: tuple[Flag, ...] = (
     Flag(("--solver", "--merger"), "association", "solver", choices=_solvers, metavar="SOLVER",
-         commands=frozenset({"track", "graph", "explain"})),
+         commands=frozenset({"track", "graph", "explain", "compare"})),
     Flag(("--reid-model",), "appearance", "model", metavar="PATH",
          note="Overrides the configuration and SOTMOT_REID_MODEL."),
     Flag(("--appearance",), "appearance", "backend", choices=_backends,
          note="none: no re-ID, the motion-only mode (several times faster with a det.txt, about twice with "
               "the built-in detector; 5 to 25 HOTA lower where frames exist: docs/results.md, \"Without re-ID\")."),
-    Flag(("--fps",), "input", "fps", metavar="N", commands=frozenset({"track", "graph", "explain"})),
+    Flag(("--fps",), "input", "fps", metavar="N", commands=frozenset({"track", "graph", "explain", "compare"})),
     Flag(("--no-flip",), "appearance", "flip", switch=False, note="Embed each crop once, without its mirror image."),
     Flag(("--device",), "appearance", "device"),
     Flag(("--weights",), "appearance", "weights", metavar="FILE.pt", note="Implies --appearance torch.",
