@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import logging
 import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -26,6 +27,10 @@ import numpy as np
 from sotmot.errors import EvaluationError, InputError
 from sotmot.io import gt_style, is_plain_name, read_ground_truth, read_results, read_seqinfo, results_path
 from sotmot.io.mot import mot_rows
+
+log = logging.getLogger(__name__)
+#: Names that an annotation tool's first label may give the people (``gt/labels.txt``, CVAT's MOT export).
+PEOPLE_LABELS = ("person", "pedestrian", "people", "human", "persons", "pedestrians")
 
 #: Reported metrics: name -> (TrackEval metric family, field, is a fraction to show as %).
 METRICS: dict[str, tuple[str, str, bool]] = {
@@ -159,6 +164,7 @@ def evaluate_files(pairs: Sequence[tuple[str | Path, str | Path, int, str]]) -> 
         results, gt = Path(results), Path(gt)
         read_results(results, length)  # validates, with file and line in any error
         read_ground_truth(gt, length)
+        _check_labels(gt)
         groups.setdefault(gt_style(gt), []).append((results, gt, length, name))
     for benchmark, members in groups.items():
         with tempfile.TemporaryDirectory(prefix="sotmot-eval-") as tmp:
@@ -192,6 +198,21 @@ def evaluate_files(pairs: Sequence[tuple[str | Path, str | Path, int, str]]) -> 
                 {name: raw[metric.get_name()] for name, raw in per_seq_raw.items()})
         report.combined = _summarise(combined)
     return report
+
+
+def _check_labels(gt: Path) -> None:
+    """Warn when a ``labels.txt`` beside ``gt`` (annotation tools such as CVAT number the classes of their MOT
+    export by it) names something other than people first: MOTChallenge's scoring counts class 1 as pedestrians."""
+    labels = gt.with_name("labels.txt")
+    try:
+        names = [line.strip() for line in labels.read_text(encoding="utf-8-sig").splitlines() if line.strip()]
+    except (OSError, UnicodeDecodeError):
+        return
+    if names and names[0].lower() not in PEOPLE_LABELS:
+        people = [k for k, name in enumerate(names, 1) if name.lower() in PEOPLE_LABELS]
+        where = f"the people are class {people[0]}" if people else "no label names people"
+        log.warning("%s: class 1 is %r by %s, and %s; MOTChallenge's scoring counts only class 1 as pedestrians "
+                    "(2, 7, 8, 12 as distractors): renumber the classes of gt.txt", gt, names[0], labels.name, where)
 
 
 @dataclass

@@ -113,3 +113,23 @@ def test_what_is_missing_or_wrong_is_one_clear_error(tmp_path, capsys):
     shutil.copytree(seq, empty / "MOT16-02", ignore=shutil.ignore_patterns("img1"))
     with pytest.raises(InputError, match=r"holds 1 sequence folder\(s\) \(MOT16-02\): give those, e.g. .*empty/\*"):
         read_seqinfo(empty)  # the folder above the sequences
+
+
+def test_an_export_whose_first_label_is_not_people_is_warned_of(tmp_path, caplog):
+    """CVAT numbers gt.txt's classes by its labels.txt; MOTChallenge's scoring takes class 1 for pedestrians."""
+    seq = require(CLIP)
+    export = tmp_path / "export"
+    _renamed_frames(seq, export / "img1", "{:06d}.jpg")
+    (export / "gt").mkdir()
+    shutil.copyfile(seq / "gt" / "gt.txt", export / "gt" / "gt.txt")
+    results = tmp_path / "r.txt"
+    results.write_text("1,1,912,484,97,109,1,-1,-1,-1\n")
+    (export / "gt" / "labels.txt").write_text("car\nperson\n")
+    with caplog.at_level("WARNING"):
+        sotmot.evaluate(results, export)
+    assert "class 1 is 'car' by labels.txt, and the people are class 2" in caplog.text
+    caplog.clear()
+    (export / "gt" / "labels.txt").write_text("person\ncar\n")
+    with caplog.at_level("WARNING"):
+        sotmot.evaluate(results, export)
+    assert "labels.txt" not in caplog.text
