@@ -100,7 +100,7 @@ class Flag:
 #: Every tracker flag, in the order the help lists them and the configuration receives them.
 FLAGS: tuple[Flag, ...] = (
     Flag(("--solver", "--merger"), "association", "solver", choices=_solvers, metavar="SOLVER",
-         commands=frozenset({"track", "graph", "explain", "compare"})),
+         commands=frozenset({"track", "graph", "explain"})),
     Flag(("--reid-model",), "appearance", "model", metavar="PATH",
          note="Overrides the configuration and SOTMOT_REID_MODEL."),
     Flag(("--appearance",), "appearance", "backend", choices=_backends,
