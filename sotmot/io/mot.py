@@ -142,11 +142,6 @@ def read_seqinfo_ini(seq_dir: str | Path) -> SeqInfo:
     """
     seq_dir = Path(seq_dir)
     if not seq_dir.is_dir():
-        if seq_dir.is_file():
-            from sotmot.io.video import VIDEO_SUFFIXES
-
-            raise InputError(seq_dir, f"a file, not a sequence folder; a video is known by its extension "
-                                      f"({', '.join(VIDEO_SUFFIXES)}): rename it if it is one")
         raise InputError(seq_dir, "not a sequence folder (it does not exist or is not a folder)")
     path = seq_dir / "seqinfo.ini"
     if not path.is_file():

@@ -5,10 +5,10 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from sotmot.errors import ConfigError
+from sotmot.errors import ConfigError, InputError
 from sotmot.io.images import frames_folder, image_folder_info
 from sotmot.io.mot import SeqInfo, read_seqinfo_ini
-from sotmot.io.video import is_video, video_info
+from sotmot.io.video import VIDEO_SUFFIXES, is_video, video_info
 
 
 def read_seqinfo(seq: str | Path, fps: float | None = None, *, rate_needed: bool = True) -> SeqInfo:
@@ -28,6 +28,9 @@ def read_seqinfo(seq: str | Path, fps: float | None = None, *, rate_needed: bool
     """
     if is_video(seq):
         return video_info(seq, fps)
+    if Path(seq).is_file():
+        raise InputError(seq, f"a file, not a sequence folder; a video is known by its extension "
+                              f"({', '.join(VIDEO_SUFFIXES)}): rename it if it is one")
     if frames_folder(seq) is not None:
         return image_folder_info(seq, fps if fps is not None or rate_needed else math.nan)
     if fps is not None:  # applied nowhere, it would only be recorded (and force a re-run on --resume)
