@@ -128,6 +128,9 @@ def test_common_mistakes_in_a_detections_file_are_named(tmp_path, caplog):
     (seq / "det" / "det.txt").write_text("1,-1,0.1,0.2,0.1,0.5,0.9\n2,-1,0.12,0.2,0.1,0.5,0.9\n")
     with pytest.raises(InputError, match=r"every box lies within 0..1 .*multiply x and w by 64, y and h by 48"):
         read_detections(info.det_path, info.length, size)
+    (seq / "det" / "det.txt").write_text("1,-1,10,10,5,8\n")  # no score column
+    with pytest.raises(InputError, match=r"6 columns, expected 7 to 10 .*no score column\? .*add the same score"):
+        read_detections(info.det_path, info.length, size)
     (seq / "det" / "det.txt").write_text("1,-1,10,10,40,30,0.9\n2,-1,30,20,60,44,0.9\n")  # x1, y1, x2, y2
     with caplog.at_level("WARNING"):
         assert len(read_detections(info.det_path, info.length, size)) == 2

@@ -217,8 +217,10 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
                 continue
             fields = _fields(text)
             if not (min_cols <= len(fields) <= max_cols):
+                hint = ("; no score column? a detector that gives none: add the same score to every line (e.g. "
+                        "',1'), and each box counts as one it stands behind" if len(fields) == 6 and not ids else "")
                 raise InputError(path, f"{len(fields)} columns, expected {min_cols} to {max_cols} "
-                                 f"(frame, id, x, y, w, h, score, ...)", line=number)
+                                 f"(frame, id, x, y, w, h, score, ...){hint}", line=number)
             try:
                 values = [float(f) for f in fields]
             except ValueError:
