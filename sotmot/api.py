@@ -35,6 +35,7 @@ from sotmot.io import (
     SeqInfo, detections_from_array, format_results, is_plain_name, read_results, read_seqinfo, refuse_overwriting,
     write_text_atomic,
 )
+from sotmot.io.images import image_list_info
 from sotmot.io.sequence import takes_frame_rate
 from sotmot.types import Tracks
 
@@ -123,6 +124,8 @@ def _in_memory(frames: Any, frame_rate: float | None, name: str, stack: contextl
     frame_rate = TrackerConfig().replace("input", fps=frame_rate).input.fps  # checked as --fps is
     if not is_plain_name(name):
         raise ConfigError(f"name must be a plain file name (no path separators); got {name!r}")
+    if isinstance(frames, (list, tuple)) and frames and all(isinstance(f, (str, Path)) for f in frames):
+        return image_list_info(list(frames), frame_rate, name)  # image files, read when a stage needs them
     if isinstance(frames, np.ndarray) and frames.ndim == 3:
         raise InputError(name, "frames is one image; pass a list (or an iterable, or a 4-D array) of images")
     if not (hasattr(frames, "__len__") and hasattr(frames, "__getitem__")):
@@ -151,7 +154,8 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
     frames
         A video file, a MOTChallenge folder (``seqinfo.ini``, ``img1/``), a
         folder of images without ``seqinfo.ini`` (frames in the order of their
-        names, numbers compared as numbers; ``frame_rate`` needed), or the
+        names, numbers compared as numbers; ``frame_rate`` needed), a list of
+        image paths (frames in the list's order; ``frame_rate`` needed), or the
         frames themselves: a list, a 4-D array or any sequence of BGR ``uint8``
         images (as ``cv2.imread`` gives them), each fetched when a stage needs
         it, or any iterable of them (read once, kept on disk in a temporary

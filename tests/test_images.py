@@ -133,3 +133,16 @@ def test_an_export_whose_first_label_is_not_people_is_warned_of(tmp_path, caplog
     with caplog.at_level("WARNING"):
         sotmot.evaluate(results, export)
     assert "labels.txt" not in caplog.text
+
+
+def test_a_list_of_image_paths_tracks_as_the_folder_does(tmp_path):
+    seq = require(CLIP)
+    paths = [str(p) for p in sorted((seq / "img1").glob("*.jpg"))]
+    det = np.loadtxt(seq / "det" / "det.txt", delimiter=",", ndmin=2)[:, [0, 2, 3, 4, 5, 6]]
+    listed = sotmot.track(paths, detections=det, frame_rate=30, name="MOT16-02")
+    assert listed.save(tmp_path / "list.txt").read_bytes() == \
+        sotmot.track(str(seq)).save(tmp_path / "folder.txt").read_bytes()
+    with pytest.raises(InputError, match=r"nope\.jpg: frame 4 of the list is not a file"):
+        sotmot.track(paths[:3] + [str(tmp_path / "nope.jpg")], frame_rate=30)
+    with pytest.raises(ConfigError, match="frame_rate is needed"):
+        sotmot.track(paths)

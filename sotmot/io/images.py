@@ -12,6 +12,7 @@ MOTChallenge folder has them, so a folder that lacks only its ``seqinfo.ini`` tr
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -60,9 +61,6 @@ def image_folder_info(seq: str | Path, fps: float | None) -> SeqInfo:
         No frame rate was given, it is above :data:`~sotmot.io.mot.MAX_FRAME_RATE`, the folder's name
         cannot name a sequence, or the first image does not decode.
     """
-    import cv2
-    import numpy as np
-
     seq = Path(seq)
     folder = frames_folder(seq)
     if folder is None:
@@ -79,12 +77,37 @@ def image_folder_info(seq: str | Path, fps: float | None) -> SeqInfo:
     name = seq.resolve().name
     if not is_plain_name(name):
         raise InputError(seq, f"the folder's name {name!r} cannot name a sequence")
+    return _sequence_of(seq, name, files, float(fps), folder.name if folder != seq else ".")
+
+
+def image_list_info(files: "list[str | Path]", fps: float, name: str) -> SeqInfo:
+    """The sequence of the image files ``files`` in the order given (frame 1 the first), at ``fps``, named ``name``
+    (:func:`sotmot.track` on a list of paths). Its folder, where a ``det/det.txt`` would be looked for, is the one
+    the files share.
+
+    Raises
+    ------
+    InputError
+        A file is missing, or the first does not decode.
+    """
+    files = [Path(f) for f in files]
+    missing = next((f for f in files if not f.is_file()), None)
+    if missing is not None:
+        raise InputError(missing, f"frame {files.index(missing) + 1} of the list is not a file")
+    folder = Path(os.path.commonpath([str(f.resolve().parent) for f in files]))
+    return _sequence_of(folder, name, files, float(fps), ".")
+
+
+def _sequence_of(path: Path, name: str, files: "list[Path]", fps: float, im_dir: str) -> SeqInfo:
+    """The :class:`SeqInfo` of ``files``, frame 1 the first, its size the first image's."""
+    import cv2
+    import numpy as np
+
     try:
         first = cv2.imdecode(np.fromfile(files[0], dtype=np.uint8), cv2.IMREAD_COLOR)
     except OSError as exc:
         raise InputError(files[0], f"frame 1 cannot be read: {exc.strerror}") from exc
     if first is None:
         raise InputError(files[0], "frame 1 cannot be decoded as an image")
-    return SeqInfo(path=seq, name=name, frame_rate=float(fps), length=len(files), width=first.shape[1],
-                   height=first.shape[0], im_dir=folder.name if folder != seq else ".", im_ext="",
-                   files=tuple(files))
+    return SeqInfo(path=path, name=name, frame_rate=fps, length=len(files), width=first.shape[1],
+                   height=first.shape[0], im_dir=im_dir, im_ext="", files=tuple(files))
