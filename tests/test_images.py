@@ -106,6 +106,9 @@ def test_what_is_missing_or_wrong_is_one_clear_error(tmp_path, capsys):
     (plain / "frame_1.jpg").write_bytes(b"not an image")
     with pytest.raises(InputError, match=r"frame_1\.jpg: frame 1 cannot be decoded"):
         read_seqinfo(plain, 30)
+    (plain / "frame_1.jpg").write_bytes(b"")  # empty: its own error, not one from inside OpenCV
+    with pytest.raises(InputError, match=r"frame_1\.jpg: frame 1 cannot be decoded"):
+        read_seqinfo(plain, 30)
     empty = tmp_path / "empty"
     empty.mkdir()
     with pytest.raises(InputError, match="seqinfo.ini: missing"):  # no images: still asked for as a sequence folder

@@ -293,11 +293,11 @@ def cmd_models(args: argparse.Namespace) -> int:
     return 0
 
 
-def _track_for_inspection(args: argparse.Namespace):
+def _track_for_inspection(args: argparse.Namespace, config, seq):
+    """``seq`` (a path, or the :class:`~sotmot.io.SeqInfo` the command read already) tracked with ``config``."""
     from sotmot.pipeline import track_sequence
 
-    config = build_config(args)
-    return config, track_sequence(args.seq_dir, config, progress=_progress(args))
+    return track_sequence(seq, config, progress=_progress(args))
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
@@ -305,9 +305,11 @@ def cmd_graph(args: argparse.Namespace) -> int:
     from sotmot.inspect.graph_view import SHOWN, html_page, png_bytes, shown_edges, tracklet_crops
     from sotmot.io import check_output_dir, read_seqinfo, write_files_atomic
 
-    frames = parse_frames(args.frames, read_seqinfo(args.seq_dir, build_config(args).input.fps).length)
+    config = build_config(args)
+    info = read_seqinfo(args.seq_dir, config.input.fps)
+    frames = parse_frames(args.frames, info.length)
     check_output_dir(args.out)  # a file, a read-only folder: said now, not after the tracking
-    config, result = _track_for_inspection(args)
+    result = _track_for_inspection(args, config, info)
     graph = inspection_graph(result, config, frames)
     title = f"{result.info.name}: association graph ({config.association.solver})"
     files = {args.out / name: data for name, data in graph_files(graph).items()}
@@ -332,7 +334,8 @@ def cmd_explain(args: argparse.Namespace) -> int:
         raise SotmotError("give --ids (one or two track ids of the results file) or --tracklets (two tracklet ids "
                           "as 'sotmot graph' draws them)")
     a, b = parse_ids(args.ids) if args.ids is not None else parse_ids(args.tracklets, "tracklet")
-    config, result = _track_for_inspection(args)
+    config = build_config(args)
+    result = _track_for_inspection(args, config, args.seq_dir)
     graph = inspection_graph(result, config)
     print(explain(graph, a, b, config) if args.ids is not None else explain_tracklets(graph, a, b, config))
     if args.ids is not None and a == b:  # one track: also what filled the holes between its tracklets

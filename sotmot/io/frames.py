@@ -19,6 +19,7 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
+from pathlib import Path
 from typing import Protocol
 
 import numpy as np
@@ -82,6 +83,29 @@ def grey_reduced(image: np.ndarray, factor: int) -> np.ndarray:
     return cv2.resize(grey, (width, height), interpolation=cv2.INTER_AREA)
 
 
+def read_image(path: Path, frame: int, flags: int) -> np.ndarray:
+    """The image file of 1-based ``frame`` decoded by OpenCV with ``flags`` (``cv2.IMREAD_*``).
+
+    The bytes are read by Python and decoded by OpenCV: ``cv2.imread`` crashes on some paths (not valid
+    UTF-8), and an empty file would fail inside OpenCV rather than as the file's own error.
+
+    Raises
+    ------
+    InputError
+        The file cannot be read, or its bytes are not an image.
+    """
+    import cv2
+
+    try:
+        data = np.fromfile(path, dtype=np.uint8)
+    except OSError as exc:
+        raise InputError(path, f"frame {frame} cannot be read: {exc.strerror}") from exc
+    image = cv2.imdecode(data, flags) if len(data) else None
+    if image is None:
+        raise InputError(path, f"frame {frame} cannot be decoded as an image")
+    return image
+
+
 class JpegFolder:
     """The ``img1/NNNNNN.jpg`` files of a MOTChallenge folder, each decoded on request."""
 
@@ -106,24 +130,17 @@ class JpegFolder:
         return self._decode(frame, flags[factor], factor)
 
     def _decode(self, frame: int, flags: int, factor: int) -> np.ndarray:
-        import cv2
-
         path = self.info.frame_path(frame)
         if not path.is_file():
             absent = "" if self.info.frames_dir.is_dir() else (
                 f" (there is no {self.info.im_dir}/ folder: put the frames there, or track from the detections "
                 f"alone with --appearance none, the motion-only mode)")
             raise InputError(path, f"frame {frame} is missing from {self.info.im_dir}/{absent}")
-        # bytes read by Python, decoded by OpenCV: cv2.imread crashes on some paths (not valid UTF-8)
         try:
-            data = np.fromfile(path, dtype=np.uint8)
-        except OSError as exc:
-            raise InputError(path, f"frame {frame} cannot be read: {exc.strerror}") from exc
-        image = cv2.imdecode(data, flags) if len(data) else None
-        with self._counting:
-            self.decodes += 1
-        if image is None:
-            raise InputError(path, f"frame {frame} cannot be decoded as an image")
+            image = read_image(path, frame, flags)
+        finally:
+            with self._counting:
+                self.decodes += 1
         if image.shape[:2] != reduced_size(self.info.height, self.info.width, factor):
             said = (f"frame 1 is {self.info.width} x {self.info.height}" if self.info.files is not None
                     else f"seqinfo.ini says imWidth={self.info.width}, imHeight={self.info.height}")

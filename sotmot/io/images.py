@@ -17,6 +17,7 @@ import re
 from pathlib import Path
 
 from sotmot.errors import InputError
+from sotmot.io.frames import read_image
 from sotmot.io.mot import MAX_FRAME_RATE, SeqInfo, is_plain_name
 
 #: File extensions taken for frames (lower case); what OpenCV decodes.
@@ -39,21 +40,25 @@ def image_files(folder: Path) -> list[Path]:
     return sorted(found, key=lambda p: natural_key(p.name))
 
 
-def frames_folder(seq: str | Path) -> Path | None:
-    """Where the frames of a folder without ``seqinfo.ini`` lie: its ``img1/`` when that holds images, else the
-    folder itself when it does; None when ``seq`` is not such a folder (it has a ``seqinfo.ini``, or no image)."""
+def frames_folder(seq: str | Path) -> tuple[Path, list[Path]] | None:
+    """Where the frames of a folder without ``seqinfo.ini`` lie, and the images there (:func:`image_files`): its
+    ``img1/`` when that holds images, else the folder itself when it does; None when ``seq`` is not such a folder
+    (it has a ``seqinfo.ini``, or no image)."""
     seq = Path(seq)
     if not seq.is_dir() or (seq / "seqinfo.ini").exists():
         return None
     for folder in (seq / "img1", seq):
-        if image_files(folder):
-            return folder
+        files = image_files(folder)
+        if files:
+            return folder, files
     return None
 
 
-def image_folder_info(seq: str | Path, fps: float | None) -> SeqInfo:
+def image_folder_info(seq: str | Path, fps: float | None,
+                      found: tuple[Path, list[Path]] | None = None) -> SeqInfo:
     """The sequence a folder of images is (see the module's docstring); ``fps`` its frame rate (NaN: read for
-    what scoring needs, its name, length and ``gt.txt``, with no rate).
+    what scoring needs, its name, length and ``gt.txt``, with no rate); ``found``: what :func:`frames_folder`
+    gave for it, when the caller has asked already.
 
     Raises
     ------
@@ -62,10 +67,10 @@ def image_folder_info(seq: str | Path, fps: float | None) -> SeqInfo:
         cannot name a sequence, or the first image does not decode.
     """
     seq = Path(seq)
-    folder = frames_folder(seq)
-    if folder is None:
+    found = found or frames_folder(seq)
+    if found is None:
         raise InputError(seq, "neither a MOTChallenge folder (seqinfo.ini) nor a folder of images")
-    files = image_files(folder)
+    folder, files = found
     where = f"{len(files)} images{' in img1/' if folder != seq else ''} but no seqinfo.ini"
     if fps is None:
         raise InputError(seq, f"holds {where}, so no frame rate: give it (sotmot track --fps N, "
@@ -101,13 +106,7 @@ def image_list_info(files: "list[str | Path]", fps: float, name: str) -> SeqInfo
 def _sequence_of(path: Path, name: str, files: "list[Path]", fps: float, im_dir: str) -> SeqInfo:
     """The :class:`SeqInfo` of ``files``, frame 1 the first, its size the first image's."""
     import cv2
-    import numpy as np
 
-    try:
-        first = cv2.imdecode(np.fromfile(files[0], dtype=np.uint8), cv2.IMREAD_COLOR)
-    except OSError as exc:
-        raise InputError(files[0], f"frame 1 cannot be read: {exc.strerror}") from exc
-    if first is None:
-        raise InputError(files[0], "frame 1 cannot be decoded as an image")
+    first = read_image(files[0], 1, cv2.IMREAD_COLOR)
     return SeqInfo(path=path, name=name, frame_rate=fps, length=len(files), width=first.shape[1],
                    height=first.shape[0], im_dir=im_dir, im_ext="", files=tuple(files))

@@ -31,8 +31,9 @@ def read_seqinfo(seq: str | Path, fps: float | None = None, *, rate_needed: bool
     if Path(seq).is_file():
         raise InputError(seq, f"a file, not a sequence folder; a video is known by its extension "
                               f"({', '.join(VIDEO_SUFFIXES)}): rename it if it is one")
-    if frames_folder(seq) is not None:
-        return image_folder_info(seq, fps if fps is not None or rate_needed else math.nan)
+    found = frames_folder(seq)
+    if found is not None:
+        return image_folder_info(seq, fps if fps is not None or rate_needed else math.nan, found)
     if fps is not None:  # applied nowhere, it would only be recorded (and force a re-run on --resume)
         raise ConfigError(f"{seq}: --fps ([input] fps) is for a video or a folder of images; a sequence folder's "
                           f"frame rate is frameRate in its seqinfo.ini")
