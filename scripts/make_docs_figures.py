@@ -21,7 +21,7 @@ from common import DEFAULT_DATA
 from sotmot.benchmarks import before_confirmation
 from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
-from sotmot.inspect.explain import inspection_graph
+from sotmot.inspect.explain import explain_confirmation, inspection_graph
 from sotmot.inspect.graph_view import draw_png
 from sotmot.io import (
     FrameReader,
@@ -220,8 +220,14 @@ def main(argv: list[str] | None = None) -> int:
                  f"`<name>.flags.csv`):", "",
                  "| output | HOTA | MOTA | IDF1 | FP | FN |", "|---|---|---|---|---|---|",
                  *[f"| {k} | {v['HOTA']:.1f} | {v['MOTA']:.1f} | {v['IDF1']:.1f} | {v['FP']:.0f} | {v['FN']:.0f} |"
-                   for k, v in scores.items()], "",
-                 "## 8. SOT after association: the ends of trusted trajectories", "",
+                   for k, v in scores.items()], ""]
+        if len(r.dropped):  # the track that lost most boxes, as `sotmot explain --ids N` tells it
+            ids, counts = np.unique(r.dropped.ids, return_counts=True)
+            worst = int(ids[counts.argmax()])
+            text += [f"Why track {worst} lost {counts.max()} boxes: `sotmot explain PETS09-S2L1 --ids {worst}` ends "
+                     f"with how confirmation judged it (the same numbers the run decided on):", "", "```",
+                     explain_confirmation(r, base, worst), "```", ""]
+        text += ["## 8. SOT after association: the ends of trusted trajectories", "",
                  f"Interpolation cannot reach before a trajectory's first or after its last box. Each trajectory "
                  f"whose mean confirmation confidence is at least {base.ends.min_confidence:g} is followed "
                  f"up to {base.ends.seconds:g} s past both ends by the SOT machinery (template proposals "

@@ -24,14 +24,20 @@ def box_scorer(model: BoxModel, detections: Detections, features: np.ndarray, co
     return score
 
 
+def confirmation_threshold(config: TrackerConfig, method: str) -> float:
+    """The probability below which confirmation drops a box: ``[confirm] threshold``, or the calibration's for the
+    model kind (:func:`~sotmot.confidence.calibration.model_kind`) of the resolved confidence ``method``."""
+    if config.confirm.threshold is not None:
+        return config.confirm.threshold
+    return load_calibration(config.confirm.calibration).thresholds[model_kind(method)]
+
+
 def confirm(tracks: Tracks, config: TrackerConfig, method: str = "raw") -> tuple[Tracks, Tracks]:
     """Split scored ``tracks`` into the confirmed boxes and the dropped ones.
 
     The threshold is ``[confirm] threshold``, or the calibration's for the
     model kind of the confidence ``method`` the sequence used.
     """
-    threshold = config.confirm.threshold
-    if threshold is None:
-        threshold = load_calibration(config.confirm.calibration).thresholds[model_kind(method)]
+    threshold = confirmation_threshold(config, method)
     keep = ~(tracks.confidence < threshold)  # NaN (not scored) is kept
     return tracks.subset(np.flatnonzero(keep)), tracks.subset(np.flatnonzero(~keep))

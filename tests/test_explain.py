@@ -119,3 +119,58 @@ def test_gaps_are_explained_with_the_bound_the_line_check_set(tmp_path):
     assert "does not hold over 2 s" in text and "filled up to 1 s" in text and "left empty" in text
     kept = explain_gaps(dataclasses.replace(checked, postprocess=config.postprocess), config, 1)
     assert "does not hold" not in kept and "left empty" not in kept
+
+
+def test_confirmation_is_explained_from_the_numbers_it_decided_on():
+    """`explain --ids N` says how confirmation judged track N: its boxes' P(true), the threshold, what it kept, and
+    each feature's share of the log-odds, recomputed exactly as the pipeline scored those boxes."""
+    import numpy as np
+
+    from conftest import DATA, require
+    from sotmot.confirm import confirmation_threshold
+    from sotmot.inspect.explain import FEATURE_WORDS, confirmation_inputs, explain_confirmation
+    from sotmot.confidence.box_model import FEATURES
+
+    assert list(FEATURE_WORDS) == list(FEATURES)  # every feature of the model has its words
+    seq = require(DATA / "MOT16-02-clip30")
+    config = TrackerConfig()
+    result = track_sequence(seq, config)
+    threshold = confirmation_threshold(config, result.confidence_method)
+    assert threshold > 0 and len(result.dropped)  # the clip's DPM boxes: some tracks kept, some dropped
+    checked = set()
+    for trajectory, track in zip(result.trajectories, result.track_ids):
+        if track is None:
+            continue
+        rows = [r.subset(np.flatnonzero(r.ids == track)) for r in (result.tracks, result.dropped)]
+        frames = np.concatenate([r.frames for r in rows])
+        confidence = np.concatenate([r.confidence for r in rows])
+        scored = np.isfinite(confidence)  # the end extension's boxes come after confirmation, unscored
+        model, x = confirmation_inputs(result, config, trajectory)
+        assert np.allclose(model.predict(x), confidence[scored][np.argsort(frames[scored], kind="stable")])
+        assert np.allclose(model.terms(x).sum(axis=1) + model.intercept,
+                           np.log(model.predict(x) / (1 - model.predict(x))))
+        text = explain_confirmation(result, config, track)
+        p = confidence[scored]
+        assert f"boxes P(true) {p.min():.2f} to {p.max():.2f}" in text and f"threshold {threshold:g}" in text
+        n_dropped = len(rows[1])
+        fate = ("all" if not n_dropped else "mixed") if n_dropped < len(p) else "none"
+        assert {"all": f"all {len(p)} kept", "none": f"all {n_dropped} dropped",
+                "mixed": f"{len(p) - n_dropped} kept, {n_dropped} dropped"}[fate] in text
+        assert all(words in text for words, _ in FEATURE_WORDS.values())
+        checked.add(fate)
+    assert {"all", "none"} <= checked
+    off = config.replace("confirm", enabled=False)
+    assert "confirmation: off" in explain_confirmation(result, off, result.track_ids[0] or 1)
+
+    # one track's links: the taken and the rejected ones each explained, the allowed ones it did not need counted
+    graph = inspection_graph(result, config)
+    counts = {}
+    for u, v, d in graph.edges(data=True):
+        if graph.nodes[u]["track"] == graph.nodes[v]["track"] >= 0:
+            kind = "taken" if d["taken"] else "allowed" if d["allowed"] else "rejected"
+            counts.setdefault(graph.nodes[u]["track"], {"taken": 0, "allowed": 0, "rejected": 0})[kind] += 1
+    track, n = max(counts.items(), key=lambda item: item[1]["allowed"])
+    assert n["allowed"], "a track with links past its tracklets: the case to test"
+    text = explain(graph, track, track, config)
+    assert text.count("\ncandidate ") == n["taken"] + n["rejected"] == text.count("TAKEN") + text.count("REJECTED")
+    assert f"{n['allowed']} other candidate link(s) between these tracklets passed every rule but were not taken" in text

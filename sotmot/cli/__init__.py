@@ -203,8 +203,9 @@ def build_parser() -> argparse.ArgumentParser:
         else:
             p.add_argument("--ids", metavar="ID[,ID]",
                            help="two track ids of the results file (e.g. 3,17: why they were not merged), or one "
-                                "(e.g. 5: why its tracklets were merged into it, and what filled the gaps between "
-                                "them)")
+                                "(e.g. 5: why its tracklets were merged into it, what filled the gaps between "
+                                "them, and how confirmation judged its boxes: their P(true), the threshold, what "
+                                "each feature of the box model added)")
             p.add_argument("--tracklets", metavar="ID,ID",
                            help="two tracklet ids, as 'sotmot graph' draws them (e.g. 4,9: merged or not, and why)")
         add_tracker_flags(p, name)

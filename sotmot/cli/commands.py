@@ -328,7 +328,8 @@ def cmd_graph(args: argparse.Namespace) -> int:
 
 
 def cmd_explain(args: argparse.Namespace) -> int:
-    from sotmot.inspect.explain import explain, explain_gaps, explain_tracklets, inspection_graph, parse_ids
+    from sotmot.inspect.explain import (explain, explain_confirmation, explain_gaps, explain_tracklets,
+                                        inspection_graph, parse_ids)
 
     if (args.ids is None) == (args.tracklets is None):
         raise SotmotError("give --ids (one or two track ids of the results file) or --tracklets (two tracklet ids "
@@ -338,6 +339,7 @@ def cmd_explain(args: argparse.Namespace) -> int:
     result = _track_for_inspection(args, config, args.seq_dir)
     graph = inspection_graph(result, config)
     print(explain(graph, a, b, config) if args.ids is not None else explain_tracklets(graph, a, b, config))
-    if args.ids is not None and a == b:  # one track: also what filled the holes between its tracklets
-        print(explain_gaps(result, config, a))
+    if args.ids is not None and a == b:  # one track: also what filled the holes between its tracklets, and
+        print(explain_gaps(result, config, a))  # how confirmation judged its boxes
+        print(explain_confirmation(result, config, a))
     return 0

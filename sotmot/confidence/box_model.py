@@ -59,11 +59,17 @@ class BoxModel:
     coef: tuple[float, ...]
     intercept: float
 
-    def predict(self, x: np.ndarray) -> np.ndarray:
-        """Probabilities ``(N,)`` for a feature matrix ``(N, len(FEATURES))``; a feature that could not be
-        measured (NaN: ``track_appearance`` without re-ID) counts as its training mean."""
+    def terms(self, x: np.ndarray) -> np.ndarray:
+        """``(N, len(FEATURES))`` what each feature adds to the log-odds of each row of the feature matrix ``x``,
+        against a box whose every feature is at its training mean (whose log-odds are :attr:`intercept`); a
+        feature that could not be measured (NaN: ``track_appearance`` without re-ID) adds 0."""
         z = np.nan_to_num((np.asarray(x, dtype=np.float64) - np.asarray(self.mean)) / np.asarray(self.scale), nan=0.0)
-        return 1.0 / (1.0 + np.exp(-(z @ np.asarray(self.coef) + self.intercept)))
+        return z * np.asarray(self.coef)
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        """Probabilities ``(N,)`` for a feature matrix ``(N, len(FEATURES))``: the logistic of :meth:`terms`'
+        sum plus :attr:`intercept`."""
+        return 1.0 / (1.0 + np.exp(-(self.terms(x).sum(axis=1) + self.intercept)))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form, with the feature names."""

@@ -26,10 +26,12 @@ from sotmot.config import AssociationConfig, TrackerConfig
 from sotmot.association.objective import link_pairs
 from sotmot.association.merge import link_order_key
 from sotmot.association.rules import RULES
+from sotmot.confidence.box_model import FEATURES, SHORT_SECONDS, TOP_QUANTILE, BoxModel, box_features
 from sotmot.errors import SotmotError
 from sotmot.association.candidates import build_graph
 from sotmot.io import write_files_atomic
 from sotmot.pipeline import TrackResult
+from sotmot.types import Tracklet
 
 
 def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[int, int] | None = None) -> nx.DiGraph:
@@ -213,13 +215,16 @@ def _explain_members(graph: nx.DiGraph, first: list[int], second: list[int], con
         out.append(f"  tracklet {t}: frames {d['start']}-{d['end']}, {d['length']} boxes "
                    f"({d['sot_boxes']} from SOT), mean score {d['mean_score']:.2f}")
     pairs = {tuple(sorted((u, v))) for u in first for v in second if u != v}  # each unordered pair once
-    found = 0
+    found = skipped = 0
     for u, v in sorted(pairs):
         for x, y in ((u, v), (v, u)):
             if not graph.has_edge(x, y):
                 continue
             found += 1
             data = graph.edges[x, y]
+            if first == second and data["allowed"] and not data["taken"]:
+                skipped += 1  # one track: a link past a tracklet between them, which the taken links join
+                continue
             rounds = f" in round {data['round']}" if data["round"] else ""
             state = (f"TAKEN by {config.association.solver}" + rounds) \
                 if data["taken"] else ("allowed, not taken" if data["allowed"] else
@@ -234,6 +239,10 @@ def _explain_members(graph: nx.DiGraph, first: list[int], second: list[int], con
                 out.append(f"    lifted objective: the link joins {len(shown)} scored pair(s) of tracklets, "
                            f"total {data['lifted_gain']:+.1f}: " + ", ".join(shown[:6])
                            + (", ..." if len(shown) > 6 else ""))
+    if skipped:
+        out.append(f"{skipped} other candidate link(s) between these tracklets passed every rule but were not "
+                   f"taken: each skips a tracklet that lies between its two in the track, and the taken links "
+                   f"join them through it")
     if not found and pairs:
         out.append(f"no candidate pair between them: their tracklets are more than l_max = "
                    f"{gaps.l_max} frames apart, so they were never compared")
@@ -266,6 +275,81 @@ def explain_gaps(result: TrackResult, config: TrackerConfig, track: int) -> str:
         left = f", {g.left_out} left out" if g.left_out else ""
         out.append(f"  frames {g.after + 1}-{g.before - 1} ({missing} frame(s){seconds}): {g.written} box(es) "
                    f"written{left}; {g.why}")
+    return "\n".join(out)
+
+
+#: How :func:`explain_confirmation` names each of the box model's features (:data:`FEATURES` order), and how it
+#: shows the track's value: ``"p"`` a mean log-odds shown as a probability, ``"share"`` a share of its boxes or
+#: span, ``"value"`` as it is.
+FEATURE_WORDS = {
+    "box_conf": ("the box's detection confidence (an interpolated box: the higher of its gap's two ends)", "p"),
+    "interpolated": ("boxes interpolated", "share"),
+    "track_conf_mean": ("the track's mean detection confidence", "p"),
+    "track_conf_top": (f"the track's {TOP_QUANTILE:.0%} quantile of detection confidence", "p"),
+    "track_interp_share": ("frames of its span without a detection", "share"),
+    "track_appearance": ("re-ID consistency (mean cosine of its detections to their mean feature)", "value"),
+    "track_brevity": (f"brevity (log of how many times shorter than {SHORT_SECONDS:g} s; 0 when longer)", "value"),
+}
+
+
+def confirmation_inputs(result: TrackResult, config: TrackerConfig,
+                        trajectory: Tracklet) -> tuple[BoxModel, np.ndarray]:
+    """The box model confirmation applied to ``result`` and the ``(L, len(FEATURES))`` features of the boxes of
+    one of its ``trajectory`` as post-processing wrote them (in frame order), as the pipeline computed them."""
+    from sotmot.confidence.calibration import load_calibration, model_kind
+    from sotmot.postprocess import expand
+
+    model = load_calibration(config.confirm.calibration).box_models[model_kind(result.confidence_method)]
+    rate = result.info.frame_rate
+    expanded = expand(trajectory, result.postprocess or config.postprocess, rate, result.occluders)
+    return model, box_features(trajectory, expanded, result.confidence, result.detections.from_sot,
+                               result.features, rate)
+
+
+def _probability(log_odds: float) -> float:
+    return 1.0 / (1.0 + math.exp(-log_odds))
+
+
+def explain_confirmation(result: TrackResult, config: TrackerConfig, track: int) -> str:
+    """Plain words on how confirmation judged output track ``track``: the probability of being a true positive it
+    gave the track's boxes, the threshold it compared them with and where that came from, how many it kept, and
+    what each feature of the box model (:mod:`sotmot.confidence.box_model`) added to the log-odds."""
+    from sotmot.confidence.calibration import model_kind
+    from sotmot.confirm import confirmation_threshold
+
+    if not config.confirm.enabled:
+        return f"confirmation: off ([confirm] enabled = false): every box of track {track} is kept"
+    kept, dropped = (rows.confidence[rows.ids == track] for rows in (result.tracks, result.dropped))
+    scored = np.concatenate([kept, dropped])
+    scored = scored[np.isfinite(scored)]  # boxes the end extension added after confirmation have no score
+    found = [t for t, i in zip(result.trajectories, result.track_ids) if i == track]
+    if not found or not len(scored):
+        return f"confirmation: track {track} has no box it scored"
+    method = result.confidence_method
+    kind = model_kind(method)
+    threshold = confirmation_threshold(config, method)
+    source = ("[confirm] threshold" if config.confirm.threshold is not None else
+              f"the calibration's for {kind!r} boxes; [confirm] threshold sets another")
+    n_dropped = int(np.isfinite(dropped).sum())
+    fate = ("it drops no box" if threshold <= 0 else f"all {len(scored)} kept" if not n_dropped else
+            f"all {n_dropped} dropped" if n_dropped == len(scored) else
+            f"{len(scored) - n_dropped} kept, {n_dropped} dropped")
+    out = [f"confirmation: box model {kind!r} (for confidences from the {method!r} score map) gave "
+           f"track {track}'s {len(scored)} boxes P(true) {scored.min():.2f} to {scored.max():.2f} (median "
+           f"{np.median(scored):.2f}); threshold {threshold:g} ({source}): {fate}"]
+    model, x = confirmation_inputs(result, config, found[0])
+    terms = model.terms(x).mean(axis=0)
+    out.append(f"  what each feature adds to the log-odds (mean over the boxes), against a box with every feature "
+               f"at the fit's mean (log-odds {model.intercept:+.2f}, P(true) {_probability(model.intercept):.2f}):")
+    for name, value, term in zip(FEATURES, x.mean(axis=0), terms):
+        words, show = FEATURE_WORDS[name]
+        shown = ("not measured (no re-ID): counted as the fit's mean" if not math.isfinite(value) else
+                 f"{_probability(value):.2f}" if show == "p" else f"{value:.0%}" if show == "share" else
+                 f"{value:.2f}")
+        out.append(f"    {words}: {shown} -> {term:+.2f}")
+    total = model.intercept + terms.sum()
+    out.append(f"    in all {total:+.2f}: P(true) {_probability(total):.2f} at these mean terms (each box has its own, "
+               f"within the range above)")
     return "\n".join(out)
 
 
