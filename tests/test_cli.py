@@ -137,3 +137,23 @@ def test_weak_boxes_with_a_missing_detector_fail_before_tracking(tmp_path, model
                  "--weak-boxes", "on", "--detector-model", str(tmp_path / "gone.xml"), "-q"]) == 2
     assert "person detector not found" in capsys.readouterr().err
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_a_run_is_repeated_from_its_run_record_and_the_record_is_never_written_over(tmp_path, capsys):
+    seq = require(DATA / "MOT16-02-clip30")
+    (tmp_path / "c.toml").write_text("[confirm]\nthreshold = 0.7\n")
+    first, again, plain = tmp_path / "first", tmp_path / "again", tmp_path / "plain"
+    assert main(["track", str(seq), "--out", str(first), "--config", str(tmp_path / "c.toml"), "--extend-ends", "0",
+                 "-q"]) == 0
+    record = first / "MOT16-02-clip30.run.json"
+    assert main(["track", str(seq), "--out", str(again), "--config", str(record), "-q"]) == 0
+    assert main(["track", str(seq), "--out", str(plain), "-q"]) == 0
+    results = {d: (d / "MOT16-02-clip30.txt").read_bytes() for d in (first, again, plain)}
+    assert results[again] == results[first] != results[plain]  # the settings came back, and they matter here
+    assert (json.loads((again / "MOT16-02-clip30.run.json").read_text())["config"]
+            == json.loads(record.read_text())["config"])
+    before = record.read_bytes()
+    capsys.readouterr()
+    assert main(["track", str(seq), "--out", str(first), "--config", str(record), "-q"]) == 2
+    assert "which this run reads; choose another --out" in capsys.readouterr().err
+    assert record.read_bytes() == before

@@ -153,3 +153,37 @@ def test_the_gap_limit_in_seconds_is_checked_and_read_from_a_file(tmp_path):
     assert load_config(path).association.l_max_seconds == 4.0
     with pytest.raises(ConfigError, match="l_max_seconds must be in"):
         TrackerConfig().replace("association", l_max_seconds=0.0)
+
+
+def test_a_run_record_is_a_configuration_file_with_its_runs_settings(tmp_path, caplog):
+    """`--config results/<name>.run.json` runs with that run's settings: the record's config table, a bundled model
+    it names by SHA-256 taken from this installation (the recorded path may be another machine's)."""
+    import logging
+
+    from sotmot import __version__
+    from sotmot.models import MODELS
+
+    ran = TrackerConfig().replace("association", l_max_seconds=3.0, solver="flow").replace("confirm", threshold=0.7)
+    elsewhere = "/elsewhere/site-packages/sotmot/models/"
+    settings = ran.to_dict()
+    settings["appearance"]["model"] = elsewhere + MODELS["reid"].files[0][0]
+    settings["detection"]["model"] = "/mine/my-detector.xml"  # not a bundled one: kept as recorded
+    record = {"sotmot": __version__, "sequence": "clip", "results_sha256": "0" * 64, "config": settings,
+              "reid_model": {"path": settings["appearance"]["model"], "sha256": MODELS["reid"].files[0][1]},
+              "detector_model": {"path": "/mine/my-detector.xml", "sha256": "f" * 64}}
+    path = tmp_path / "clip.run.json"
+    path.write_text(json.dumps(record))
+    loaded = load_config(path)
+    assert loaded.association == ran.association and loaded.confirm == ran.confirm
+    assert loaded.appearance.model == str(MODELS["reid"].path)
+    assert loaded.detection.model == "/mine/my-detector.xml"
+    assert loaded.replace("appearance", model=None).replace("detection", model=None) == ran
+    assert "written by sotmot" not in caplog.text
+    path.write_text(json.dumps({**record, "sotmot": "0.0.1"}))
+    with caplog.at_level(logging.WARNING):
+        load_config(path)
+    assert f"written by sotmot 0.0.1, this is {__version__}" in caplog.text
+    del record["results_sha256"]  # not a record: its extra keys are errors, as in any configuration file
+    path.write_text(json.dumps(record))
+    with pytest.raises(ConfigError, match="outside any"):
+        load_config(path)

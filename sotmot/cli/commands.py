@@ -72,8 +72,8 @@ def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:
     if len(set(names)) != len(names):
         raise SotmotError(f"two sequences share a name: {names}")
     for info in infos:
-        refuse_overwriting(sequence_outputs(args.out, info, config), sequence_inputs(info, config),
-                           "choose another --out")
+        refuse_overwriting(sequence_outputs(args.out, info, config), [*sequence_inputs(info, config), args.config],
+                           "choose another --out")  # --config may be a run record in --out
         if args.eval and not info.gt_path.is_file():
             raise SotmotError(f"{info.gt_path}: --eval needs the ground truth of {info.name}, and there is none; "
                               f"track without --eval")

@@ -163,8 +163,9 @@ def add_tracker_flags(parser: argparse.ArgumentParser, command: str) -> None:
     """Add ``--config`` and every flag of :data:`FLAGS` that ``command`` takes to ``parser``."""
     parser.add_argument("--config", type=Path, metavar="FILE",
                         help="TOML or JSON file with " + ", ".join(f"[{name}]" for name in SECTIONS)
-                             + " tables (docs/configuration.md); unknown keys are errors. The flags below override "
-                               "it")
+                             + " tables (docs/configuration.md); unknown keys are errors. Or a run record "
+                               "(<name>.run.json beside earlier results): the settings of that run. The flags below "
+                               "override it")
     for flag in FLAGS:
         if command not in flag.commands:
             continue

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import logging
 import inspect
 import json
 import math
@@ -38,6 +39,8 @@ from sotmot.config.output import ConfirmConfig, MotionConfig, PostprocessConfig,
 from sotmot.config.sot import EndsConfig, SotConfig
 from sotmot.config.sources import AppearanceConfig, ConfidenceMethod, DetectionConfig, InputConfig, PreprocessConfig
 from sotmot.errors import ConfigError
+
+log = logging.getLogger(__name__)
 
 __all__ = ["AppearanceConfig", "AssociationConfig", "ConfidenceMethod", "ConfirmConfig", "DetectionConfig",
            "EndsConfig", "InputConfig", "MAX_FRAME_RATE", "MotionConfig", "PostprocessConfig", "SECTIONS", "SotConfig",
@@ -229,8 +232,34 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
+def _is_run_record(data: Any) -> bool:
+    """Whether parsed JSON ``data`` is a run record (``<name>.run.json``, :mod:`sotmot.provenance`)."""
+    return (isinstance(data, dict) and isinstance(data.get("config"), dict) and isinstance(data.get("sotmot"), str)
+            and "results_sha256" in data)
+
+
+def run_record_settings(record: dict[str, Any], source: str | Path = "run record") -> dict[str, Any]:
+    """The settings a run record holds (its ``config`` table), to run again with: a model the record names by the
+    SHA-256 of a bundled one is this installation's copy of it (the record's path may be another machine's)."""
+    from sotmot import __version__
+    from sotmot.models import MODELS
+
+    settings = {section: dict(values) if isinstance(values, dict) else values
+                for section, values in record["config"].items()}
+    for kind, entry, section in (("reid", "reid_model", "appearance"), ("detector", "detector_model", "detection")):
+        named = record.get(entry)
+        if (isinstance(named, dict) and named.get("sha256") == MODELS[kind].files[0][1]
+                and isinstance(settings.get(section), dict)):
+            settings[section]["model"] = str(MODELS[kind].path)
+    if record["sotmot"] != __version__:
+        log.warning("%s: written by sotmot %s, this is %s: settings this version added take their defaults, and "
+                    "the results may differ", source, record["sotmot"], __version__)
+    return settings
+
+
 def load_config(path: str | Path) -> TrackerConfig:
-    """Read a TOML (``.toml``) or JSON (``.json``) configuration file."""
+    """Read a TOML (``.toml``) or JSON (``.json``) configuration file, or the run record (``<name>.run.json``)
+    ``sotmot track`` writes beside its results: the settings of that run (:func:`run_record_settings`)."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{path}: configuration file not found")
@@ -247,6 +276,9 @@ def load_config(path: str | Path) -> TrackerConfig:
         raise ConfigError(f"{path}: cannot be parsed: {exc}") from exc
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start}); save it as UTF-8") from exc
+    if _is_run_record(data):
+        log.info("%s: a run record; running with the settings of its run (%s)", path, data.get("sequence", "?"))
+        data = run_record_settings(data, path)
     try:
         return config_from_dict(data)
     except ConfigError as exc:
