@@ -120,6 +120,8 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--unconfirmed",), "confirm", "low_confidence", choices=lambda: ["drop", "file", "keep"], sets=_unconfirmed,
          note="Boxes more likely false than true after association: drop them, write them to DIR/<name>.low.txt "
               "(file), or keep them (keep: [confirm] enabled = false)."),
+    Flag(("--confirm-threshold",), "confirm", "threshold", metavar="P",
+         note="sotmot explain --ids N shows the probabilities of a track's boxes."),
     Flag(("--weak-boxes",), "detection", "weak_boxes"),
     Flag(("--sot",), "sot", "variant"),
     Flag(("--extend-ends",), "ends", "seconds", metavar="SECONDS"),

@@ -328,8 +328,8 @@ def explain_confirmation(result: TrackResult, config: TrackerConfig, track: int)
     method = result.confidence_method
     kind = model_kind(method)
     threshold = confirmation_threshold(config, method)
-    source = ("[confirm] threshold" if config.confirm.threshold is not None else
-              f"the calibration's for {kind!r} boxes; [confirm] threshold sets another")
+    source = ("[confirm] threshold, --confirm-threshold" if config.confirm.threshold is not None else
+              f"the calibration's for {kind!r} boxes; --confirm-threshold P sets another")
     n_dropped = int(np.isfinite(dropped).sum())
     fate = ("it drops no box" if threshold <= 0 else f"all {len(scored)} kept" if not n_dropped else
             f"all {n_dropped} dropped" if n_dropped == len(scored) else
