@@ -111,3 +111,34 @@ def test_failed_frame_write_is_an_error_and_leaves_nothing_half_written(tmp_path
     frames = sorted((tmp_path / "frames").iterdir())
     assert [p.name for p in frames] == ["000001.jpg", "000002.jpg", "000003.jpg"]
     assert all(cv2.imread(str(p)) is not None for p in frames)
+
+
+def test_dropped_boxes_are_drawn_grey_only_when_asked_and_only_the_runs_own(tmp_path, capsys):
+    seq = write_sequence(tmp_path, ["1,-1,5,5,10,20,1"], length=2, width=96, height=64)
+    results = tmp_path / "res" / "SYN.txt"
+    write_results(results, Tracks(frames=[1], ids=[1], boxes=[[5, 5, 10, 20]], scores=[1]))
+    low = results.with_name("SYN.low.txt")
+    assert main(["render", str(seq), str(results), "--out", str(tmp_path / "none"), "--dropped", "-q"]) == 2
+    assert f"{low}: --dropped draws the boxes confirmation dropped" in capsys.readouterr().err
+    write_results(low, Tracks(frames=[1], ids=[2], boxes=[[40, 10, 30, 40]], scores=[0.2]))
+    for name, extra in (("plain", []), ("dropped", ["--dropped"])):
+        assert main(["render", str(seq), str(results), "--out", str(tmp_path / name), "-q", *extra]) == 0
+    said = capsys.readouterr().out
+    assert "2 frames, 1 tracks and 1 dropped boxes" in said and "2 frames, 1 tracks ->" in said
+    plain, dropped = (cv2.imread(str(tmp_path / name / "000001.jpg")).astype(int) for name in ("plain", "dropped"))
+    edge = (slice(9, 12), slice(40, 48))  # the top edge of the dropped box, where its first dash lies
+    assert np.abs(dropped[edge] - plain[edge]).max() > 50 and np.abs(dropped[30:, :30] - plain[30:, :30]).max() < 30
+    assert main(["render", str(seq), str(low), "--out", str(tmp_path / "x"), "-q"]) == 0  # a low.txt is results too
+
+
+def test_a_low_file_the_run_did_not_write_is_not_drawn_as_its_dropped_boxes(tmp_path, capsys):
+    from conftest import DATA, require
+
+    seq = require(DATA / "MOT16-02-clip30")
+    assert main(["track", str(seq), "--out", str(tmp_path / "r"), "-q"]) == 0  # --unconfirmed drop: no low.txt
+    results = tmp_path / "r" / "MOT16-02-clip30.txt"
+    results.with_name("MOT16-02-clip30.low.txt").write_text(results.read_text())
+    capsys.readouterr()
+    assert main(["render", str(seq), str(results), "--out", str(tmp_path / "v"), "--dropped", "-q"]) == 2
+    assert "MOT16-02-clip30.low.txt is not one of the files the run of MOT16-02-clip30.txt wrote" in \
+        capsys.readouterr().err

@@ -177,6 +177,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "a hidden .partial name and renamed when complete; an existing folder must be empty or hold "
                         "an earlier render's NNNNNN.jpg frames only, and is written into frame by frame")
     p.add_argument("--gt", action="store_true", help="draw SEQ_DIR/gt/gt.txt beside, with the errors marked")
+    p.add_argument("--dropped", action="store_true",
+                   help="also draw the boxes confirmation dropped, grey and dashed with an 'x' after the id: the "
+                        "<name>.low.txt beside the results, which 'sotmot track --unconfirmed file' writes")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar (drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_render)
 

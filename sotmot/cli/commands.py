@@ -211,7 +211,9 @@ def cmd_render(args: argparse.Namespace) -> int:
     from sotmot.io.video import is_video
     from sotmot.io.flags import flags_path
 
-    inputs = [args.seq_dir, args.results, flags_path(args.results)]
+    from sotmot.runs import low_confidence_path
+
+    inputs = [args.seq_dir, args.results, flags_path(args.results), low_confidence_path(args.results)]
     refuse_overwriting([args.out], inputs, "choose another --out")  # before a video is read
     if args.gt and is_video(args.seq_dir):
         raise SotmotError("--gt needs a sequence folder with gt/gt.txt, not a video")
@@ -233,6 +235,18 @@ def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
         print(f"sotmot: warning: {doubt}: drawn without the SOT and interpolation markers", file=sys.stderr)
     else:
         tracks = read_flags(args.results, tracks)
+    dropped = None
+    if args.dropped:
+        from sotmot.runs import low_confidence_path
+
+        low = low_confidence_path(args.results)
+        if not low.is_file():
+            raise SotmotError(f"{low}: --dropped draws the boxes confirmation dropped from this file beside the "
+                              f"results, and there is none; track with --unconfirmed file to keep them there")
+        doubt = side_file_doubt(args.results, low)
+        if doubt:
+            raise SotmotError(f"{doubt}: its boxes would be drawn as another run's dropped ones")
+        dropped = read_results(low, info.length)
     errors = None
     if args.gt:
         from sotmot.scoring import frame_errors
@@ -240,9 +254,10 @@ def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
         errors = frame_errors(args.results, info.gt_path, info.length, info.name)
         totals = errors.totals()
         print(f"CLEAR matching (as TrackEval): FP {totals['FP']}, FN {totals['FN']}, IDSW {totals['IDSW']}")
-    out = render(info, tracks, args.out, errors=errors, inputs=inputs,
+    out = render(info, tracks, args.out, errors=errors, inputs=inputs, dropped=dropped,
                  progress=lambda it: progress_bar(it, f"{info.name}: render", _progress(args), info.length))
-    print(f"{info.length} frames, {tracks.n_tracks} tracks -> {out}")
+    also = f" and {len(dropped)} dropped boxes" if dropped is not None else ""
+    print(f"{info.length} frames, {tracks.n_tracks} tracks{also} -> {out}")
     return 0
 
 

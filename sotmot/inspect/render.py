@@ -4,8 +4,10 @@ Each id keeps one colour (derived from the id, so two renders agree); boxes
 carry the id and a short trail of past centres. Boxes found by the SOT step
 are drawn dashed, boxes filled in by interpolation thin with an ``i`` after
 the id; those two flags come from the ``<name>.flags.csv`` file that
-``sotmot track`` writes beside each results file. Boxes are ``x, y, w, h``
-pixels, frames 1-based.
+``sotmot track`` writes beside each results file. The boxes confirmation
+dropped (``<name>.low.txt``, ``track --unconfirmed file``) may be drawn
+too, grey and dashed with an ``x``. Boxes are ``x, y, w, h`` pixels,
+frames 1-based.
 """
 
 from __future__ import annotations
@@ -78,7 +80,26 @@ def draw_frame(image: np.ndarray, tracks: Tracks, rows: np.ndarray,
     return out
 
 
-RED, GREEN = (0, 0, 230), (0, 190, 0)
+RED, GREEN, GREY = (0, 0, 230), (0, 190, 0), (160, 160, 160)
+
+
+def draw_dropped(image: np.ndarray, dropped: Tracks, rows: np.ndarray) -> np.ndarray:
+    """A copy of ``image`` with the boxes ``rows`` of ``dropped`` (boxes confirmation dropped) drawn grey and
+    dashed, each labelled with its track id and an ``x``."""
+    import cv2
+
+    out = image.copy()
+    thick = max(1, round(out.shape[0] / 400))
+    scale = 0.4 + out.shape[0] / 1500
+    for r in rows:
+        x, y, w, h = dropped.boxes[r]
+        p1, p2 = (int(round(x)), int(round(y))), (int(round(x + w)), int(round(y + h)))
+        _dashed_rectangle(out, p1, p2, (0, 0, 0), thick + 2)  # a dark edge keeps the grey visible on any scene
+        _dashed_rectangle(out, p1, p2, GREY, thick)
+        for col, width in (((0, 0, 0), 3), (GREY, 1)):
+            cv2.putText(out, f"{int(dropped.ids[r])}x", (p1[0] + 2, p2[1] - 4), cv2.FONT_HERSHEY_SIMPLEX, scale, col,
+                        width, cv2.LINE_AA)
+    return out
 
 
 def draw_errors(left: np.ndarray, plain: np.ndarray, frame: int, errors) -> np.ndarray:
@@ -167,7 +188,7 @@ _FRAME_NAME = re.compile(r"\d{6}\.jpg")
 
 def render(info: SeqInfo, tracks: Tracks, out: str | Path,
            progress: Callable[[Iterable[int]], Iterable[int]] | None = None, errors=None,
-           inputs: Iterable[str | Path] = ()) -> Path:
+           inputs: Iterable[str | Path] = (), dropped: Tracks | None = None) -> Path:
     """Render every frame of the sequence with ``tracks`` into a video file or a folder of JPEGs.
 
     A path ending in ``.mp4`` or ``.avi`` is a video (OpenCV's writer); a path
@@ -178,7 +199,8 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
     each frame replaced atomically; nothing else in it is touched. Every
     write is checked (a full disk is an error, never a short video). With
     ``errors`` (:func:`sotmot.scoring.frame_errors`), the ground truth is
-    drawn beside the results with the errors marked.
+    drawn beside the results with the errors marked. With ``dropped`` (the boxes confirmation dropped, from
+    ``<name>.low.txt``), those are drawn too, grey and dashed (:func:`draw_dropped`), under the results.
 
     Raises
     ------
@@ -194,6 +216,9 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
     per_frame: dict[int, list[int]] = {}
     for r, f in enumerate(tracks.frames.tolist()):
         per_frame.setdefault(f, []).append(r)
+    dropped_per_frame: dict[int, list[int]] = {}
+    for r, f in enumerate(dropped.frames.tolist() if dropped is not None else []):
+        dropped_per_frame.setdefault(f, []).append(r)
     frames = range(1, info.length + 1)
     trails: dict[int, deque] = {}
     into_existing = not video and out.is_dir()
@@ -215,7 +240,10 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
     try:
         for f in (progress(frames) if progress else frames):
             plain = reader(f)
-            image = draw_frame(plain, tracks, np.asarray(per_frame.get(f, []), int), trails)
+            image = plain
+            if f in dropped_per_frame:
+                image = draw_dropped(plain, dropped, np.asarray(dropped_per_frame[f], int))
+            image = draw_frame(image, tracks, np.asarray(per_frame.get(f, []), int), trails)
             if errors is not None:
                 image = draw_errors(image, plain, f, errors)
             if video:
