@@ -151,7 +151,8 @@ def test_confirmation_is_explained_from_the_numbers_it_decided_on():
                            np.log(model.predict(x) / (1 - model.predict(x))))
         text = explain_confirmation(result, config, track)
         p = confidence[scored]
-        assert f"boxes P(true) {p.min():.2f} to {p.max():.2f}" in text and f"threshold {threshold:g}" in text
+        spread = f"{p.min():.2f}" if f"{p.min():.2f}" == f"{p.max():.2f}" else f"{p.min():.2f} to {p.max():.2f}"
+        assert f"boxes P(true) {spread}" in text and f"threshold {threshold:g}" in text
         n_dropped = len(rows[1])
         fate = ("all" if not n_dropped else "mixed") if n_dropped < len(p) else "none"
         assert {"all": f"all {len(p)} kept", "none": f"all {n_dropped} dropped",

@@ -334,9 +334,10 @@ def explain_confirmation(result: TrackResult, config: TrackerConfig, track: int)
     fate = ("it drops no box" if threshold <= 0 else f"all {len(scored)} kept" if not n_dropped else
             f"all {n_dropped} dropped" if n_dropped == len(scored) else
             f"{len(scored) - n_dropped} kept, {n_dropped} dropped")
+    spread = (f"{scored.min():.2f}" if f"{scored.min():.2f}" == f"{scored.max():.2f}" else
+              f"{scored.min():.2f} to {scored.max():.2f} (median {np.median(scored):.2f})")
     out = [f"confirmation: box model {kind!r} (for confidences from the {method!r} score map) gave "
-           f"track {track}'s {len(scored)} boxes P(true) {scored.min():.2f} to {scored.max():.2f} (median "
-           f"{np.median(scored):.2f}); threshold {threshold:g} ({source}): {fate}"]
+           f"track {track}'s {len(scored)} boxes P(true) {spread}; threshold {threshold:g} ({source}): {fate}"]
     model, x = confirmation_inputs(result, config, found[0])
     terms = model.terms(x).mean(axis=0)
     out.append(f"  what each feature adds to the log-odds (mean over the boxes), against a box with every feature "
