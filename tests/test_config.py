@@ -178,7 +178,13 @@ def test_a_run_record_is_a_configuration_file_with_its_runs_settings(tmp_path, c
     assert loaded.appearance.model == str(MODELS["reid"].path)
     assert loaded.detection.model == "/mine/my-detector.xml"
     assert loaded.replace("appearance", model=None).replace("detection", model=None) == ran
-    assert "written by sotmot" not in caplog.text
+    assert "written by sotmot" not in caplog.text and "read the detections" not in caplog.text
+    settings["detection"]["file"] = "/data/clip.det.txt"  # a replayed detections file is an input, said aloud
+    path.write_text(json.dumps(record))
+    with caplog.at_level(logging.WARNING):
+        assert load_config(path).detection.file == "/data/clip.det.txt"
+    assert "its run read the detections of clip from /data/clip.det.txt, and so does this one" in caplog.text
+    settings["detection"]["file"] = None
     path.write_text(json.dumps({**record, "sotmot": "0.0.1"}))
     with caplog.at_level(logging.WARNING):
         load_config(path)

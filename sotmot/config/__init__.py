@@ -251,6 +251,10 @@ def run_record_settings(record: dict[str, Any], source: str | Path = "run record
         if (isinstance(named, dict) and named.get("sha256") == MODELS[kind].files[0][1]
                 and isinstance(settings.get(section), dict)):
             settings[section]["model"] = str(MODELS[kind].path)
+    replay = settings.get("detection", {}).get("file") if isinstance(settings.get("detection"), dict) else None
+    if replay:
+        log.warning("%s: its run read the detections of %s from %s, and so does this one (--det FILE reads "
+                    "others)", source, record.get("sequence", "its sequence"), replay)
     if record["sotmot"] != __version__:
         log.warning("%s: written by sotmot %s, this is %s: settings this version added take their defaults, and "
                     "the results may differ", source, record["sotmot"], __version__)
