@@ -256,9 +256,11 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
             where = (f"written to {low_confidence_path(out).name}" if low_confidence_path(out) in outputs
                      else "dropped")
             dropped = f", {len(result.dropped)} unconfirmed {where}"
+        made = [f"{n} {how}" for n, how in ((int(result.tracks.interpolated.sum()), "interpolated"),
+                                            (int(result.tracks.from_sot.sum()), "added by SOT or weak boxes")) if n]
+        boxes = f"{len(result.tracks)} boxes" + (f" ({', '.join(made)})" if made else "")
         return Outcome(seq_dir, "done", str(out), f"{info.name}: {result.tracks.n_tracks} tracks, "
-                                                  f"{len(result.tracks)} boxes{dropped}, {fps:.1f} frames/s -> {out}"
-                                                  f"{rerun}")
+                                                  f"{boxes}{dropped}, {fps:.1f} frames/s -> {out}{rerun}")
     except SotmotError as exc:
         return Outcome(seq_dir, "failed", None, f"{seq_dir}: {exc}")
     except Exception as exc:  # a bug must not lose the other sequences' results either

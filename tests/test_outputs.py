@@ -170,6 +170,12 @@ def test_unconfirmed_boxes_kept_in_a_file_are_not_called_dropped(tmp_path, capsy
     assert main(["track", str(seq), "--out", str(tmp_path / "res"), "--unconfirmed", "file"]) == 0
     out = capsys.readouterr().out
     assert "unconfirmed written to MOT16-02-clip30.low.txt" in out and "dropped" not in out
+    # the summary counts the boxes no detection gave, as the flags file beside the results marks them
+    rows = [line.split(",") for line in (tmp_path / "res" / "MOT16-02-clip30.flags.csv").read_text().split()[1:]]
+    interpolated, sot = sum(r[2] == "1" for r in rows), sum(r[3] == "1" for r in rows)
+    assert interpolated, "the clip has interpolated boxes: the case to test"
+    made = ", ".join([f"{interpolated} interpolated"] + [f"{sot} added by SOT or weak boxes"] * (sot > 0))
+    assert f"{len(rows)} boxes ({made})," in out
 
 
 def test_compare_on_a_video_is_refused_before_the_work(tmp_path, capsys):
