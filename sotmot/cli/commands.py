@@ -210,7 +210,6 @@ def cmd_render(args: argparse.Namespace) -> int:
     from sotmot.io import refuse_overwriting
     from sotmot.io.video import is_video
     from sotmot.io.flags import flags_path
-
     from sotmot.runs import low_confidence_path
 
     inputs = [args.seq_dir, args.results, flags_path(args.results), low_confidence_path(args.results)]

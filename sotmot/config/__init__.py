@@ -22,9 +22,9 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import logging
 import inspect
 import json
+import logging
 import math
 import tomllib
 import types
