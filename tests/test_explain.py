@@ -174,4 +174,20 @@ def test_confirmation_is_explained_from_the_numbers_it_decided_on():
     assert n["allowed"], "a track with links past its tracklets: the case to test"
     text = explain(graph, track, track, config)
     assert text.count("\ncandidate ") == n["taken"] + n["rejected"] == text.count("TAKEN") + text.count("REJECTED")
-    assert f"{n['allowed']} other candidate link(s) between these tracklets passed every rule but were not taken" in text
+    assert f"{n['allowed']} other candidate link(s) between these tracklets passed every rule but were not " \
+           f"taken" in text
+    assert "in short:" not in text  # one track: its taken links are the story
+
+    # two tracks: every candidate link between them said, then how they ended, counted in one line
+    between = {}
+    for u, v in graph.edges:
+        a, b = graph.nodes[u]["track"], graph.nodes[v]["track"]
+        if a >= 0 and b >= 0 and a != b:
+            between[tuple(sorted((a, b)))] = between.get(tuple(sorted((a, b))), 0) + 1
+    pair, links = max(between.items(), key=lambda item: item[1])
+    assert links > 1
+    text = explain(graph, *pair, config)
+    summary = next(line for line in text.splitlines() if line.startswith("in short:"))
+    assert summary.startswith(f"in short: {links} candidate links between them, ")
+    assert sum(int(part.split()[0]) for part in summary.split("between them, ")[1].split(", ")) == links
+    assert text.count("\ncandidate ") == links

@@ -216,6 +216,7 @@ def _explain_members(graph: nx.DiGraph, first: list[int], second: list[int], con
                    f"({d['sot_boxes']} from SOT), mean score {d['mean_score']:.2f}")
     pairs = {tuple(sorted((u, v))) for u in first for v in second if u != v}  # each unordered pair once
     found = skipped = 0
+    states: dict[str, int] = {}  # how each candidate link ended, counted for the summary
     for u, v in sorted(pairs):
         for x, y in ((u, v), (v, u)):
             if not graph.has_edge(x, y):
@@ -229,6 +230,9 @@ def _explain_members(graph: nx.DiGraph, first: list[int], second: list[int], con
             state = (f"TAKEN by {config.association.solver}" + rounds) \
                 if data["taken"] else ("allowed, not taken" if data["allowed"] else
                                        f"REJECTED by {data['failed'].replace(',', ', ')}")
+            outcome = "taken" if data["taken"] else "allowed but not taken" if data["allowed"] else \
+                f"refused by {data['failed'].replace(',', ' and ')}"
+            states[outcome] = states.get(outcome, 0) + 1
             out.append(f"candidate {x} -> {y}: {state}")
             if data.get("overlap_frames"):
                 out.append(f"    the two share {data['overlap_frames']} frames: merged, their boxes would alternate "
@@ -243,6 +247,9 @@ def _explain_members(graph: nx.DiGraph, first: list[int], second: list[int], con
         out.append(f"{skipped} other candidate link(s) between these tracklets passed every rule but were not "
                    f"taken: each skips a tracklet that lies between its two in the track, and the taken links "
                    f"join them through it")
+    if first != second and found > 1:  # two tracks (or tracklets): how their candidate links ended, in one line
+        out.append(f"in short: {found} candidate links between them, " + ", ".join(
+            f"{n} {outcome}" for outcome, n in sorted(states.items(), key=lambda item: (-item[1], item[0]))))
     if not found and pairs:
         out.append(f"no candidate pair between them: their tracklets are more than l_max = "
                    f"{gaps.l_max} frames apart, so they were never compared")
