@@ -157,3 +157,12 @@ def test_a_run_is_repeated_from_its_run_record_and_the_record_is_never_written_o
     assert main(["track", str(seq), "--out", str(first), "--config", str(record), "-q"]) == 2
     assert "which this run reads; choose another --out" in capsys.readouterr().err
     assert record.read_bytes() == before
+
+
+def test_explain_says_it_ignores_windows_and_whose_ids_it_speaks_of(tmp_path, capsys):
+    seq = require(DATA / "MOT16-02-clip30")
+    (tmp_path / "w.toml").write_text("[windows]\nseconds = 30\n")  # as a windowed run's record holds it
+    assert main(["explain", str(seq), "--ids", "1", "--config", str(tmp_path / "w.toml"), "-q"]) == 0
+    assert "[windows] seconds = 30 is ignored here: the whole sequence is tracked at once" in capsys.readouterr().err
+    assert main(["explain", str(seq), "--ids", "1", "-q"]) == 0
+    assert "[windows]" not in capsys.readouterr().err

@@ -308,9 +308,14 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 
 def _track_for_inspection(args: argparse.Namespace, config, seq):
-    """``seq`` (a path, or the :class:`~sotmot.io.SeqInfo` the command read already) tracked with ``config``."""
+    """``seq`` (a path, or the :class:`~sotmot.io.SeqInfo` the command read already) tracked with ``config``, the
+    whole sequence at once (``[windows]`` said to be ignored: its track ids are an unwindowed run's)."""
     from sotmot.pipeline import track_sequence
 
+    if config.windows.seconds:
+        print(f"sotmot: warning: [windows] seconds = {config.windows.seconds:g} is ignored here: the whole sequence "
+              f"is tracked at once, and its track ids are those 'sotmot track' writes without --window (a windowed "
+              f"run's may differ)", file=sys.stderr)
     return track_sequence(seq, config, progress=_progress(args))
 
 
