@@ -160,6 +160,9 @@ def test_confirmation_is_explained_from_the_numbers_it_decided_on():
         assert all(words in text for words, _ in FEATURE_WORDS.values())
         checked.add(fate)
     assert {"all", "none"} <= checked
+    zero = explain_confirmation(result, config.replace("confirm", threshold=0.0), track)
+    assert "threshold 0 ([confirm] threshold, --confirm-threshold): it drops no box" in zero
+    assert "packaged fit" not in zero  # the remark on the packaged fit's threshold 0 is for that one alone
     off = config.replace("confirm", enabled=False)
     assert "confirmation: off" in explain_confirmation(result, off, result.track_ids[0] or 1)
 

@@ -338,7 +338,10 @@ def explain_confirmation(result: TrackResult, config: TrackerConfig, track: int)
     source = ("[confirm] threshold, --confirm-threshold" if config.confirm.threshold is not None else
               f"the calibration's for {kind!r} boxes; --confirm-threshold P sets another")
     n_dropped = int(np.isfinite(dropped).sum())
-    fate = ("it drops no box" if threshold <= 0 else f"all {len(scored)} kept" if not n_dropped else
+    packaged = config.confirm.threshold is None and config.confirm.calibration is None
+    fate = ("it drops no box" + (" (in the packaged fit no threshold above 0 kept every scene within 0.5 HOTA and "
+                                 "IDF1 of keeping every box; docs/calibration.md)" if packaged else "")
+            if threshold <= 0 else f"all {len(scored)} kept" if not n_dropped else
             f"all {n_dropped} dropped" if n_dropped == len(scored) else
             f"{len(scored) - n_dropped} kept, {n_dropped} dropped")
     spread = (f"{scored.min():.2f}" if f"{scored.min():.2f}" == f"{scored.max():.2f}" else
