@@ -166,3 +166,12 @@ def test_explain_says_it_ignores_windows_and_whose_ids_it_speaks_of(tmp_path, ca
     assert "[windows] seconds = 30 is ignored here: the whole sequence is tracked at once" in capsys.readouterr().err
     assert main(["explain", str(seq), "--ids", "1", "-q"]) == 0
     assert "[windows]" not in capsys.readouterr().err
+
+
+def test_explain_lists_every_track_the_least_certain_first(tmp_path, capsys):
+    seq = require(DATA / "MOT16-02-clip30")
+    assert main(["explain", str(seq), "--tracks", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "tracks, the least certain first; confirmation's threshold" in out and "median P(true)" in out
+    assert main(["explain", str(seq), "--tracks", "--ids", "1", "-q"]) == 2
+    assert "give one of --ids" in capsys.readouterr().err

@@ -160,6 +160,20 @@ def test_confirmation_is_explained_from_the_numbers_it_decided_on():
         assert all(words in text for words, _ in FEATURE_WORDS.values())
         checked.add(fate)
     assert {"all", "none"} <= checked
+    # every track in one table, the least certain first; tracks confirmation dropped whole marked
+    from sotmot.inspect.explain import track_table
+
+    table = track_table(result, config).splitlines()
+    ids = {int(i) for i in np.concatenate([result.tracks.ids, result.dropped.ids])}
+    assert table[0].startswith(f"{len(ids)} tracks, the least certain first; confirmation's threshold {threshold:g}")
+    rows = [line.split() for line in table[2:]]
+    assert sorted(int(r[0]) for r in rows) == sorted(ids)
+    medians = [float(r[6]) for r in rows]
+    assert medians == sorted(medians)
+    whole = {int(i) for i in np.unique(result.dropped.ids)} - {int(i) for i in np.unique(result.tracks.ids)}
+    assert whole and {int(r[0]) for r in rows if "(dropped whole)" in " ".join(r)} == whole
+    for r in rows:  # boxes = detected + interpolated + SOT, as the flags say
+        assert int(r[2]) == int(r[3]) + int(r[4]) + int(r[5])
     zero = explain_confirmation(result, config.replace("confirm", threshold=0.0), track)
     assert "threshold 0 ([confirm] threshold, --confirm-threshold): it drops no box" in zero
     assert "packaged fit" not in zero  # the remark on the packaged fit's threshold 0 is for that one alone

@@ -192,7 +192,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_models)
 
     for name, func, text in (("graph", cmd_graph, "export the association graph (GraphML, JSON, PNG, HTML)"),
-                             ("explain", cmd_explain, "say why two tracks (or two tracklets) were or were not merged")):
+                             ("explain", cmd_explain, "say why two tracks (or two tracklets) were or were not merged, "
+                                                     "how one track was made, or list every track")):
         p = sub.add_parser(name, help=text, description=text[0].upper() + text[1:] + ". The sequence is "
                            "tracked first, with the same options as 'sotmot track'; track ids are those "
                            "of the results file that run writes.")
@@ -211,6 +212,9 @@ def build_parser() -> argparse.ArgumentParser:
                                 "each feature of the box model added)")
             p.add_argument("--tracklets", metavar="ID,ID",
                            help="two tracklet ids, as 'sotmot graph' draws them (e.g. 4,9: merged or not, and why)")
+            p.add_argument("--tracks", action="store_true",
+                           help="every track in one table, the least certain first (the median P(true) "
+                                "confirmation gave its boxes): where to look with --ids")
         add_tracker_flags(p, name)
         p.add_argument("-q", "--quiet", action="store_true",
                        help="no progress bars (drawn only when stderr is a terminal)")

@@ -348,11 +348,15 @@ def cmd_graph(args: argparse.Namespace) -> int:
 
 def cmd_explain(args: argparse.Namespace) -> int:
     from sotmot.inspect.explain import (explain, explain_confirmation, explain_gaps, explain_tracklets,
-                                        inspection_graph, parse_ids)
+                                        inspection_graph, parse_ids, track_table)
 
-    if (args.ids is None) == (args.tracklets is None):
-        raise SotmotError("give --ids (one or two track ids of the results file) or --tracklets (two tracklet ids "
-                          "as 'sotmot graph' draws them)")
+    if (args.ids is not None) + (args.tracklets is not None) + bool(args.tracks) != 1:
+        raise SotmotError("give one of --ids (one or two track ids of the results file), --tracklets (two tracklet "
+                          "ids as 'sotmot graph' draws them) or --tracks (every track in a table)")
+    if args.tracks:
+        config = build_config(args)
+        print(track_table(_track_for_inspection(args, config, args.seq_dir), config))
+        return 0
     a, b = parse_ids(args.ids) if args.ids is not None else parse_ids(args.tracklets, "tracklet")
     config = build_config(args)
     result = _track_for_inspection(args, config, args.seq_dir)

@@ -364,6 +364,39 @@ def explain_confirmation(result: TrackResult, config: TrackerConfig, track: int)
     return "\n".join(out)
 
 
+def track_table(result: TrackResult, config: TrackerConfig) -> str:
+    """Every output track of ``result`` in one table, the least certain first: its frames, boxes (detected,
+    interpolated, added by SOT or weak boxes), the median P(true) confirmation gave its boxes and how many it kept;
+    tracks confirmation dropped whole are marked. Where to look next with ``explain --ids``."""
+    rows = []
+    both = [(result.tracks, True), (result.dropped, False)]
+    for track in sorted({int(i) for part, _ in both for i in np.unique(part.ids)}):
+        parts = [(part.subset(np.flatnonzero(part.ids == track)), kept) for part, kept in both]
+        frames = np.concatenate([p.frames for p, _ in parts])
+        interpolated = int(sum(p.interpolated.sum() for p, _ in parts))
+        sot = int(sum(p.from_sot.sum() for p, _ in parts))
+        confidence = np.concatenate([p.confidence for p, _ in parts])
+        scored = confidence[np.isfinite(confidence)]
+        n_kept = len(parts[0][0])
+        rows.append((float(np.median(scored)) if len(scored) else math.inf, track, int(frames.min()),
+                     int(frames.max()), len(frames), len(frames) - interpolated - sot, interpolated, sot, n_kept))
+    if not rows:
+        return "no track: the run wrote no box"
+    head = ["track", "frames", "boxes", "detected", "interpolated", "SOT/weak", "median P(true)", "kept"]
+    lines = [[str(track), f"{first}-{last}", str(n), str(det), str(interp), str(sot),
+              "-" if not math.isfinite(p) else f"{p:.2f}", str(kept) + ("" if kept else " (dropped whole)")]
+             for p, track, first, last, n, det, interp, sot, kept in sorted(rows)]
+    widths = [max(len(c) for c in column) for column in zip(head, *lines)]
+    fmt = "  ".join(f"{{:>{w}}}" for w in widths)
+    threshold = ""
+    if config.confirm.enabled:
+        from sotmot.confirm import confirmation_threshold
+
+        threshold = f"; confirmation's threshold {confirmation_threshold(config, result.confidence_method):g}"
+    return "\n".join([f"{len(rows)} tracks, the least certain first{threshold}; 'sotmot explain --ids N' tells one",
+                      fmt.format(*head), *(fmt.format(*line) for line in lines)])
+
+
 def parse_frames(text: str | None, length: int | None = None) -> tuple[int, int] | None:
     """``"A:B"`` -> ``(A, B)`` (1-based, inclusive); None stays None.
 
