@@ -21,7 +21,7 @@ from common import DEFAULT_DATA
 from sotmot.benchmarks import before_confirmation
 from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
-from sotmot.inspect.explain import explain_confirmation, inspection_graph
+from sotmot.inspect.explain import explain_confirmation, inspection_graph, track_table
 from sotmot.inspect.graph_view import draw_png
 from sotmot.io import (
     FrameReader,
@@ -221,6 +221,9 @@ def main(argv: list[str] | None = None) -> int:
                  "| output | HOTA | MOTA | IDF1 | FP | FN |", "|---|---|---|---|---|---|",
                  *[f"| {k} | {v['HOTA']:.1f} | {v['MOTA']:.1f} | {v['IDF1']:.1f} | {v['FP']:.0f} | {v['FN']:.0f} |"
                    for k, v in scores.items()], ""]
+        table = track_table(r, base).splitlines()
+        text += ["`sotmot explain PETS09-S2L1 --tracks` lists every track, the least certain first (its first "
+                 "rows):", "", "```", *table[:8], "```", ""]
         if len(r.dropped):  # the track that lost most boxes, as `sotmot explain --ids N` tells it
             ids, counts = np.unique(r.dropped.ids, return_counts=True)
             worst = int(ids[counts.argmax()])

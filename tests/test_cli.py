@@ -172,6 +172,6 @@ def test_explain_lists_every_track_the_least_certain_first(tmp_path, capsys):
     seq = require(DATA / "MOT16-02-clip30")
     assert main(["explain", str(seq), "--tracks", "-q"]) == 0
     out = capsys.readouterr().out
-    assert "tracks, the least certain first; confirmation's threshold" in out and "median P(true)" in out
+    assert "the least certain first; confirmation's threshold" in out and "median P(true)" in out
     assert main(["explain", str(seq), "--tracks", "--ids", "1", "-q"]) == 2
     assert "give one of --ids" in capsys.readouterr().err

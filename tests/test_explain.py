@@ -165,12 +165,13 @@ def test_confirmation_is_explained_from_the_numbers_it_decided_on():
 
     table = track_table(result, config).splitlines()
     ids = {int(i) for i in np.concatenate([result.tracks.ids, result.dropped.ids])}
-    assert table[0].startswith(f"{len(ids)} tracks, the least certain first; confirmation's threshold {threshold:g}")
+    whole = {int(i) for i in np.unique(result.dropped.ids)} - {int(i) for i in np.unique(result.tracks.ids)}
+    assert table[0].startswith(f"{len(ids)} tracks ({len(whole)} of them dropped whole by confirmation), the least "
+                               f"certain first; confirmation's threshold {threshold:g}")
     rows = [line.split() for line in table[2:]]
     assert sorted(int(r[0]) for r in rows) == sorted(ids)
     medians = [float(r[6]) for r in rows]
     assert medians == sorted(medians)
-    whole = {int(i) for i in np.unique(result.dropped.ids)} - {int(i) for i in np.unique(result.tracks.ids)}
     assert whole and {int(r[0]) for r in rows if "(dropped whole)" in " ".join(r)} == whole
     for r in rows:  # boxes = detected + interpolated + SOT, as the flags say
         assert int(r[2]) == int(r[3]) + int(r[4]) + int(r[5])

@@ -393,7 +393,10 @@ def track_table(result: TrackResult, config: TrackerConfig) -> str:
         from sotmot.confirm import confirmation_threshold
 
         threshold = f"; confirmation's threshold {confirmation_threshold(config, result.confidence_method):g}"
-    return "\n".join([f"{len(rows)} tracks, the least certain first{threshold}; 'sotmot explain --ids N' tells one",
+    whole = sum(1 for row in rows if not row[-1])
+    dropped = f" ({whole} of them dropped whole by confirmation)" if whole else ""
+    return "\n".join([f"{len(rows)} tracks{dropped}, the least certain first{threshold}; 'sotmot explain --ids N' "
+                      f"tells one",
                       fmt.format(*head), *(fmt.format(*line) for line in lines)])
 
 
