@@ -175,6 +175,7 @@ def test_confirmation_is_explained_from_the_numbers_it_decided_on():
     assert whole and {int(r[0]) for r in rows if "(dropped whole)" in " ".join(r)} == whole
     for r in rows:  # boxes = detected + interpolated + SOT, as the flags say
         assert int(r[2]) == int(r[3]) + int(r[4]) + int(r[5])
+    assert ", by id (confirmation off: no P(true));" in track_table(result, config.replace("confirm", enabled=False))
     zero = explain_confirmation(result, config.replace("confirm", threshold=0.0), track)
     assert "threshold 0 ([confirm] threshold, --confirm-threshold): it drops no box" in zero
     assert "packaged fit" not in zero  # the remark on the packaged fit's threshold 0 is for that one alone

@@ -388,15 +388,15 @@ def track_table(result: TrackResult, config: TrackerConfig) -> str:
              for p, track, first, last, n, det, interp, sot, kept in sorted(rows)]
     widths = [max(len(c) for c in column) for column in zip(head, *lines)]
     fmt = "  ".join(f"{{:>{w}}}" for w in widths)
-    threshold = ""
+    order = "by id (confirmation off: no P(true))"
     if config.confirm.enabled:
         from sotmot.confirm import confirmation_threshold
 
-        threshold = f"; confirmation's threshold {confirmation_threshold(config, result.confidence_method):g}"
+        order = (f"the least certain first; confirmation's threshold "
+                 f"{confirmation_threshold(config, result.confidence_method):g}")
     whole = sum(1 for row in rows if not row[-1])
     dropped = f" ({whole} of them dropped whole by confirmation)" if whole else ""
-    return "\n".join([f"{len(rows)} tracks{dropped}, the least certain first{threshold}; 'sotmot explain --ids N' "
-                      f"tells one",
+    return "\n".join([f"{len(rows)} tracks{dropped}, {order}; 'sotmot explain --ids N' tells one",
                       fmt.format(*head), *(fmt.format(*line) for line in lines)])
 
 
