@@ -369,15 +369,15 @@ def track_table(result: TrackResult, config: TrackerConfig) -> str:
     interpolated, added by SOT or weak boxes), the median P(true) confirmation gave its boxes and how many it kept;
     tracks confirmation dropped whole are marked. Where to look next with ``explain --ids``."""
     rows = []
-    both = [(result.tracks, True), (result.dropped, False)]
-    for track in sorted({int(i) for part, _ in both for i in np.unique(part.ids)}):
-        parts = [(part.subset(np.flatnonzero(part.ids == track)), kept) for part, kept in both]
-        frames = np.concatenate([p.frames for p, _ in parts])
-        interpolated = int(sum(p.interpolated.sum() for p, _ in parts))
-        sot = int(sum(p.from_sot.sum() for p, _ in parts))
-        confidence = np.concatenate([p.confidence for p, _ in parts])
+    both = (result.tracks, result.dropped)
+    for track in sorted({int(i) for part in both for i in np.unique(part.ids)}):
+        kept, dropped = (part.subset(np.flatnonzero(part.ids == track)) for part in both)
+        frames = np.concatenate([kept.frames, dropped.frames])
+        interpolated = int(kept.interpolated.sum() + dropped.interpolated.sum())
+        sot = int(kept.from_sot.sum() + dropped.from_sot.sum())
+        confidence = np.concatenate([kept.confidence, dropped.confidence])
         scored = confidence[np.isfinite(confidence)]
-        n_kept = len(parts[0][0])
+        n_kept = len(kept)
         rows.append((float(np.median(scored)) if len(scored) else math.inf, track, int(frames.min()),
                      int(frames.max()), len(frames), len(frames) - interpolated - sot, interpolated, sot, n_kept))
     if not rows:
@@ -395,8 +395,8 @@ def track_table(result: TrackResult, config: TrackerConfig) -> str:
         order = (f"the least certain first; confirmation's threshold "
                  f"{confirmation_threshold(config, result.confidence_method):g}")
     whole = sum(1 for row in rows if not row[-1])
-    dropped = f" ({whole} of them dropped whole by confirmation)" if whole else ""
-    return "\n".join([f"{len(rows)} tracks{dropped}, {order}; 'sotmot explain --ids N' tells one",
+    note = f" ({whole} of them dropped whole by confirmation)" if whole else ""
+    return "\n".join([f"{len(rows)} tracks{note}, {order}; 'sotmot explain --ids N' tells one",
                       fmt.format(*head), *(fmt.format(*line) for line in lines)])
 
 
