@@ -40,6 +40,11 @@ def logit(p: np.ndarray) -> np.ndarray:
     return np.log(p / (1.0 - p))
 
 
+def logistic(z: np.ndarray | float) -> np.ndarray:
+    """Probabilities from log-odds ``z`` (the inverse of :func:`logit`, without its clipping)."""
+    return 1.0 / (1.0 + np.exp(-np.asarray(z, dtype=np.float64)))
+
+
 @dataclass(frozen=True)
 class BoxModel:
     """A logistic model of P(box is a true positive) over the :data:`FEATURES`.
@@ -69,7 +74,7 @@ class BoxModel:
     def predict(self, x: np.ndarray) -> np.ndarray:
         """Probabilities ``(N,)`` for a feature matrix ``(N, len(FEATURES))``: the logistic of :meth:`terms`'
         sum plus :attr:`intercept`."""
-        return 1.0 / (1.0 + np.exp(-(self.terms(x).sum(axis=1) + self.intercept)))
+        return logistic(self.terms(x).sum(axis=1) + self.intercept)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form, with the feature names."""

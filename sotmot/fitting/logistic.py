@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sotmot.confidence.box_model import BoxModel
+from sotmot.confidence.box_model import BoxModel, logistic
 
 def fit_logistic(x: np.ndarray, y: np.ndarray, weights: np.ndarray | None = None,
                  l2: float = 1000.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
@@ -29,7 +29,7 @@ def fit_logistic(x: np.ndarray, y: np.ndarray, weights: np.ndarray | None = None
     def loss(w: np.ndarray) -> tuple[float, np.ndarray]:
         s = z @ w
         nll = sample * (np.logaddexp(0.0, s) - y * s)
-        p = 1.0 / (1.0 + np.exp(-s))
+        p = logistic(s)
         reg = 0.5 * l2 * float(w[:-1] @ w[:-1])
         grad = z.T @ (sample * (p - y)) / n
         grad[:-1] += l2 * w[:-1] / n

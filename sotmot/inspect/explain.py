@@ -26,7 +26,7 @@ from sotmot.config import AssociationConfig, TrackerConfig
 from sotmot.association.objective import link_pairs
 from sotmot.association.merge import link_order_key
 from sotmot.association.rules import RULES
-from sotmot.confidence.box_model import FEATURES, SHORT_SECONDS, TOP_QUANTILE, BoxModel, box_features
+from sotmot.confidence.box_model import FEATURES, SHORT_SECONDS, TOP_QUANTILE, BoxModel, box_features, logistic
 from sotmot.errors import SotmotError
 from sotmot.association.candidates import build_graph
 from sotmot.io import write_files_atomic
@@ -313,10 +313,6 @@ def confirmation_inputs(result: TrackResult, config: TrackerConfig,
                                result.features, rate)
 
 
-def _probability(log_odds: float) -> float:
-    return 1.0 / (1.0 + math.exp(-log_odds))
-
-
 def explain_confirmation(result: TrackResult, config: TrackerConfig, track: int) -> str:
     """Plain words on how confirmation judged output track ``track``: the probability of being a true positive it
     gave the track's boxes, the threshold it compared them with and where that came from, how many it kept, and
@@ -351,15 +347,15 @@ def explain_confirmation(result: TrackResult, config: TrackerConfig, track: int)
     model, x = confirmation_inputs(result, config, found[0])
     terms = model.terms(x).mean(axis=0)
     out.append(f"  what each feature adds to the log-odds (mean over the boxes), against a box with every feature "
-               f"at the fit's mean (log-odds {model.intercept:+.2f}, P(true) {_probability(model.intercept):.2f}):")
+               f"at the fit's mean (log-odds {model.intercept:+.2f}, P(true) {logistic(model.intercept):.2f}):")
     for name, value, term in zip(FEATURES, x.mean(axis=0), terms):
         words, show = FEATURE_WORDS[name]
         shown = ("not measured (no re-ID): counted as the fit's mean" if not math.isfinite(value) else
-                 f"{_probability(value):.2f}" if show == "p" else f"{value:.0%}" if show == "share" else
+                 f"{logistic(value):.2f}" if show == "p" else f"{value:.0%}" if show == "share" else
                  f"{value:.2f}")
         out.append(f"    {words}: {shown} -> {term:+.2f}")
     total = model.intercept + terms.sum()
-    out.append(f"    in all {total:+.2f}: P(true) {_probability(total):.2f} at these mean terms (each box has its own, "
+    out.append(f"    in all {total:+.2f}: P(true) {logistic(total):.2f} at these mean terms (each box has its own, "
                f"within the range above)")
     return "\n".join(out)
 
