@@ -353,13 +353,15 @@ def cmd_explain(args: argparse.Namespace) -> int:
     if (args.ids is not None) + (args.tracklets is not None) + bool(args.tracks) != 1:
         raise SotmotError("give one of --ids (one or two track ids of the results file), --tracklets (two tracklet "
                           "ids as 'sotmot graph' draws them) or --tracks (every track in a table)")
-    if args.tracks:
-        config = build_config(args)
-        print(track_table(_track_for_inspection(args, config, args.seq_dir), config))
-        return 0
-    a, b = parse_ids(args.ids) if args.ids is not None else parse_ids(args.tracklets, "tracklet")
+    # ids are checked before the tracking, which takes the time
+    ids = None if args.tracks else parse_ids(args.ids) if args.ids is not None else parse_ids(args.tracklets,
+                                                                                              "tracklet")
     config = build_config(args)
     result = _track_for_inspection(args, config, args.seq_dir)
+    if ids is None:
+        print(track_table(result, config))
+        return 0
+    a, b = ids
     graph = inspection_graph(result, config)
     print(explain(graph, a, b, config) if args.ids is not None else explain_tracklets(graph, a, b, config))
     if args.ids is not None and a == b:  # one track: also what filled the holes between its tracklets, and
