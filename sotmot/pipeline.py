@@ -295,12 +295,12 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
         # embedding too, the pass is the appearance stage with detection inside it (timed as "detect", like
         # "decode"); detection alone, the pass is the "detect" stage
         if plan.motion_in_pass:  # the estimate leaves out the boxes preprocessing will keep
-            seen = PassMotion(info, config.motion, frame_preprocessor(config.preprocess))
+            seen = PassMotion(info, config.motion, frame_preprocessor(config.preprocess, plan.mask))
         raw, raw_features = detect_sequence(info, detector, embedder if embed_now else None, progress,
                                             timings if embed_now else None, weak=weak, min_score=split,
                                             tap=seen.see if seen is not None else None)
         if weak is not None:
-            support = DetectorSupport.from_pass(weak)
+            support = DetectorSupport.from_pass(weak, plan.mask)
         detected = raw
         log.info("%s: the detector found %d boxes", info.name, len(raw))
         clock.lap("appearance" if embed_now else "detect")
@@ -308,9 +308,12 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
         raw = detections if detections is not None else read_detections(plan.det_file, info.length,
                                                                          (info.width, info.height))
         clock.lap("read")
-    kept = preprocess_indices(raw, config.preprocess)
+    kept = preprocess_indices(raw, config.preprocess, plan.mask)
     dets = raw.subset(kept)
     log.info("%s: %d detections, %d after preprocessing", info.name, len(raw), len(dets))
+    if plan.mask is not None:
+        log.info("%s: the mask %s ignores %.0f %% of the image, where %d detections stood", info.name,
+                 plan.mask.path, 100 * plan.mask.ignored_share, int(plan.mask.ignores(raw.boxes).sum()))
     # the detector's scores as confidences: the map fitted for its family, the ranks, or (after association) the
     # sequence's own trajectories ("self")
     method, knots = confidence_knots(config.preprocess.confidence, raw.scores,
@@ -334,7 +337,7 @@ def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Prog
     if config.motion.compensation != "off":
         clock.lap("motion")
     if plan.weak_boxes and support is None:  # public, refined: the detector runs on the frames the search visits
-        support = DetectorSupport.from_config(plan.weak_detector, detector)
+        support = DetectorSupport.from_config(plan.weak_detector, detector, plan.mask)
     if sot:
         embedder = embedder_for(plan.appearance, embedder)
         inside: dict[str, float] = {}
@@ -426,7 +429,7 @@ def extend_trajectories(prepared: Prepared, plan: Plan, identity: dict[int, np.n
     support = None
     if plan.weak_boxes:  # the preparation's, or the detector at the weak boxes' threshold on the frames searched
         support = prepared.support if prepared.support is not None else DetectorSupport.from_config(
-            plan.weak_detector)
+            plan.weak_detector, mask=plan.mask)
     if config.ends.seconds > 0:
         before = len(tracks)
         tracks = extend_ends(tracks, identity, reader, info.length, info.frame_rate, embedder, config.sot,

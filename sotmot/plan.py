@@ -11,7 +11,7 @@ decided once where the scores are first read, in preprocessing.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
@@ -20,6 +20,7 @@ from sotmot.config import AppearanceConfig, AssociationConfig, DetectionConfig, 
 from sotmot.detection import detection_source, detector_detections, known_family
 from sotmot.errors import ConfigError
 from sotmot.io import SeqInfo
+from sotmot.io.mask import Mask, read_mask
 from sotmot.motion import in_pass
 from sotmot.sot.support import WEAK_MIN_SCORE
 
@@ -62,6 +63,8 @@ class Plan:
         Whether the pass over the frames measures the camera's motion too
         (a video whose camera ``[motion]`` looks at:
         :func:`sotmot.motion.in_pass`).
+    mask
+        ``[preprocess] mask`` read and checked against the frames' size, else None.
     """
 
     info: SeqInfo
@@ -75,6 +78,7 @@ class Plan:
     appearance: AppearanceConfig
     association: AssociationConfig
     motion_in_pass: bool = False
+    mask: Mask | None = field(default=None, compare=False, repr=False)
 
     @property
     def sot(self) -> bool:
@@ -117,9 +121,11 @@ def resolve(config: TrackerConfig, info: SeqInfo, given: bool = False) -> Plan:
     if source == "model":  # one pass gives the boxes tracked and, below min_score, the weak ones
         low = min(detection.min_score, WEAK_MIN_SCORE) if weak else detection.min_score
         detector = detection if low == detection.min_score else dataclasses.replace(detection, min_score=low)
+    mask = None if config.preprocess.mask is None else read_mask(config.preprocess.mask, info.width, info.height,
+                                                                  info.name)
     return Plan(info, config, source, det_file, weak, detector, _weak(detection, weak),
                 known_family(detection, info), resolve_backend(config.appearance),
-                config.association.at(info.frame_rate), in_pass(info, config.motion))
+                config.association.at(info.frame_rate), in_pass(info, config.motion), mask)
 
 
 def _weak(detection: DetectionConfig, needed: bool) -> DetectionConfig | None:

@@ -1,4 +1,5 @@
-"""Cleaning the detections before tracking: a score threshold, then NMS per frame (paper Sec. 6.1).
+"""Cleaning the detections before tracking: the mask's ignored pixels, a score threshold, then NMS per frame
+(paper Sec. 6.1).
 
 Boxes are ``x, y, w, h`` pixels, frames 1-based.
 """
@@ -12,6 +13,7 @@ import numpy as np
 from sotmot.boxes import nms
 from sotmot.confidence.maps import scores_are_probabilities
 from sotmot.config import PreprocessConfig
+from sotmot.io.mask import Mask
 from sotmot.types import Detections
 
 
@@ -36,19 +38,25 @@ def nms_per_frame(detections: Detections, kind: str, threshold: float) -> np.nda
     return np.sort(np.concatenate(kept))
 
 
-def preprocess(detections: Detections, config: PreprocessConfig) -> Detections:
-    """Score threshold, then per-frame NMS (paper Sec. 6.1). Keeps the canonical order."""
-    return detections.subset(preprocess_indices(detections, config))
+def preprocess(detections: Detections, config: PreprocessConfig, mask: Mask | None = None) -> Detections:
+    """The boxes outside ``mask``'s ignored pixels (``[preprocess] mask`` as a plan reads it), score threshold,
+    then per-frame NMS (paper Sec. 6.1). Keeps the canonical order."""
+    return detections.subset(preprocess_indices(detections, config, mask))
 
 
-def preprocess_indices(detections: Detections, config: PreprocessConfig) -> np.ndarray:
+def preprocess_indices(detections: Detections, config: PreprocessConfig, mask: Mask | None = None) -> np.ndarray:
     """Indices (ascending) into ``detections`` of the boxes :func:`preprocess` keeps."""
-    kept = np.flatnonzero(detections.scores >= config.score_threshold) if config.score_threshold is not None \
-        else np.arange(len(detections))
+    keep = np.ones(len(detections), bool)
+    if config.score_threshold is not None:
+        keep &= detections.scores >= config.score_threshold
+    if mask is not None:
+        keep &= ~mask.ignores(detections.boxes)
+    kept = np.flatnonzero(keep)
     return kept[nms_per_frame(detections.subset(kept), resolve_nms(config, detections), config.nms_threshold)]
 
 
-def frame_preprocessor(config: PreprocessConfig) -> Callable[[int, tuple[np.ndarray, np.ndarray]], np.ndarray]:
+def frame_preprocessor(config: PreprocessConfig, mask: Mask | None = None
+                       ) -> Callable[[int, tuple[np.ndarray, np.ndarray]], np.ndarray]:
     """For a pass that finds the boxes frame by frame: ``(frame, (boxes, scores))`` -> the boxes of that frame that
     :func:`preprocess` keeps, in canonical order; the same as it keeps of the whole sequence when ``nms = "auto"``
     decides on one frame's scores as on all of them (:func:`resolve_nms`; a detector's probabilities do)."""
@@ -56,6 +64,6 @@ def frame_preprocessor(config: PreprocessConfig) -> Callable[[int, tuple[np.ndar
         boxes, scores = found
         one = Detections(np.full(len(scores), frame, np.int64), boxes, scores)
         one = one.subset(one.canonical_order())
-        return one.boxes[preprocess_indices(one, config)]
+        return one.boxes[preprocess_indices(one, config, mask)]
     return kept
 

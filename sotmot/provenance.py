@@ -3,7 +3,7 @@
 The record holds the sotmot version, the resolved configuration (solver
 included), the re-ID model file and its SHA-256, the detector model's (when
 the detections came from it), the confidence calibration's SHA-256, the
-SHA-256 of ``seqinfo.ini`` and of the detections file used, a fingerprint of
+SHA-256 of ``seqinfo.ini``, of the detections file used and of the mask, a fingerprint of
 the frame folder (file names and sizes, not their bytes: hashing every frame
 would cost more than tracking small sequences), the time, and the SHA-256 of
 the results file it sits beside. ``track --resume`` skips a sequence only when
@@ -30,7 +30,7 @@ IGNORED = ("time", "camera_motion", "plan", "config.appearance.threads", "config
            "config.appearance.model", "config.confirm.calibration", "reid_model.path", "confidence_calibration.path",
            "results_sha256", "config.detection.model", "config.detection.file", "config.detection.threads",
            "detector_model.path", "inputs.detections.path", "side_files", "confidence_method",
-           "windows")
+           "windows", "config.preprocess.mask", "inputs.mask.path")
 
 
 def sotmot_version() -> str:
@@ -85,7 +85,10 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
                    else file_sha256(info.source),
                    "detections": {"source": source, "path": None if det_file is None else str(det_file),
                                   "sha256": None if det_file is None else file_sha256(det_file)},
-                   "frames (names, sizes)": frames_fingerprint(info)},
+                   "frames (names, sizes)": frames_fingerprint(info),
+                   # only where there is one, so that the records of runs without a mask still match
+                   **({} if plan.mask is None else
+                      {"mask": {"path": str(plan.mask.path), "sha256": file_sha256(plan.mask.path)}})},
         "detector_model": {"path": detector, "sha256": file_sha256(detector) if detector else None},
         # every "auto" as the run decided it (sotmot.plan): whether the detector's weak boxes checked the SOT
         # boxes, where the boxes that extend trajectory ends came from, the gap limit in frames, ...

@@ -158,13 +158,13 @@ def sequence_inputs(info, config: TrackerConfig) -> list[Path | None]:
 
     return [info.source, detection_source(config.detection, info)[1], info.det_path, info.gt_path,
             config.appearance.model, config.appearance.weights, config.confirm.calibration,
-            config.detection.model]
+            config.detection.model, config.preprocess.mask]
 
 
 def resolve_paths(config: TrackerConfig) -> TrackerConfig:
     """``config`` with the re-ID model (flag, config or ``SOTMOT_REID_MODEL``, else the bundled one), the detector
     model (flag, config or ``SOTMOT_DETECTOR_MODEL``, else the bundled one), the detections file, fine-tuned
-    weights and calibration file as absolute paths.
+    weights, calibration file and mask as absolute paths.
 
     Done once, by the process that starts the run: the run record then names
     (and hashes) the model however it was given, and workers on other
@@ -181,6 +181,7 @@ def resolve_paths(config: TrackerConfig) -> TrackerConfig:
                             weights=absolute(config.appearance.weights))
     config = config.replace("detection", file=absolute(config.detection.file),
                             model=absolute(model_in_use(config.detection.model, "detector")))
+    config = config.replace("preprocess", mask=absolute(config.preprocess.mask))
     return config.replace("confirm", calibration=absolute(config.confirm.calibration))
 
 

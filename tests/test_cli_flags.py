@@ -16,7 +16,7 @@ RUN_OPTIONS = {"--out", "--eval", "--workers", "--cluster", "--resume", "--det",
                "--help", "--json", "--ids", "--tracklets", "--tracks", "--frames", "--solvers"}
 #: A value for each flag that takes one and has no choices; prerequisites a flag needs to be valid.
 VALUES = {"--reid-model": "m.onnx", "--weights": "w.pt", "--detector-model": "d.xml", "--score-threshold": "0.3",
-          "--confirm-threshold": "0.3", "--extend-ends": "0.5", "--fps": "12", "--window": "30"}
+          "--confirm-threshold": "0.3", "--extend-ends": "0.5", "--fps": "12", "--window": "30", "--mask": "m.png"}
 NEEDS = {"--weights": ["--appearance", "torch"]}
 
 

@@ -117,6 +117,7 @@ FLAGS: tuple[Flag, ...] = (
     Flag(("--score-threshold",), "preprocess", "score_threshold", metavar="S"),
     Flag(("--nms",), "preprocess", "nms"),
     Flag(("--confidence",), "preprocess", "confidence"),
+    Flag(("--mask",), "preprocess", "mask", metavar="IMAGE"),
     Flag(("--unconfirmed",), "confirm", "low_confidence", choices=lambda: ["drop", "file", "keep"], sets=_unconfirmed,
          note="Boxes more likely false than true after association: drop them, write them to DIR/<name>.low.txt "
               "(file), or keep them (keep: [confirm] enabled = false)."),

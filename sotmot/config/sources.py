@@ -150,12 +150,21 @@ class PreprocessConfig:
         ``<name>.det.txt`` of a model run does), else the family the sequence's name ends with (MOTChallenge's
         ``-DPM``, ``-FRCNN``, ``-SDP``), else the family guessed from the score
         range (all in [0, 1] frcnn, any above 10 acf, else dpm).
+    mask
+        An image the size of the frames (PNG or any format OpenCV reads), white where people are tracked and
+        black where detections are ignored: a detection whose foot point (the middle of its bottom edge) lies on
+        a dark pixel (below 128) is dropped before anything else, and so is such a weak box of the detector. For
+        what the detector takes for a person and never is: a poster, a mannequin, a reflection, a screen, the
+        bonnet of the vehicle that carries the camera. A person in front of an ignored poster stands below it and
+        is kept; tracks are still followed through the region (interpolation, SOT). In the frame's pixels: with a
+        moving camera it covers part of the image, not of the scene. ``None``: every detection is kept.
     """
 
     score_threshold: float | None = None
     nms: Literal["auto", "iou", "iom", "none"] = "auto"
     nms_threshold: float = 0.6
     confidence: ConfidenceMethod = "auto"
+    mask: str | None = None
 
     def __post_init__(self) -> None:
         _check(self.nms in ("auto", "iou", "iom", "none"), "preprocess",
