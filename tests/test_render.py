@@ -142,3 +142,24 @@ def test_a_low_file_the_run_did_not_write_is_not_drawn_as_its_dropped_boxes(tmp_
     assert main(["render", str(seq), str(results), "--out", str(tmp_path / "v"), "--dropped", "-q"]) == 2
     assert "MOT16-02-clip30.low.txt is not one of the files the run of MOT16-02-clip30.txt wrote" in \
         capsys.readouterr().err
+
+
+def test_the_pixels_a_mask_ignores_are_shaded_and_the_mask_is_never_written_over(tmp_path, capsys):
+    seq = write_sequence(tmp_path, ["1,-1,5,5,10,20,1"], length=2, width=96, height=64)
+    results = tmp_path / "res" / "SYN.txt"
+    write_results(results, Tracks(frames=[1], ids=[1], boxes=[[5, 5, 10, 20]], scores=[1]))
+    mask = np.full((64, 96), 255, np.uint8)
+    mask[40:, 50:] = 0
+    cv2.imwrite(str(tmp_path / "mask.png"), mask)
+    for name, extra in (("plain", []), ("masked", ["--mask", str(tmp_path / "mask.png")])):
+        assert main(["render", str(seq), str(results), "--out", str(tmp_path / name), "-q", *extra]) == 0
+    plain, masked = (cv2.imread(str(tmp_path / name / "000002.jpg")).astype(int) for name in ("plain", "masked"))
+    assert np.abs(masked[44:, 54:] - plain[44:, 54:]).sum(axis=2).min() > 60  # shaded
+    assert np.abs(masked[:36] - plain[:36]).max() < 10  # untouched (JPEG noise aside)
+    out = tmp_path / "mask.png"
+    assert main(["render", str(seq), str(results), "--out", str(out), "--mask", str(out), "-q"]) == 2
+    assert "which this run reads" in capsys.readouterr().err
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), mask[:32, :48])
+    assert main(["render", str(seq), str(results), "--out", str(tmp_path / "v"), "--mask", str(small), "-q"]) == 2
+    assert "the mask is 48 x 32 pixels and the frames of SYN 96 x 64" in capsys.readouterr().err

@@ -180,6 +180,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dropped", action="store_true",
                    help="also draw the boxes confirmation dropped, grey and dashed with an 'x' after the id: the "
                         "<name>.low.txt beside the results, which 'sotmot track --unconfirmed file' writes")
+    p.add_argument("--mask", type=Path, metavar="IMAGE",
+                   help="shade the pixels this mask ignores (the image 'sotmot track --mask' was given: black where "
+                        "detections are ignored), to see what it covers")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar (drawn only when stderr is a terminal)")
     p.set_defaults(func=cmd_render)
 

@@ -212,7 +212,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     from sotmot.io.flags import flags_path
     from sotmot.runs import low_confidence_path
 
-    inputs = [args.seq_dir, args.results, flags_path(args.results), low_confidence_path(args.results)]
+    inputs = [args.seq_dir, args.results, flags_path(args.results), low_confidence_path(args.results), args.mask]
     refuse_overwriting([args.out], inputs, "choose another --out")  # before a video is read
     if args.gt and is_video(args.seq_dir):
         raise SotmotError("--gt needs a sequence folder with gt/gt.txt, not a video")
@@ -246,6 +246,11 @@ def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
         if doubt:
             raise SotmotError(f"{doubt}: its boxes would be drawn as another run's dropped ones")
         dropped = read_results(low, info.length)
+    mask = None
+    if args.mask is not None:
+        from sotmot.io.mask import read_mask
+
+        mask = read_mask(args.mask, info.width, info.height, info.name)
     errors = None
     if args.gt:
         from sotmot.scoring import frame_errors
@@ -253,7 +258,7 @@ def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
         errors = frame_errors(args.results, info.gt_path, info.length, info.name)
         totals = errors.totals()
         print(f"CLEAR matching (as TrackEval): FP {totals['FP']}, FN {totals['FN']}, IDSW {totals['IDSW']}")
-    out = render(info, tracks, args.out, errors=errors, inputs=inputs, dropped=dropped,
+    out = render(info, tracks, args.out, errors=errors, inputs=inputs, dropped=dropped, mask=mask,
                  progress=lambda it: progress_bar(it, f"{info.name}: render", _progress(args), info.length))
     also = f" and {len(dropped)} dropped boxes" if dropped is not None else ""
     print(f"{info.length} frames, {tracks.n_tracks} tracks{also} -> {out}")

@@ -6,8 +6,8 @@ are drawn dashed, boxes filled in by interpolation thin with an ``i`` after
 the id; those two flags come from the ``<name>.flags.csv`` file that
 ``sotmot track`` writes beside each results file. The boxes confirmation
 dropped (``<name>.low.txt``, ``track --unconfirmed file``) may be drawn
-too, grey and dashed with an ``x``. Boxes are ``x, y, w, h`` pixels,
-frames 1-based.
+too, grey and dashed with an ``x``, and the pixels a mask (``track --mask``) ignores
+shaded. Boxes are ``x, y, w, h`` pixels, frames 1-based.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ import numpy as np
 from sotmot.errors import InputError
 from sotmot.io import FrameReader, SeqInfo, check_output_dir, refuse_overwriting, write_bytes_atomic
 from sotmot.io.files import refuse_inside
+from sotmot.io.mask import Mask
 from sotmot.types import Tracks
 
 TRAIL = 12
@@ -81,6 +82,18 @@ def draw_frame(image: np.ndarray, tracks: Tracks, rows: np.ndarray,
 
 
 RED, GREEN, GREY = (0, 0, 230), (0, 190, 0), (160, 160, 160)
+
+
+#: The colour (BGR) the ignored pixels of a mask are shaded towards, and how far.
+MASK_SHADE, MASK_ALPHA = (0, 0, 160), 0.45
+
+
+def draw_mask(image: np.ndarray, mask: Mask) -> np.ndarray:
+    """A copy of ``image`` with the pixels ``mask`` ignores (where no detection is tracked) shaded red."""
+    out = image.copy()
+    ignored = ~mask.tracked
+    out[ignored] = ((1 - MASK_ALPHA) * out[ignored] + MASK_ALPHA * np.asarray(MASK_SHADE)).astype(np.uint8)
+    return out
 
 
 def draw_dropped(image: np.ndarray, dropped: Tracks, rows: np.ndarray) -> np.ndarray:
@@ -188,7 +201,7 @@ _FRAME_NAME = re.compile(r"\d{6}\.jpg")
 
 def render(info: SeqInfo, tracks: Tracks, out: str | Path,
            progress: Callable[[Iterable[int]], Iterable[int]] | None = None, errors=None,
-           inputs: Iterable[str | Path] = (), dropped: Tracks | None = None) -> Path:
+           inputs: Iterable[str | Path] = (), dropped: Tracks | None = None, mask: Mask | None = None) -> Path:
     """Render every frame of the sequence with ``tracks`` into a video file or a folder of JPEGs.
 
     A path ending in ``.mp4`` or ``.avi`` is a video (OpenCV's writer); a path
@@ -200,7 +213,8 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
     write is checked (a full disk is an error, never a short video). With
     ``errors`` (:func:`sotmot.scoring.frame_errors`), the ground truth is
     drawn beside the results with the errors marked. With ``dropped`` (the boxes confirmation dropped, from
-    ``<name>.low.txt``), those are drawn too, grey and dashed (:func:`draw_dropped`), under the results.
+    ``<name>.low.txt``), those are drawn too, grey and dashed (:func:`draw_dropped`), under the results; with
+    ``mask`` (the one ``track --mask`` was given), the pixels it ignores are shaded (:func:`draw_mask`).
 
     Raises
     ------
@@ -240,9 +254,9 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
     try:
         for f in (progress(frames) if progress else frames):
             plain = reader(f)
-            image = plain
+            image = plain if mask is None else draw_mask(plain, mask)
             if f in dropped_per_frame:
-                image = draw_dropped(plain, dropped, np.asarray(dropped_per_frame[f], int))
+                image = draw_dropped(image, dropped, np.asarray(dropped_per_frame[f], int))
             image = draw_frame(image, tracks, np.asarray(per_frame.get(f, []), int), trails)
             if errors is not None:
                 image = draw_errors(image, plain, f, errors)
