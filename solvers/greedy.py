@@ -157,7 +157,7 @@ def solve(tracklets: Sequence[Tracklet], config: AssociationConfig) -> Associati
         # the orientation makes ties in box score independent of the input order
         lead = first_member[pairs[:, 0]] > first_member[pairs[:, 1]]
         pairs = np.where(lead[:, None], pairs[:, ::-1], pairs)
-        aff = link_affinities(nodes, pairs, features)
+        aff = link_affinities(nodes, pairs, features, config)
         keep = passes_affinity_gate(aff, config)
         return pairs[keep], aff[keep], first_member[pairs[keep]]
 

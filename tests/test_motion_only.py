@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import shutil
 
 import numpy as np
@@ -57,6 +58,25 @@ def test_a_tracklet_inside_a_gap_scores_by_the_walk_it_fills():
     assert aff[0] > 0.9  # both joins land: it fills the gap
     assert aff[1] < 0.45  # below the association gate
     assert aff[2] == 0.0  # the IoU rule's case, with no box of the first where it starts
+
+
+def test_over_a_gap_of_more_than_a_second_only_a_slow_person_is_joined():
+    config = MOTION_ONLY.association.at(10.0)  # 10 fps: 0.75 heights (75 px) a second at most over a long gap
+    before = walker(1, range(1, 11), 0.0, 7.0)  # walking 0.7 heights a second, seen up to x = 63 in frame 10
+    walked_on = walker(2, range(31, 41), 203.0, 7.0)  # where 2.1 s more of that walk lead: 0.67 / s
+    ran_on = walker(3, range(31, 41), 243.0, 9.0)  # 180 px in 2.1 s: 0.86 heights a second
+    soon = walker(4, range(16, 26), 138.0, 15.0)  # 75 px after 0.6 s: fast, but not a long gap
+    pairs = np.array([[0, 1], [0, 2], [0, 3]])
+    free = motion_affinities([before, walked_on, ran_on, soon], pairs)
+    limited = motion_affinities([before, walked_on, ran_on, soon], pairs, config)
+    assert (free > 0.45).all()  # the walk's line leads to each
+    assert limited[0] == free[0] and limited[2] == free[2]  # slow enough, or a gap of under a second
+    assert limited[1] == 0.0  # too far for the time
+    unlimited = dataclasses.replace(config, motion_gap_speed=None)
+    assert motion_affinities([before, ran_on], np.array([[0, 1]]), unlimited)[0] == free[1]
+    # appearance decides wherever re-ID runs: the rule is the motion-only affinity's
+    units = np.array([[1.0, 0.0], [1.0, 0.0]])
+    assert link_affinities([before, ran_on], np.array([[0, 1]]), units, config)[0] == pytest.approx(1.0)
 
 
 def test_link_affinities_use_appearance_whenever_features_exist():

@@ -112,7 +112,7 @@ def test_the_gap_limit_in_seconds_follows_the_frame_rate(tmp_path):
     resolved = base.association.at(7.0)
     assert (resolved.l_max, resolved.l_max_seconds) == (28, None)  # in frames, so a solver may narrow it
     frames = base.replace("association", l_max=45).association  # a gap given in frames alone counts frames
-    assert frames.l_max_seconds is None and frames.at(10.0) is frames and frames.at(7.0).l_max == 45
+    assert frames.l_max_seconds is None and frames.at(10.0).l_max == 45 and frames.at(7.0).l_max == 45
     both = base.replace("association", l_max=45, l_max_seconds=3.0).association  # both given: seconds win
     assert both.at(10.0).l_max == 30
     assert config_from_dict({"association": {"l_max": 45}}).association.at(30.0).l_max == 45

@@ -6,7 +6,8 @@ the same number. Tracklets from a re-ID model carry a mean feature and the
 affinity is :func:`sotmot.appearance.affinity` of the two means (unchanged).
 Tracklets of the motion-only mode (``[appearance] backend = "none"``) carry
 zero-width features; their affinity is :func:`motion_affinities`, in the same
-[0, 1] range, gated by the same ``[association] min_affinity``.
+[0, 1] range, gated by the same ``[association] min_affinity`` (and 0 for a
+join over more than 1 s at more than ``[association] motion_gap_speed``).
 
 Boxes are ``x, y, w, h`` pixels, frames 1-based.
 """
@@ -18,20 +19,27 @@ from collections.abc import Sequence
 import numpy as np
 
 from sotmot.appearance import pair_affinities
-from sotmot.boxes import VELOCITY_BOXES, end_velocity, iou_aligned, motion_agreement
+from sotmot.boxes import VELOCITY_BOXES, centers, end_velocity, iou_aligned, motion_agreement
+from sotmot.config import AssociationConfig
 from sotmot.types import Tracklet
 
+#: A join of the motion-only mode across a gap longer than this (seconds) must also keep to
+#: ``[association] motion_gap_speed``.
+WALK_GAP_SECONDS = 1.0
 
-def link_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray, units: np.ndarray) -> np.ndarray:
+
+def link_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray, units: np.ndarray,
+                    config: AssociationConfig | None = None) -> np.ndarray:
     """Affinity in [0, 1] of each pair ``(i, j)`` of ``pairs`` (``(K, 2)`` indices into ``tracklets``).
 
     ``units`` are the tracklets' mean features through :func:`sotmot.appearance.unit`, ``(N, D)``: with
     ``D > 0`` the appearance affinity of rows ``i`` and ``j``; with ``D == 0`` (no re-ID) the motion
-    affinity of the two tracklets. Returns ``(K,)`` float64.
+    affinity of the two tracklets under ``config`` (the association as a run resolved it, its
+    ``frame_rate`` set). Returns ``(K,)`` float64.
     """
     units = np.asarray(units)
     if units.ndim == 2 and units.shape[1] == 0:
-        return motion_affinities(tracklets, pairs)
+        return motion_affinities(tracklets, pairs, config)
     return pair_affinities(units, pairs)
 
 
@@ -41,7 +49,8 @@ def _end_velocity(t: Tracklet, last: bool) -> np.ndarray:
     return end_velocity(t.frames[sl], t.boxes[sl])
 
 
-def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray) -> np.ndarray:
+def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray,
+                      config: AssociationConfig | None = None) -> np.ndarray:
     """How well two trajectories' motion agrees, in [0, 1], for each pair of ``pairs`` (the motion-only affinity).
 
     For a pair one after the other (the earlier ends at ``f1``, the later
@@ -63,7 +72,12 @@ def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray) -> np.nd
     whose gap another tracklet walks through could otherwise never take it
     in, and both would be written there: on the label-only validation
     sequences most false boxes were such pairs). A later one that starts in a
-    gap and runs past it scores 0.
+    gap and runs past it scores 0. So does a pair one after the other across
+    a gap of more than :data:`WALK_GAP_SECONDS` whose centres lie more than
+    ``config.motion_gap_speed`` of their mean height per second of the gap
+    apart (with ``config`` resolved for a frame rate, :meth:`AssociationConfig.at`):
+    without appearance, a walk extrapolated over seconds meets someone else,
+    and the joins that stay right are mostly of people who stood still.
     """
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     out = np.zeros(len(pairs))
@@ -85,6 +99,11 @@ def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray) -> np.nd
     apart = ends[early] < starts[late]
     e_, l_ = early[apart], late[apart]
     out[apart] = motion_agreement(last[e_], v_last[e_], first[l_], v_first[l_], starts[l_] - ends[e_])
+    if config is not None and config.motion_gap_speed is not None and config.frame_rate:
+        seconds = (starts[l_] - ends[e_]) / config.frame_rate
+        moved = np.linalg.norm(centers(first[l_]) - centers(last[e_]), axis=1) / (0.5 * (last[e_, 3] + first[l_, 3]))
+        out[apart] = np.where((seconds > WALK_GAP_SECONDS) & (moved > config.motion_gap_speed * seconds), 0.0,
+                              out[apart])
     for k in np.flatnonzero(~apart).tolist():
         a, b = chosen[early[k]], chosen[late[k]]
         row = int(np.searchsorted(a.frames, b.start))  # b starts at or before a's end: row < len(a)

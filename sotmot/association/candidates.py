@@ -64,7 +64,7 @@ def candidate_links(tracklets: Sequence[Tracklet], config: AssociationConfig,
         ends = np.array([t.end for t in tracklets])
         pairs = pairs[starts[pairs].max(axis=1) > ends[pairs].min(axis=1)]
     features = unit(np.stack([t.feature for t in tracklets])) if tracklets else np.zeros((0, 1))
-    aff = link_affinities(tracklets, pairs, features)
+    aff = link_affinities(tracklets, pairs, features, config)
     screen = check_pairs(tracklets, pairs, aff, config, complete=include_rejected)
     if not include_rejected:
         keep = np.flatnonzero(screen.allowed)

@@ -332,7 +332,8 @@ def check_pair(a: Tracklet, b: Tracklet, config: AssociationConfig,
         computed from the mean features otherwise).
     """
     if pair_affinity is None:
-        pair_affinity = link_affinities((a, b), np.array([[0, 1]]), unit(np.stack([a.feature, b.feature])))[0]
+        pair_affinity = link_affinities((a, b), np.array([[0, 1]]), unit(np.stack([a.feature, b.feature])),
+                                        config)[0]
     aff = float(pair_affinity)
     return check_pairs((a, b), np.array([[0, 1]]), np.array([aff]), config, complete=True).check(0)
 

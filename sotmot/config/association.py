@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from sotmot.config.common import _check
+from sotmot.config.common import MAX_FRAME_RATE, _check
 from sotmot.plugins import SOLVERS
 
 
@@ -107,6 +107,20 @@ class AssociationConfig:
         needs rises linearly from ``min_affinity`` at a gap of half ``l_max``
         to this at ``l_max`` (the gap the merge creates or changes, the
         velocity rule's); ``None`` (default): ``min_affinity`` at every gap.
+    motion_gap_speed
+        The motion-only mode (``[appearance] backend = "none"``) joins two
+        trajectories across a gap of more than 1 s only where the person moved
+        at most this many of their heights per second over it (box centres at
+        the gap's two ends; the link's motion affinity is 0 otherwise). Without
+        re-ID a walk extrapolated over seconds meets someone else in a crowd:
+        on the label-only validation sequences 213 of the 408 such joins whose
+        two sides were both people joined two people, and the ones of one
+        person were mostly people standing still, hidden. 0.75 was chosen leave
+        one video out from 0.3, 0.5, 0.75 and 1 (every fold; docs/benchmarks.md);
+        ``None``: no limit. Runs with re-ID never read it.
+    frame_rate
+        The sequence's frame rate, which :meth:`at` sets for each run (the
+        rules counted in seconds read it); a value given is replaced.
     flow_stage_gap
         ``flow-staged``: the longest gap, in frames, that its first stage links
         across (8 was chosen leave-one-sequence-out from 8, 15 and 30; docs/benchmarks.md).
@@ -157,6 +171,8 @@ class AssociationConfig:
     short_gap: int = 5
     min_affinity: float = 0.45
     long_gap_affinity: float | None = None
+    motion_gap_speed: float | None = 0.75
+    frame_rate: float | None = None
     solver: str = "greedy"
     flow_stage_gap: int = 8
     lifted_window: int = 30
@@ -179,6 +195,10 @@ class AssociationConfig:
         _check(0.0 <= self.min_affinity <= 1.0, "association", "min_affinity must be in [0, 1]")
         _check(self.long_gap_affinity is None or self.min_affinity <= self.long_gap_affinity <= 1.0, "association",
                "long_gap_affinity must be in [min_affinity, 1] (or absent for one gate at every gap)")
+        _check(self.motion_gap_speed is None or 0 < self.motion_gap_speed <= 100, "association",
+               "motion_gap_speed must be in (0, 100] heights per second (or absent for no limit)")
+        _check(self.frame_rate is None or 0 < self.frame_rate <= MAX_FRAME_RATE, "association",
+               f"frame_rate must be in (0, {MAX_FRAME_RATE:g}] frames per second")
         _check(1 <= self.flow_stage_gap <= 1_000_000, "association", "flow_stage_gap must be between 1 and "
                "1,000,000 frames")
         _check(1 <= self.lifted_step <= self.lifted_window <= 1_000_000, "association",
@@ -197,13 +217,11 @@ class AssociationConfig:
                f"solver must be one of {', '.join(sorted(SOLVERS))}; got {self.solver!r}")
 
     def at(self, frame_rate: float | None) -> AssociationConfig:
-        """This configuration for a sequence of ``frame_rate`` frames per second, its gap limit in frames:
-        ``l_max`` from ``l_max_seconds`` (at least 1 frame) and ``l_max_seconds`` None, so that a solver
-        may narrow ``l_max`` further. Unchanged without ``l_max_seconds``; without a frame rate, ``l_max``
-        frames."""
-        if self.l_max_seconds is None:
-            return self
+        """This configuration for a sequence of ``frame_rate`` frames per second: its ``frame_rate``, and its gap
+        limit in frames, ``l_max`` from ``l_max_seconds`` (at least 1 frame) and ``l_max_seconds`` None, so that
+        a solver may narrow ``l_max`` further (``l_max`` as it was without ``l_max_seconds``). Without a frame rate,
+        ``l_max`` frames and no rule counted in seconds."""
         if not frame_rate:
-            return dataclasses.replace(self, l_max_seconds=None)
-        return dataclasses.replace(self, l_max=max(1, int(round(self.l_max_seconds * frame_rate))),
-                                   l_max_seconds=None)
+            return dataclasses.replace(self, l_max_seconds=None, frame_rate=None)
+        l_max = self.l_max if self.l_max_seconds is None else max(1, int(round(self.l_max_seconds * frame_rate)))
+        return dataclasses.replace(self, l_max=l_max, l_max_seconds=None, frame_rate=float(frame_rate))
