@@ -79,6 +79,19 @@ def test_over_a_gap_of_more_than_a_second_only_a_slow_person_is_joined():
     assert link_affinities([before, ran_on], np.array([[0, 1]]), units, config)[0] == pytest.approx(1.0)
 
 
+def test_the_objectives_read_the_motion_affinity_too():
+    # compare scores every solver on the flow and lifted objectives, and the lifted solver maximises the latter:
+    # without re-ID they must see the affinity the solvers rank links by, not that of empty features
+    from sotmot.association.objective import entry_cost, flow_objective, link_cost, pair_inputs
+
+    config = MOTION_ONLY.association.at(10.0)
+    before, walked_on = walker(1, range(1, 11), 0.0, 5.0), walker(2, range(16, 26), 75.0, 5.0)
+    motion = motion_affinities([before, walked_on], np.array([[0, 1]]), config)[0]
+    assert motion > 0.9
+    assert flow_objective([before, walked_on], [(1, 2)], config) == pytest.approx(entry_cost(config) + link_cost(motion))
+    assert pair_inputs([before, walked_on], np.array([0]), np.array([1]), config)[0][0] == motion
+
+
 def test_link_affinities_use_appearance_whenever_features_exist():
     a, b = walker(1, range(1, 5), 0.0, 1.0), walker(2, range(8, 12), 300.0, 1.0)
     units = np.array([[1.0, 0.0], [1.0, 0.0]])

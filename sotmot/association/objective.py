@@ -26,7 +26,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sotmot.appearance import affinity_rows, unit, unit_affinity_rows
+from sotmot.appearance import unit
+from sotmot.association.affinity import link_affinities
 from sotmot.association.merge import link_order_key
 from sotmot.config import AssociationConfig
 from sotmot.types import Tracklet
@@ -57,7 +58,8 @@ def flow_objective(tracklets: Sequence[Tracklet], groups: Sequence[Sequence[int]
     for group in groups:
         order = sorted((by_id[u] for u in group), key=link_order_key)
         if len(order) > 1:
-            aff = affinity_rows(np.stack([t.feature for t in order[:-1]]), np.stack([t.feature for t in order[1:]]))
+            consecutive = np.stack([np.arange(len(order) - 1), np.arange(1, len(order))], axis=1)
+            aff = link_affinities(order, consecutive, unit(np.stack([t.feature for t in order])), config)
             total += float(np.sum(link_cost(aff)))
     return float(total)
 
@@ -92,11 +94,13 @@ def pair_scores(affinity: np.ndarray, n_early: np.ndarray, n_late: np.ndarray,
     return coef[0] + pair_features(affinity, n_early, n_late) @ coef[1:]
 
 
-def pair_inputs(tracklets: Sequence[Tracklet], early: np.ndarray,
-                late: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """What the lifted costs read of every pair ``early[k]`` -> ``late[k]`` (positions in ``tracklets``): the
-    affinity of their mean features, the detections of each, and the gap in frames (``late``'s first frame minus
-    ``early``'s last). Shared by the solver and the fit of the learned costs."""
+def pair_inputs(tracklets: Sequence[Tracklet], early: np.ndarray, late: np.ndarray,
+                config: AssociationConfig | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What the lifted costs read of every pair ``early[k]`` -> ``late[k]`` (positions in ``tracklets``): their
+    affinity (:func:`~sotmot.association.affinity.link_affinities` under ``config``, as every solver ranks links:
+    the appearance of their mean features, or without re-ID their motion), the detections of each, and the gap in
+    frames (``late``'s first frame minus ``early``'s last). Shared by the solver and the fit of the learned
+    costs."""
     early, late = np.asarray(early, dtype=np.int64), np.asarray(late, dtype=np.int64)
     # only the tracklets asked about, so that a window's call costs its own size, not the sequence's
     used, where = np.unique(np.concatenate([early, late]), return_inverse=True)
@@ -106,7 +110,8 @@ def pair_inputs(tracklets: Sequence[Tracklet], early: np.ndarray,
     ends = np.array([t.end for t in chosen])
     counts = np.array([t.n_features for t in chosen], dtype=np.float64)
     units = unit(np.stack([t.feature for t in chosen]))
-    return unit_affinity_rows(units[early], units[late]), counts[early], counts[late], starts[late] - ends[early]
+    affinity = link_affinities(chosen, np.stack([early, late], axis=1), units, config)
+    return affinity, counts[early], counts[late], starts[late] - ends[early]
 
 
 def lifted_weights(tracklets: Sequence[Tracklet], early: np.ndarray, late: np.ndarray,
@@ -115,7 +120,7 @@ def lifted_weights(tracklets: Sequence[Tracklet], early: np.ndarray, late: np.nd
     its ``late`` one in :func:`~sotmot.association.merge.link_order_key` order); 0 where the gap exceeds ``H``."""
     if len(early) == 0:
         return np.zeros(0)
-    aff, n_early, n_late, gap = pair_inputs(tracklets, early, late)
+    aff, n_early, n_late, gap = pair_inputs(tracklets, early, late, config)
     scored = gap <= lifted_horizon(config)
     return np.where(scored, n_early * n_late * pair_scores(aff, n_early, n_late, config), 0.0)
 
