@@ -119,6 +119,15 @@ def test_a_key_that_left_the_sot_section_says_where_it_went(tmp_path, old, says)
     assert str(path) in str(failure.value)
 
 
+def test_the_frame_rate_the_association_reads_is_the_run_s_not_a_setting(tmp_path):
+    path = tmp_path / "rate.toml"
+    path.write_text("[association]\nframe_rate = 25\n")
+    with pytest.raises(ConfigError, match=re.escape("[association] frame_rate: set by each run")):
+        load_config(path)
+    empty = config_from_dict({"association": {"frame_rate": None}})  # as a run record holds it
+    assert empty.association.frame_rate is None and empty.association.at(12.5).frame_rate == 12.5
+
+
 def test_gap_refinement_is_gone_and_an_old_file_is_told_why(tmp_path):
     path = tmp_path / "old.toml"
     path.write_text("[ends]\nseconds = 1.0\nrefine_gaps = true\n")

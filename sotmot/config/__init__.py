@@ -189,11 +189,20 @@ MOVED = {
 }
 
 
+#: Fields a run sets from the sequence, never a file or a caller (a run record holds them empty).
+SET_BY_THE_RUN = {
+    ("association", "frame_rate"): "set by each run from the sequence's frame rate (seqinfo.ini's frameRate, or "
+                                   "[input] fps / --fps for a video or a folder of images)",
+}
+
+
 def _build(section: str, values: dict[str, Any]) -> Any:
     cls = SECTIONS[section]
     hints = typing.get_type_hints(cls)
     names = [f.name for f in dataclasses.fields(cls)]
     moved = [f"[{section}] {k}: {MOVED[section, k]}" for k in sorted(values) if (section, k) in MOVED]
+    moved += [f"[{section}] {k}: {SET_BY_THE_RUN[section, k]}, not given" for k in sorted(values)
+              if (section, k) in SET_BY_THE_RUN and values[k] is not None]
     if moved:
         raise ConfigError("; ".join(moved))
     unknown = sorted(set(values) - set(names))

@@ -120,7 +120,8 @@ class AssociationConfig:
         ``None``: no limit. Runs with re-ID never read it.
     frame_rate
         The sequence's frame rate, which :meth:`at` sets for each run (the
-        rules counted in seconds read it); a value given is replaced.
+        rules counted in seconds read it); not a setting: a file that gives it
+        is refused (``[input] fps`` gives a video's rate).
     flow_stage_gap
         ``flow-staged``: the longest gap, in frames, that its first stage links
         across (8 was chosen leave-one-sequence-out from 8, 15 and 30; docs/benchmarks.md).
