@@ -88,7 +88,8 @@ def test_the_objectives_read_the_motion_affinity_too():
     before, walked_on = walker(1, range(1, 11), 0.0, 5.0), walker(2, range(16, 26), 75.0, 5.0)
     motion = motion_affinities([before, walked_on], np.array([[0, 1]]), config)[0]
     assert motion > 0.9
-    assert flow_objective([before, walked_on], [(1, 2)], config) == pytest.approx(entry_cost(config) + link_cost(motion))
+    expected = entry_cost(config) + link_cost(motion)
+    assert flow_objective([before, walked_on], [(1, 2)], config) == pytest.approx(expected)
     assert pair_inputs([before, walked_on], np.array([0]), np.array([1]), config)[0][0] == motion
 
 
