@@ -210,3 +210,22 @@ def test_confirmation_is_explained_from_the_numbers_it_decided_on():
     assert summary.startswith(f"in short: {links} candidate links between them, ")
     assert sum(int(part.split()[0]) for part in summary.split("between them, ")[1].split(", ")) == links
     assert text.count("\ncandidate ") == links
+
+
+def test_without_re_id_the_affinity_is_said_to_be_the_walks_and_the_speed_limit_named(tmp_path):
+    # one person (20 x 40 px) walking 2 px a frame at 20 fps, 1 height a second, unseen for 1.5 s in the middle:
+    # the walk's line leads across the gap and the velocity rule allows it, but the motion-only mode refuses a
+    # join over 1 s above 0.75 heights a second, and the explanation says why its affinity is 0
+    lines = [f"{f},-1,{10 + 2 * f},50,20,40,0.9" for f in [*range(1, 21), *range(51, 71)]]
+    seq = write_sequence(tmp_path, lines, length=70, frame_rate=20, width=320, height=120, images=False)
+    config = ASSOCIATION_ONLY.replace("appearance", backend="none")
+    result = track_sequence(seq, config)
+    graph = inspection_graph(result, config)
+    assert graph.graph["motion_only"] and result.tracks.n_tracks == 2
+    text = explain(graph, 1, 2, config)
+    assert "no re-ID (motion only)" in text and "more than 0.75 of their heights a second" in text
+    assert "affinity: 0.000" in text and "REJECTED by affinity" in text
+    unlimited = config.replace("association", motion_gap_speed=None)
+    assert track_sequence(seq, unlimited).tracks.n_tracks == 1  # the walk's line alone joins them
+    re_id_config, re_id_result = teleport_run(tmp_path / "re-id")
+    assert "motion_only" not in inspection_graph(re_id_result, re_id_config).graph

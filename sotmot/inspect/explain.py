@@ -23,6 +23,7 @@ import networkx as nx
 import numpy as np
 
 from sotmot.config import AssociationConfig, TrackerConfig
+from sotmot.association.affinity import WALK_GAP_SECONDS
 from sotmot.association.objective import link_pairs
 from sotmot.association.merge import link_order_key
 from sotmot.association.rules import RULES
@@ -48,7 +49,8 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
     Graph attributes: ``l_max``, ``solver``, ``candidate_links`` (edges, the
     rejected ones included), ``tracks_in_results``; ``compensated`` (only when
     the camera moved): every position was compared in the reference frame
-    (``[motion]``).
+    (``[motion]``); ``motion_only`` (only without re-ID): the affinity is the
+    two walks' agreement (:func:`~sotmot.association.affinity.motion_affinities`).
     """
     tracklets = result.tracklets
     if frames is not None:
@@ -63,6 +65,8 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
     graph.graph["tracks_in_results"] = len(written)
     if result.motion is not None and result.motion.moving:  # a still camera's graph stays as it was
         graph.graph["compensated"] = True
+    if result.features.shape[1] == 0:  # likewise a graph with re-ID
+        graph.graph["motion_only"] = True
     track_of = {}
     for group, track in zip(result.association.groups, result.track_ids):
         for t in group:
@@ -210,6 +214,11 @@ def _explain_members(graph: nx.DiGraph, first: list[int], second: list[int], con
     if graph.graph.get("compensated"):
         out.append("  the camera moved: IoU, velocity and gaps below are measured after camera-motion compensation, "
                    "in frame 1's pixels")
+    if graph.graph.get("motion_only"):
+        speed = config.association.motion_gap_speed
+        out.append("  no re-ID (motion only): the affinity below is how well the two walks agree" + (
+            "" if speed is None else f"; across a gap of more than {WALK_GAP_SECONDS:g} s it is 0 where the person "
+                                     f"would have moved more than {speed:g} of their heights a second"))
     for t in dict.fromkeys(first + second):
         d = graph.nodes[t]
         out.append(f"  tracklet {t}: frames {d['start']}-{d['end']}, {d['length']} boxes "
