@@ -83,6 +83,8 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
     model = Path(config.appearance.model or "")
     # the detector-score calibration changes no box and no feature: it is not part of the key
     cleaning = {k: v for k, v in config.preprocess.__dict__.items() if k != "confidence"}
+    if cleaning.get("mask") is None:  # no mask: the keys of the runs before masks existed
+        cleaning.pop("mask", None)
     # the runtime and fine-tuned weights, when not the defaults (so keys of default runs stay as they were)
     backend = resolve_backend(config.appearance).backend
     runtime = [v for v in (backend if backend != "onnx" else None,
