@@ -18,6 +18,18 @@ def _readonly(*arrays: np.ndarray) -> None:
         a.setflags(write=False)
 
 
+def rows_by_frame(frames: np.ndarray) -> dict[int, np.ndarray]:
+    """Map each 1-based frame number in ``frames`` (one per row) to the indices of its rows (ascending)."""
+    frames = np.asarray(frames)
+    if len(frames) == 0:
+        return {}
+    order = np.argsort(frames, kind="stable")
+    f = frames[order]
+    starts = np.flatnonzero(np.r_[True, f[1:] != f[:-1]])
+    ends = np.r_[starts[1:], len(f)]
+    return {int(f[s]): np.sort(order[s:e]) for s, e in zip(starts, ends)}
+
+
 @dataclass(frozen=True, eq=False)
 class Detections:
     """A set of detection boxes of one sequence.
@@ -79,13 +91,7 @@ class Detections:
 
     def by_frame(self) -> dict[int, np.ndarray]:
         """Map each frame number that has boxes to the indices of its boxes (ascending)."""
-        if len(self) == 0:
-            return {}
-        order = np.argsort(self.frames, kind="stable")
-        f = self.frames[order]
-        starts = np.flatnonzero(np.r_[True, f[1:] != f[:-1]])
-        ends = np.r_[starts[1:], len(f)]
-        return {int(f[s]): np.sort(order[s:e]) for s, e in zip(starts, ends)}
+        return rows_by_frame(self.frames)
 
 
 @dataclass(frozen=True, eq=False)

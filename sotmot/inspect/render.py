@@ -27,7 +27,7 @@ from sotmot.errors import InputError
 from sotmot.io import FrameReader, SeqInfo, check_output_dir, refuse_overwriting, write_bytes_atomic
 from sotmot.io.files import refuse_inside
 from sotmot.io.mask import Mask
-from sotmot.types import Tracks
+from sotmot.types import Tracks, rows_by_frame
 
 TRAIL = 12
 
@@ -227,12 +227,8 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
     out = Path(out)
     video = check_render_target(info, out, inputs)
     reader = FrameReader(info, cache_size=1)
-    per_frame: dict[int, list[int]] = {}
-    for r, f in enumerate(tracks.frames.tolist()):
-        per_frame.setdefault(f, []).append(r)
-    dropped_per_frame: dict[int, list[int]] = {}
-    for r, f in enumerate(dropped.frames.tolist() if dropped is not None else []):
-        dropped_per_frame.setdefault(f, []).append(r)
+    per_frame = rows_by_frame(tracks.frames)
+    dropped_per_frame = rows_by_frame(dropped.frames) if dropped is not None else {}
     frames = range(1, info.length + 1)
     trails: dict[int, deque] = {}
     into_existing = not video and out.is_dir()
@@ -256,8 +252,8 @@ def render(info: SeqInfo, tracks: Tracks, out: str | Path,
             plain = reader(f)
             image = plain if mask is None else draw_mask(plain, mask)
             if f in dropped_per_frame:
-                image = draw_dropped(image, dropped, np.asarray(dropped_per_frame[f], int))
-            image = draw_frame(image, tracks, np.asarray(per_frame.get(f, []), int), trails)
+                image = draw_dropped(image, dropped, dropped_per_frame[f])
+            image = draw_frame(image, tracks, per_frame.get(f, np.zeros(0, np.int64)), trails)
             if errors is not None:
                 image = draw_errors(image, plain, f, errors)
             if video:
