@@ -84,7 +84,14 @@ def grey_reduced(image: np.ndarray, factor: int) -> np.ndarray:
 
 
 def read_image(path: Path, frame: int, flags: int) -> np.ndarray:
-    """The image file of 1-based ``frame`` decoded by OpenCV with ``flags`` (``cv2.IMREAD_*``).
+    """The image file of 1-based ``frame`` decoded by OpenCV with ``flags`` (``cv2.IMREAD_*``)
+    (:func:`decode_image_file`)."""
+    return decode_image_file(path, flags, f"frame {frame}")
+
+
+def decode_image_file(path: Path | str, flags: int, what: str, formats: str = "") -> np.ndarray:
+    """The image file at ``path`` decoded by OpenCV with ``flags`` (``cv2.IMREAD_*``); ``what`` names it in errors
+    (``"frame 12"``, ``"the mask"``), ``formats`` follows "cannot be decoded as an image" there.
 
     The bytes are read by Python and decoded by OpenCV: ``cv2.imread`` crashes on some paths (not valid
     UTF-8), and an empty file would fail inside OpenCV rather than as the file's own error.
@@ -99,10 +106,10 @@ def read_image(path: Path, frame: int, flags: int) -> np.ndarray:
     try:
         data = np.fromfile(path, dtype=np.uint8)
     except OSError as exc:
-        raise InputError(path, f"frame {frame} cannot be read: {exc.strerror}") from exc
+        raise InputError(path, f"{what} cannot be read: {exc.strerror}") from exc
     image = cv2.imdecode(data, flags) if len(data) else None
     if image is None:
-        raise InputError(path, f"frame {frame} cannot be decoded as an image")
+        raise InputError(path, f"{what} cannot be decoded as an image{formats}")
     return image
 
 

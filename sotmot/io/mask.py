@@ -20,6 +20,7 @@ import numpy as np
 
 from sotmot.boxes import as_boxes
 from sotmot.errors import InputError
+from sotmot.io.frames import decode_image_file
 
 #: Pixels darker than this (0-255, the mask read as grey) ignore the detections standing on them.
 DARK = 128
@@ -69,8 +70,6 @@ def read_mask(path: str | Path, width: int, height: int, sequence: str = "the se
     except OSError as exc:
         raise InputError(path, f"the mask cannot be read: {exc.strerror}") from None
     tracked = _read(str(path.resolve()), st.st_size, st.st_mtime_ns)
-    if tracked is None:
-        raise InputError(path, "the mask cannot be decoded as an image (PNG, JPEG, BMP or any format OpenCV reads)")
     if tracked.shape != (height, width):
         raise InputError(path, f"the mask is {tracked.shape[1]} x {tracked.shape[0]} pixels and the frames of "
                                f"{sequence} {width} x {height}: it must be the frames' size")
@@ -81,17 +80,12 @@ def read_mask(path: str | Path, width: int, height: int, sequence: str = "the se
 
 
 @functools.lru_cache(maxsize=4)
-def _read(path: str, size: int, mtime_ns: int) -> np.ndarray | None:
+def _read(path: str, size: int, mtime_ns: int) -> np.ndarray:
     """The mask's pixels as ``tracked`` (read once per file version; a windowed run reads it for every window)."""
     import cv2
 
-    try:
-        data = np.fromfile(path, dtype=np.uint8)
-    except OSError as exc:
-        raise InputError(path, f"the mask cannot be read: {exc.strerror}") from None
-    grey = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if len(data) else None
-    if grey is None:
-        return None
+    grey = decode_image_file(path, cv2.IMREAD_GRAYSCALE, "the mask",
+                             " (PNG, JPEG, BMP or any format OpenCV reads)")
     tracked = grey >= DARK
     tracked.setflags(write=False)
     return tracked
