@@ -34,13 +34,11 @@ IGNORED = ("time", "camera_motion", "plan", "config.appearance.threads", "config
 
 
 def sotmot_version() -> str:
-    """The installed sotmot version (``unknown`` when run from a tree that is not installed)."""
-    from importlib.metadata import PackageNotFoundError, version
+    """The version of the sotmot code running (``sotmot.__version__``, which the package metadata is made from):
+    the same from an installed package and from a source tree, so a run record compares with it."""
+    from sotmot import __version__
 
-    try:
-        return version("sotmot")
-    except PackageNotFoundError:
-        return "unknown"
+    return __version__
 
 
 def frames_fingerprint(info: SeqInfo) -> str | None:

@@ -211,11 +211,17 @@ def test_out_that_is_a_file_fails_before_any_work(tmp_path):
 
 
 def test_version(capsys):
+    """One version: the code's ``__version__``, which ``--version``, run records and the package metadata carry."""
+    from importlib.metadata import version
+
+    from sotmot import __version__
     from sotmot.cli import main
+    from sotmot.provenance import sotmot_version
 
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
-    assert exc.value.code == 0 and capsys.readouterr().out.startswith("sotmot ")
+    assert exc.value.code == 0 and capsys.readouterr().out == f"sotmot {__version__}\n"
+    assert sotmot_version() == __version__ == version("sotmot")
 
 
 def test_one_frame_batches_are_an_error_not_zero_tracks(tmp_path):
