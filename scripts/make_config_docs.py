@@ -29,7 +29,8 @@ def render() -> str:
            "```toml", "[association]", "l_max = 45", "min_affinity = 0.5", "```", "",
            "The run record `sotmot track` writes beside each results file (`<name>.run.json`) is one too:",
            "`--config results/<name>.run.json` runs with the settings of that run (its `config` table; a",
-           "bundled model it names by SHA-256 is this installation's copy), flags still overriding them.", ""]
+           "bundled model it names by SHA-256 is this installation's copy), flags still overriding them; a",
+           "warning names what differs from the run's sotmot and library versions (the record keeps them).", ""]
     for section, cls in SECTIONS.items():
         summary = inspect.getdoc(cls).splitlines()[0]
         docs = field_docs(cls)

@@ -1,6 +1,7 @@
 """How a results file was made: the run record written beside it as ``<name>.run.json``.
 
-The record holds the sotmot version, the resolved configuration (solver
+The record holds the sotmot version, Python's and the libraries' versions
+(:func:`sotmot.versions.environment`), the resolved configuration (solver
 included), the re-ID model file and its SHA-256, the detector model's (when
 the detections came from it), the confidence calibration's SHA-256, the
 SHA-256 of ``seqinfo.ini``, of the detections file used and of the mask, a fingerprint of
@@ -19,26 +20,21 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from sotmot import __version__
 from sotmot.config import TrackerConfig
 from sotmot.hashing import file_sha256
 from sotmot.io import SeqInfo
+from sotmot.versions import environment
 
-#: Record fields that never make a resume re-run: when it ran, how fast (threads, batch size), what it
-#: found (the camera's motion), what the configuration's "auto" choices became (they follow from the
-#: configuration and inputs, which are compared), and paths whose file contents are compared by hash instead.
-IGNORED = ("time", "camera_motion", "plan", "config.appearance.threads", "config.appearance.batch_size",
-           "config.appearance.model", "config.confirm.calibration", "reid_model.path", "confidence_calibration.path",
-           "results_sha256", "config.detection.model", "config.detection.file", "config.detection.threads",
-           "detector_model.path", "inputs.detections.path", "side_files", "confidence_method",
-           "windows", "config.preprocess.mask", "inputs.mask.path")
-
-
-def sotmot_version() -> str:
-    """The version of the sotmot code running (``sotmot.__version__``, which the package metadata is made from):
-    the same from an installed package and from a source tree, so a run record compares with it."""
-    from sotmot import __version__
-
-    return __version__
+#: Record fields that never make a resume re-run: when it ran and on which library versions, how fast (threads,
+#: batch size), what it found (the camera's motion), what the configuration's "auto" choices became (they follow
+#: from the configuration and inputs, which are compared), and paths whose file contents are compared by hash
+#: instead.
+IGNORED = ("time", "environment", "camera_motion", "plan", "config.appearance.threads",
+           "config.appearance.batch_size", "config.appearance.model", "config.confirm.calibration", "reid_model.path",
+           "confidence_calibration.path", "results_sha256", "config.detection.model", "config.detection.file",
+           "config.detection.threads", "detector_model.path", "inputs.detections.path", "side_files",
+           "confidence_method", "windows", "config.preprocess.mask", "inputs.mask.path")
 
 
 def frames_fingerprint(info: SeqInfo) -> str | None:
@@ -72,7 +68,7 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
     source, det_file = plan.source, plan.det_file
     detector = config.detection.model if plan.detector is not None or plan.weak_boxes else None
     return {
-        "sotmot": sotmot_version(),
+        "sotmot": __version__,
         "sequence": info.name,
         "solver": config.association.solver,
         "config": config.to_dict(),
@@ -91,6 +87,8 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
         # every "auto" as the run decided it (sotmot.plan): whether the detector's weak boxes checked the SOT
         # boxes, where the boxes that extend trajectory ends came from, the gap limit in frames, ...
         "plan": plan.record(),
+        # recorded, not compared: a library upgrade does not make --resume track again
+        "environment": environment(),
         "time": datetime.now(timezone.utc).isoformat(timespec="seconds"),
     }
 

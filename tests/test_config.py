@@ -198,6 +198,19 @@ def test_a_run_record_is_a_configuration_file_with_its_runs_settings(tmp_path, c
     with caplog.at_level(logging.WARNING):
         load_config(path)
     assert f"written by sotmot 0.0.1, this is {__version__}" in caplog.text
+    assert "other library versions" not in caplog.text  # a record without them (older sotmot) says nothing
+    import numpy
+
+    from sotmot.versions import environment
+
+    ran_on = environment()
+    ran_on["packages"]["numpy"] = "1.0"
+    ran_on["packages"].pop("ortools", None)
+    path.write_text(json.dumps({**record, "environment": ran_on}))
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        load_config(path)
+    assert f"other library versions (numpy 1.0 -> {numpy.__version__}; ortools absent -> " in caplog.text
     del record["results_sha256"]  # not a record: its extra keys are errors, as in any configuration file
     path.write_text(json.dumps(record))
     with pytest.raises(ConfigError, match="outside any"):

@@ -176,6 +176,9 @@ def _walker_sequence(tmp_path):
 def test_results_carry_a_run_record_and_resume_reruns_only_when_it_differs(tmp_path):
     import json
 
+    import numpy as np
+
+    from sotmot import __version__
     from sotmot.runs import track_one
 
     seq = _walker_sequence(tmp_path)
@@ -185,7 +188,11 @@ def test_results_carry_a_run_record_and_resume_reruns_only_when_it_differs(tmp_p
     assert first.status == "done"
     record = json.loads((out / "SYN.run.json").read_text())
     assert record["solver"] == "greedy" and record["config"]["association"]["l_max"] == 60
-    assert len(record["inputs"]["detections"]["sha256"]) == 64 and record["sotmot"]
+    assert len(record["inputs"]["detections"]["sha256"]) == 64 and record["sotmot"] == __version__
+    assert record["environment"]["packages"]["numpy"] == np.__version__ and record["environment"]["python"]
+    assert track_one(str(seq), str(out), config, True, embedder=GeometryEmbedder()).status == "skipped"
+    record["environment"]["packages"]["numpy"] = "1.0"  # recorded, not compared: an upgrade does not re-run
+    (out / "SYN.run.json").write_text(json.dumps(record))
     assert track_one(str(seq), str(out), config, True, embedder=GeometryEmbedder()).status == "skipped"
     changed = track_one(str(seq), str(out), config.replace("association", l_max=45), True,
                         embedder=GeometryEmbedder())
@@ -216,12 +223,11 @@ def test_version(capsys):
 
     from sotmot import __version__
     from sotmot.cli import main
-    from sotmot.provenance import sotmot_version
 
     with pytest.raises(SystemExit) as exc:
         main(["--version"])
     assert exc.value.code == 0 and capsys.readouterr().out == f"sotmot {__version__}\n"
-    assert sotmot_version() == __version__ == version("sotmot")
+    assert version("sotmot") == __version__
 
 
 def test_one_frame_batches_are_an_error_not_zero_tracks(tmp_path):

@@ -39,8 +39,9 @@ score, -1, -1, -1; boxes in pixels, frames 1-based), each file atomically; <name
 the name in seqinfo.ini (a video's or a folder of images' own name) and must be a plain file name (no path
 separators). Beside it:
 <name>.flags.csv (interpolated / SOT boxes, each box's confidence) and <name>.run.json
-(sotmot version, full configuration, solver, model and input hashes, time); --resume
-skips a sequence only when that record matches the current run.
+(sotmot version, full configuration, solver, model and input hashes, library versions, time);
+--resume skips a sequence only when that record matches the current run (library versions
+aside), and --config <name>.run.json repeats the run, saying which versions differ.
 """
 
 EPILOG_EVAL = """\
@@ -78,9 +79,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "and gap constraints, interpolation and smoothing. Input: MOTChallenge folders, videos or "
                     "folders of images.")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
-    from sotmot.provenance import sotmot_version
+    from sotmot import __version__
 
-    parser.add_argument("--version", action="version", version=f"sotmot {sotmot_version()}")
+    parser.add_argument("--version", action="version", version=f"sotmot {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("track", help="track sequences and write MOTChallenge results",

@@ -252,6 +252,7 @@ def run_record_settings(record: dict[str, Any], source: str | Path = "run record
     SHA-256 of a bundled one is this installation's copy of it (the record's path may be another machine's)."""
     from sotmot import __version__
     from sotmot.models import MODELS
+    from sotmot.versions import environment_changes
 
     settings = {section: dict(values) if isinstance(values, dict) else values
                 for section, values in record["config"].items()}
@@ -267,6 +268,10 @@ def run_record_settings(record: dict[str, Any], source: str | Path = "run record
     if record["sotmot"] != __version__:
         log.warning("%s: written by sotmot %s, this is %s: settings this version added take their defaults, and "
                     "the results may differ", source, record["sotmot"], __version__)
+    changed = environment_changes(record.get("environment"))
+    if changed:
+        log.warning("%s: its run had other library versions (%s): a box may move and a close decision flip",
+                    source, "; ".join(changed))
     return settings
 
 
