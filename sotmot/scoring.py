@@ -3,7 +3,10 @@
 Sequences whose ``gt.txt`` has the MOT16 layout (9 columns with class and
 visibility) are scored with TrackEval's MOT16 rules: boxes matched to
 distractor classes are removed before scoring and only considered pedestrians
-count. 2DMOT2015-layout files are scored with the plain MOT15 rules. Scores
+count. 2DMOT2015-layout files are scored with TrackEval's MOT15 rules: no
+classes; a ground-truth row whose 7th column is 0 ("not to be considered") is
+left out, and an output box on that person counts as a false positive (nothing
+is removed from the output; PETS09-S2L1 marks its far walkers so). Scores
 over several sequences are combined by TrackEval's own ``combine_sequences``.
 
 TrackEval 1.3.0 is installed without its declared dependencies (it asks for

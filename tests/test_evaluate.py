@@ -43,6 +43,20 @@ def test_perfect_results_score_100_and_missing_results_are_named(tmp_path):
     assert "SYN" in format_table(report)
 
 
+def test_mot15_rules_leave_out_a_person_marked_0_and_count_a_box_on_them_as_false(tmp_path):
+    """What `sotmot eval` says of the MOT15 rules: a ground-truth row whose 7th column is 0 is no one to find, and
+    an output box on that person is a false positive (PETS09-S2L1 marks its far walkers so)."""
+    gt = ["1,1,10,10,20,40,1,-1,-1,-1", "1,2,60,10,20,40,0,-1,-1,-1"]  # 10 columns: the 2DMOT2015 layout
+    seq = write_sequence(tmp_path, ["1,-1,10,10,20,40,1"], length=1, gt_lines=gt, images=False)
+    out = tmp_path / "res"
+    out.mkdir()
+    (out / "SYN.txt").write_text("1,1,10,10,20,40,1,-1,-1,-1\n1,2,60,10,20,40,1,-1,-1,-1\n")
+    report = evaluate(out, [seq])
+    s = report.sequences["SYN"]
+    assert report.benchmark["SYN"] == "MOT15"
+    assert (s["FP"], s["FN"]) == (1, 0) and s["MOTA"] == pytest.approx(0.0)
+
+
 def test_malformed_results_are_reported_with_file_and_line(tmp_path):
     seq = write_sequence(tmp_path, ["1,-1,10,10,20,40,1"], length=2, gt_lines=["1,1,10,10,20,40,1,1,1"],
                          images=False)

@@ -47,7 +47,9 @@ aside), and --config <name>.run.json repeats the run, saying which versions diff
 EPILOG_EVAL = """\
 Scores RESULTS_DIR/<name>.txt against SEQ_DIR/gt/gt.txt with TrackEval (HOTA, CLEAR,
 Identity). MOT16-layout ground truth (9 columns) is scored with the MOT16 rules
-(distractor classes removed); 2DMOT2015-layout ground truth with the plain rules.
+(output boxes on distractor classes removed); 2DMOT2015-layout ground truth (10 columns)
+with the MOT15 rules: no classes, people marked 0 in its 7th column left out, and an output
+box on one of them counted as a false positive.
 
 example:
   sotmot eval results ../shared/data/PETS09-S2L1 --json scores.json

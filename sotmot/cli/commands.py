@@ -171,7 +171,8 @@ def cmd_eval(args: argparse.Namespace) -> int:
             print(f"sotmot: warning: {doubt}", file=sys.stderr)
     print(format_table(report))
     print("TrackEval rules: " + ", ".join(f"{name} {rules}" for name, rules in report.benchmark.items())
-          + " (MOT16: distractor classes removed; MOT15: every ground-truth box counts)")
+          + " (MOT16: boxes on distractor classes removed; MOT15: people marked 0 in gt.txt left out, a box on "
+            "them counts as false)")
     _write_json(args.json, report.to_dict(), "scores")
     return 0
 
