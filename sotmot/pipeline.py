@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sotmot.appearance import Embedder, embedder_for
+from sotmot.appearance import Embedder, embedder_for, motion_only
 from sotmot.boxes import inside_share
 from sotmot.association import Association, get_solver
 from sotmot.association.merge import merge_group
@@ -402,8 +402,7 @@ def finish_sequence(prepared: Prepared, config: TrackerConfig = TrackerConfig(),
     tracks, dropped = (confirm(tracks, config, prepared.confidence_method) if config.confirm.enabled
                        else (tracks, Tracks.empty()))
     clock.lap("confirm")
-    motion_only = prepared.features.shape[1] == 0
-    if motion_only and config.ends.enabled:
+    if motion_only(prepared.features) and config.ends.enabled:
         log.info("%s: no re-ID (motion only): trajectory ends are not extended", prepared.info.name)
     elif config.ends.enabled and len(tracks):
         identity = {i: t.feature for t, i in zip(trajectories, ids) if i is not None}

@@ -19,7 +19,7 @@ from collections.abc import Callable, Iterable
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from sotmot.appearance import affinity
+from sotmot.appearance import affinity, motion_only
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackletConfig
 from sotmot.errors import ConfigError
@@ -62,7 +62,7 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
     features = np.asarray(features, dtype=np.float32)
     if len(features) != len(detections):
         raise ValueError(f"{len(detections)} detections but {len(features)} features")
-    motion_only = features.ndim == 2 and features.shape[1] == 0
+    no_reid = motion_only(features)
     per_frame = detections.by_frame()
     frames = sorted(per_frame)
     batch_frames = batch_length(frame_rate, config.batch_seconds)
@@ -90,7 +90,7 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
             if config.predict:  # each tracklet's last box moved on one frame at its velocity over its tail
                 last = last + np.array([_step(detections, t[-config.tail:]) for t in active])
             ious = iou_matrix(last, detections.boxes[idx])
-            if motion_only:  # no re-ID: the IoU with the tracklet's last box is the affinity, its gate the only one
+            if no_reid:  # no re-ID: the IoU with the tracklet's last box is the affinity, its gate the only one
                 aff, allowed = ious, ious >= config.min_iou
             else:
                 tails = np.stack([features[t[-config.tail:]].mean(axis=0) for t in active])

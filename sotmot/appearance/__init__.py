@@ -25,8 +25,8 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from sotmot.appearance.affinity import (affinity, affinity_rows, normalize, pair_affinities, roc_auc, unit,
-                                       unit_affinity_rows)
+from sotmot.appearance.affinity import (affinity, affinity_rows, motion_only, normalize, pair_affinities, roc_auc,
+                                       unit, unit_affinity_rows)
 from sotmot.appearance.base import flip_average
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ConfigError
@@ -84,4 +84,4 @@ def make_embedder(config: AppearanceConfig) -> Embedder:
 
 
 __all__ = ["BACKENDS", "Embedder", "affinity", "affinity_rows", "embedder_for", "flip_average", "make_embedder",
-           "normalize", "pair_affinities", "resolve_backend", "roc_auc", "unit", "unit_affinity_rows"]
+           "motion_only", "normalize", "pair_affinities", "resolve_backend", "roc_auc", "unit", "unit_affinity_rows"]

@@ -5,6 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 
+def motion_only(features: np.ndarray) -> bool:
+    """Whether ``(N, D)`` ``features`` are the motion-only mode's (``[appearance] backend = "none"``): ``D == 0``,
+    no re-ID, so affinities and gates are what geometry alone says."""
+    features = np.asarray(features)
+    return features.ndim == 2 and features.shape[1] == 0
+
+
 def normalize(features: np.ndarray) -> np.ndarray:
     """Rows scaled to unit L2 length (zero rows stay zero), as float32."""
     f = np.asarray(features, dtype=np.float32)

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sotmot.appearance import pair_affinities
+from sotmot.appearance import motion_only, pair_affinities
 from sotmot.boxes import VELOCITY_BOXES, centers, end_velocity, iou_aligned, motion_agreement
 from sotmot.config import AssociationConfig
 from sotmot.types import Tracklet
@@ -37,8 +37,7 @@ def link_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray, units: np.
     affinity of the two tracklets under ``config`` (the association as a run resolved it, its
     ``frame_rate`` set). Returns ``(K,)`` float64.
     """
-    units = np.asarray(units)
-    if units.ndim == 2 and units.shape[1] == 0:
+    if motion_only(units):
         return motion_affinities(tracklets, pairs, config)
     return pair_affinities(units, pairs)
 

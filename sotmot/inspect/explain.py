@@ -22,6 +22,7 @@ from pathlib import Path
 import networkx as nx
 import numpy as np
 
+from sotmot.appearance import motion_only
 from sotmot.config import AssociationConfig, TrackerConfig
 from sotmot.association.affinity import WALK_GAP_SECONDS
 from sotmot.association.objective import link_pairs
@@ -65,7 +66,7 @@ def inspection_graph(result: TrackResult, config: TrackerConfig, frames: tuple[i
     graph.graph["tracks_in_results"] = len(written)
     if result.motion is not None and result.motion.moving:  # a still camera's graph stays as it was
         graph.graph["compensated"] = True
-    if result.features.shape[1] == 0:  # likewise a graph with re-ID
+    if motion_only(result.features):  # likewise a graph with re-ID
         graph.graph["motion_only"] = True
     track_of = {}
     for group, track in zip(result.association.groups, result.track_ids):
