@@ -19,8 +19,10 @@ does) is put under the stage that wrote it:
   occlusion_seconds`` (1 s when the check is off);
 * ``long gap, on the line``: interpolated in a longer gap whose straight line
   the walk on both sides leads along (motion agreement at least ``[postprocess]
-  min_agreement``): written on trust;
-* ``long gap, off the line``: interpolated in a longer gap off the walk's line:
+  min_agreement``, the box not standing still: ``still_speed``): written on
+  trust;
+* ``long gap, off the line``: interpolated in a longer gap off the walk's line
+  or across which the box stood still (:func:`sotmot.postprocess.off_the_line`):
   written only where a detection in front could hide the person (every box,
   when the occlusion check is off).
 
@@ -54,7 +56,7 @@ from sotmot.boxes import iou_matrix
 from sotmot.config import PostprocessConfig
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.pipeline import TrackResult, finish_sequence, prepare_sequence
-from sotmot.postprocess import gap_agreement, long_gap_frames
+from sotmot.postprocess import long_gap_frames, off_the_line
 from sotmot.scoring import FrameErrors, evaluate_files, frame_errors
 
 ORIGINS = ("detection", "sot", "short gap", "long gap, on the line", "long gap, off the line")
@@ -83,7 +85,7 @@ def origins(result: TrackResult, config: PostprocessConfig) -> dict[tuple[int, i
             if t.frames[k + 1] - t.frames[k] <= long_after:
                 gap_kind[tid, k] = "short gap"
             else:
-                on_line = gap_agreement(t.frames, t.boxes, np.array([k]))[0] >= config.min_agreement
+                on_line = not off_the_line(t.frames, t.boxes, np.array([k]), config, result.info.frame_rate)[0]
                 gap_kind[tid, k] = "long gap, on the line" if on_line else "long gap, off the line"
         out[frame, tid] = gap_kind[tid, k]
     return out

@@ -55,6 +55,13 @@ def centers(boxes: np.ndarray) -> np.ndarray:
     return b[:, :2] + 0.5 * b[:, 2:]
 
 
+def heights_moved(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(N,)`` how far the centre of each ``(N, 4)`` ``x, y, w, h`` box ``a`` lies from that of box ``b``, in the
+    two boxes' mean height: a person's displacement in their own size, whatever their distance from the camera."""
+    a, b = as_boxes(a), as_boxes(b)
+    return np.linalg.norm(centers(b) - centers(a), axis=1) / (0.5 * (a[:, 3] + b[:, 3]))
+
+
 def clip_xyxy(corners: np.ndarray, width: float, height: float) -> np.ndarray:
     """``(N, 4)`` corners ``x1, y1, x2, y2`` (pixels, floats) clipped to a ``width`` x ``height`` image."""
     c = np.asarray(corners, dtype=np.float64).reshape(-1, 4)

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sotmot.boxes import (VELOCITY_BOXES, cxcywh_to_xywh, end_velocity, intersection_aligned, iou_aligned,
-                          motion_agreement, xywh_to_cxcywh)
+from sotmot.boxes import (VELOCITY_BOXES, cxcywh_to_xywh, end_velocity, heights_moved, intersection_aligned,
+                          iou_aligned, motion_agreement, xywh_to_cxcywh)
 from sotmot.config import PostprocessConfig
 from sotmot.types import Detections, Tracklet, Tracks
 
@@ -269,6 +269,20 @@ def line_checked(config: PostprocessConfig, trajectories: Sequence[Tracklet], fr
     return dataclasses.replace(config, interpolate_max_seconds=chosen)
 
 
+def off_the_line(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray, config: PostprocessConfig,
+                 frame_rate: float) -> np.ndarray:
+    """``(K,)`` True for the long gaps after boxes ``gaps`` of one trajectory (1-based ``frames``, ``x, y, w, h``
+    ``boxes``) that are not filled on trust: the walk around the gap does not lead along its line
+    (:func:`gap_agreement` below ``min_agreement``), or the box stood still across it (its centre moved less than
+    ``still_speed`` of its heights per second, :func:`~sotmot.boxes.heights_moved`)."""
+    gaps = np.asarray(gaps, dtype=np.int64)
+    out = gap_agreement(frames, boxes, gaps) < config.min_agreement
+    if config.still_speed is not None and len(gaps):
+        seconds = (frames[gaps + 1] - frames[gaps]) / frame_rate
+        out |= heights_moved(boxes[gaps], boxes[gaps + 1]) < config.still_speed * seconds
+    return out
+
+
 def gap_agreement(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray) -> np.ndarray:
     """``(K,)`` motion agreement (:func:`~sotmot.boxes.motion_agreement`, up to :data:`~sotmot.boxes.VELOCITY_BOXES`
     boxes each side) of the gaps after boxes ``gaps`` ``(K,)`` of one trajectory's ``(L,)`` 1-based ``frames`` and
@@ -276,9 +290,9 @@ def gap_agreement(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray) -> np
     gaps = np.asarray(gaps, dtype=np.int64)
     before = [slice(max(0, k + 1 - VELOCITY_BOXES), k + 1) for k in gaps.tolist()]
     after = [slice(k + 1, k + 1 + VELOCITY_BOXES) for k in gaps.tolist()]
-    return motion_agreement(boxes[gaps], np.array([end_velocity(frames[s], boxes[s]) for s in before]).reshape(-1, 2),
-                            boxes[gaps + 1], np.array([end_velocity(frames[s], boxes[s]) for s in after]).reshape(-1, 2),
-                            frames[gaps + 1] - frames[gaps])
+    v_before = np.array([end_velocity(frames[s], boxes[s]) for s in before]).reshape(-1, 2)
+    v_after = np.array([end_velocity(frames[s], boxes[s]) for s in after]).reshape(-1, 2)
+    return motion_agreement(boxes[gaps], v_before, boxes[gaps + 1], v_after, frames[gaps + 1] - frames[gaps])
 
 
 class Occluders:
@@ -325,14 +339,15 @@ def unhidden(trajectory: Tracklet, frames: np.ndarray, boxes: np.ndarray, filled
              config: PostprocessConfig, frame_rate: float | None, occluders: Occluders | None) -> np.ndarray:
     """``(L,)`` True for each interpolated box of ``trajectory`` (expanded to ``frames``, ``boxes``, ``filled``) that
     ``[postprocess] occlusion_seconds`` takes out: in a gap longer than it whose straight line the walk around it
-    does not lead along (:func:`gap_agreement` below ``min_agreement``), with nothing in front that could hide the
-    person (:meth:`Occluders.hide`). All False when there is no check, no frame rate or no ``occluders``."""
+    does not lead along, or across which the box stood still (:func:`off_the_line`), with nothing in front that
+    could hide the person (:meth:`Occluders.hide`). All False when there is no check, no frame rate or no
+    ``occluders``."""
     out = np.zeros(len(frames), dtype=bool)
     long = judged_gaps(trajectory, config, frame_rate, occluders) if filled.any() else _NONE
     if not len(long):
         return out
     t = trajectory
-    off_line = long[gap_agreement(t.frames, t.boxes, long) < config.min_agreement]
+    off_line = long[off_the_line(t.frames, t.boxes, long, config, frame_rate)]
     gap = np.searchsorted(t.frames, frames) - 1  # the gap each interpolated box lies in (after box ``gap``)
     candidates = np.flatnonzero(filled & np.isin(gap, off_line))
     out[candidates] = ~occluders.hide(frames[candidates], boxes[candidates])
@@ -399,6 +414,8 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
     limit = max_interpolated_gap(config, frame_rate)
     judged = judged_gaps(t, config, frame_rate, occluders)
     agreement = dict(zip(judged.tolist(), gap_agreement(t.frames, t.boxes, judged).tolist()))
+    off = dict(zip(judged.tolist(), off_the_line(t.frames, t.boxes, judged, config, frame_rate).tolist())) \
+        if len(judged) else {}
     report = []
     for k in gaps.tolist():
         length, n = int(t.frames[k + 1] - t.frames[k]) - 1, int(written[k])
@@ -411,9 +428,13 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
                    f"{config.interpolate_max_seconds:g} s ({limit} frames)")
         elif a is None:
             why = "interpolated"
-        elif a >= config.min_agreement:
+        elif not off[k]:
             why = (f"interpolated on trust: the walk on both sides leads along the line (motion agreement {a:.3f} "
                    f">= min_agreement {config.min_agreement:g})")
+        elif a >= config.min_agreement:
+            speed = float(heights_moved(t.boxes[k:k + 1], t.boxes[k + 1:k + 2])[0]) * frame_rate / (length + 1)
+            why = (f"stood still across it ({speed:.3f} heights per second < still_speed {config.still_speed:g}): "
+                   f"a box is written only where a detection stands in front and could hide the person")
         else:
             why = (f"off the walk's line (motion agreement {a:.3f} < {config.min_agreement:g}): a box is written only "
                    f"where a detection stands in front and could hide the person")

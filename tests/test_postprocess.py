@@ -143,6 +143,46 @@ def test_off_the_line_a_long_gap_is_filled_where_a_detection_in_front_could_hide
     assert tracks.frames[tracks.interpolated].tolist() == list(range(15, 25))
 
 
+def stander(frames_before: int = 10, gap: int = 30, drift: float = 0.0):
+    """Standing at x = 100 (20 x 50 px) for ``frames_before`` frames, a ``gap``-frame gap, then 10 more frames
+    ``drift`` px to the right: a person (or a thing) that did not walk."""
+    from sotmot.types import Tracklet
+
+    frames = np.r_[np.arange(1, frames_before + 1), np.arange(frames_before + gap + 1, frames_before + gap + 11)]
+    x = np.r_[np.full(frames_before, 100.0), np.full(10, 100.0 + drift)]
+    n = len(frames)
+    boxes = np.stack([x, np.zeros(n), np.full(n, 20.0), np.full(n, 50.0)], axis=1)
+    return Tracklet(id=1, frames=frames, boxes=boxes, scores=np.ones(n), det_index=np.arange(n),
+                    feature=np.zeros(0), n_features=n)
+
+
+def test_a_long_gap_across_which_the_box_stood_still_is_filled_only_where_someone_stands_in_front():
+    """A sign the detector fires on now and then has a line that agrees with its 'walk' (none): still_speed sends
+    such a gap to the occlusion check, where a person standing behind a passer-by keeps the boxes."""
+    from sotmot.postprocess import Occluders, expand, gaps_of, off_the_line
+
+    still = stander()
+    nothing = Occluders(Detections(np.zeros(0), np.zeros((0, 4)), np.zeros(0)))
+    trusting = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=1.0, still_speed=None)
+    checked = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=1.0, still_speed=0.03)
+    assert expand(still, trusting, 10, nothing).filled.sum() == 30  # on the line: filled on trust
+    assert expand(still, checked, 10, nothing).filled.sum() == 0
+    passer = [(f, np.array([95.0, 5.0, 20.0, 50.0])) for f in range(20, 26)]  # in front of it, frames 20-25
+    f, b = zip(*passer)
+    occluders = Occluders(Detections(np.array(f), np.array(b), np.ones(len(f))))
+    e = expand(still, checked, 10, occluders)
+    assert e.frames[e.filled].tolist() == list(range(20, 26))
+    # 31 frames at 10 fps, one height 50 px: 4 px is 0.026 heights a second (still), 5 px 0.032 (moved)
+    barely = stander(drift=4.0)
+    assert off_the_line(barely.frames, barely.boxes, np.array([9]), checked, 10).tolist() == [True]
+    moved = stander(drift=5.0)
+    assert off_the_line(moved.frames, moved.boxes, np.array([9]), checked, 10).tolist() == [False]
+    assert expand(walker(x_after=80.0), checked, 10, nothing).filled.sum() == 30  # a walk: on trust as before
+    (gap,) = gaps_of(still, checked, 10, occluders)
+    assert (gap.written, gap.left_out) == (6, 24) and "stood still across it (0.000 heights per second" in gap.why
+    assert gap.agreement >= 0.5  # the line agreed; standing still is what sent it to the check
+
+
 def test_each_gap_says_what_was_written_in_it_and_which_rule_decided():
     """sotmot.postprocess.gaps_of (what `sotmot explain --ids N` prints): the counts are expand's, the words name
     the rule."""

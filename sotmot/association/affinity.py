@@ -19,7 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from sotmot.appearance import motion_only, pair_affinities
-from sotmot.boxes import VELOCITY_BOXES, centers, end_velocity, iou_aligned, motion_agreement
+from sotmot.boxes import VELOCITY_BOXES, end_velocity, heights_moved, iou_aligned, motion_agreement
 from sotmot.config import AssociationConfig
 from sotmot.types import Tracklet
 
@@ -100,7 +100,7 @@ def motion_affinities(tracklets: Sequence[Tracklet], pairs: np.ndarray,
     out[apart] = motion_agreement(last[e_], v_last[e_], first[l_], v_first[l_], starts[l_] - ends[e_])
     if config is not None and config.motion_gap_speed is not None and config.frame_rate:
         seconds = (starts[l_] - ends[e_]) / config.frame_rate
-        moved = np.linalg.norm(centers(first[l_]) - centers(last[e_]), axis=1) / (0.5 * (last[e_, 3] + first[l_, 3]))
+        moved = heights_moved(last[e_], first[l_])
         out[apart] = np.where((seconds > WALK_GAP_SECONDS) & (moved > config.motion_gap_speed * seconds), 0.0,
                               out[apart])
     for k in np.flatnonzero(~apart).tolist():
