@@ -45,8 +45,20 @@ detections, as it comes and given sotmot's memory (``+GSI 4s``: a lost track
 kept ``[association] l_max_seconds`` and boxmot's GSI filling gaps as long):
 motion-only peers beside sotmot's motion-only mode, scored the same way.
 
+With ``--detector-model`` the sequences with frames (``frames`` and ``rates``,
+the default groups then) are tracked from the person detector's boxes instead of
+their ``det/det.txt`` (MOTChallenge's private detections: what ``sotmot track``
+does with a video), each detected once and kept under ``--det-cache``, as
+``scripts/bench_accuracy.py`` and ``scripts/fp_analysis.py`` take them; a report
+of its own (``--merge`` refuses to mix the two protocols), without ``--noise``,
+``--seeds`` or ``--peers``. MOT16-09 and the MOT17-09 sets are one video: the
+same boxes, scored against each ground truth.
+
     python scripts/bench_validation.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --config defaults= --config paper-gap=gap60.toml --json docs/results/validation.json
+    python scripts/bench_validation.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
+        --detector-model ../shared/models/person-detection-0202/person-detection-0202.FP16-INT8.xml \\
+        --config defaults= --config paper-gap=gap60.toml --json docs/results/validation_private.json
 """
 
 from __future__ import annotations
@@ -64,7 +76,7 @@ import numpy as np
 from common import DEFAULT_DATA, named_config, validation_groups
 from sotmot.appearance import resolve_backend
 from sotmot.benchmarks import (GROUPS, LABEL_GROUPS, for_group, group_features, jittered_sequence, machine,
-                               preparation_key, validation_set)
+                               preparation_key, private_config, validation_set)
 from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
@@ -180,12 +192,15 @@ def merge_reports(old: dict, new: dict) -> dict:
     ValueError
         For another reference, or a new configuration that would leave sequences without rows.
     """
+    if protocol(new) != protocol(old):
+        raise ValueError(f"--merge: this run's detections are {protocol(new)}, the old report's {protocol(old)}: "
+                         "one report per protocol")
     if new["reference"] != old["reference"]:
         raise ValueError(f"--merge: the reference is {new['reference']!r} here and {old['reference']!r} in the "
                          "old report")
     groups = {**old["groups"], **new["groups"]}
     machine = old["machine"] if old["machine"] == new["machine"] else \
-        f"{old['machine']} (rows not rerun); {new['machine']} (this run's rows)"
+        f"{'; '.join(machines(old['machine']))} (rows not rerun); {new['machine']} (this run's rows)"
     merged = {**old, "machine": machine, "groups": groups, "seconds": {**old["seconds"], **new["seconds"]}}
     for key in ("configs", "configs_described"):
         merged[key] = {**old[key], **new[key]}
@@ -205,6 +220,19 @@ def merge_reports(old: dict, new: dict) -> dict:
     return merged
 
 
+def machines(text: str) -> list[str]:
+    """The machines a report's ``machine`` names, once each: a merged report's says which rows were rerun where,
+    and a second merge must not nest those words."""
+    names = [part.removesuffix(" (rows not rerun)").removesuffix(" (this run's rows)") for part in text.split("; ")]
+    return list(dict.fromkeys(names))
+
+
+def protocol(report: dict) -> str:
+    """Whose boxes a report's sequences with frames were tracked from: ``"public"`` (their ``det/det.txt``; reports
+    written before private runs existed say nothing) or ``"private: <detector file>"``."""
+    return report.get("detections", "public")
+
+
 def cells(values: dict[str, float]) -> str:
     return "".join(f"{values[c]:8.1f}" if c in ("HOTA", "MOTA", "IDF1") else f"{values[c]:8.0f}" for c in COLUMNS)
 
@@ -216,8 +244,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", action="append", type=named_config, metavar="NAME=FILE",
                         help="a configuration to judge (repeat; the first is the reference; FILE empty: the "
                              "defaults; default: defaults=)")
-    parser.add_argument("--groups", type=validation_groups, default=",".join(GROUPS),
-                        help="which parts of the set, of those above (default: %(default)s)")
+    parser.add_argument("--groups", type=validation_groups,
+                        help=f"which parts of the set, of those above (default: {','.join(GROUPS)}; with "
+                             f"--detector-model frames,rates)")
     parser.add_argument("--cache", type=Path, default=Path(".cache/validation"),
                         help="frame-rate variants and re-ID features kept between runs (default: %(default)s)")
     parser.add_argument("--peers", default="",
@@ -231,12 +260,30 @@ def main(argv: list[str] | None = None) -> int:
                         help="also track K copies of every sequence whose boxes moved by under half a pixel (seeds "
                              "1 to K): rows are means over the K + 1 runs, and a loss counts only where it shows in "
                              "every run (default: %(default)s, one run)")
+    parser.add_argument("--detector-model", metavar="PATH.xml",
+                        help="track the sequences with frames from this person detector's boxes (private "
+                             "detections) instead of their det/det.txt; only --groups frames,rates")
+    parser.add_argument("--det-cache", type=Path, default=Path(".cache/detections"),
+                        help="where the detector's boxes are kept between runs (default: %(default)s)")
     parser.add_argument("--json", type=Path, help="write the report here")
     parser.add_argument("--merge", type=Path, metavar="OLD.json",
                         help="a previous report to update: the rows this run measures (its configurations on its "
                              "groups, its peers) replace the old ones, the rest are kept, and the worst sequences "
                              "are recomputed over all of them; written to --json, another file")
     args = parser.parse_args(argv)
+    detector = None
+    if args.detector_model:
+        if not Path(args.detector_model).is_file():
+            parser.error(f"--detector-model: no such file: {args.detector_model}")
+        if args.groups and set(LABEL_GROUPS) & set(args.groups):
+            parser.error("--detector-model detects on frames: the label-only sequences have none; give --groups "
+                         "frames (or frames,rates)")
+        for flag, given in (("--noise", args.noise), ("--seeds", args.seeds), ("--peers", args.peers)):
+            if given:
+                parser.error(f"{flag} is for the public detections (their boxes moved, the label-only sequences): "
+                             "not with --detector-model")
+        detector = str(Path(args.detector_model).resolve())
+    args.groups = args.groups or (("frames", "rates") if detector else GROUPS)
     if args.seeds < 0:
         parser.error("--seeds takes a count, 0 or more")
     if args.seeds and (args.merge or args.noise):
@@ -294,6 +341,8 @@ def main(argv: list[str] | None = None) -> int:
                 made: dict[str, object] = {}
                 for name, cfg in configs.items():
                     cfg = for_group(cfg, group, args.model)
+                    if detector:
+                        cfg = private_config(cfg, copy, detector, args.det_cache)
                     if preparation[name] not in made:
                         made[preparation[name]] = prepare_sequence(
                             copy, cfg, features=group_features(copy, cfg, group, cache, embedders))
@@ -361,11 +410,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.seeds:
         print(f"rows: means over each sequence and its {args.seeds} copies with boxes moved by under "
               f"{JITTER_PIXELS} px")
-    print(f"frames: public detections, re-ID {Path(args.model).name}; labels: motion only (no frames)")
+    detections = f"private: {Path(detector).name}" if detector else "public"
+    print(f"frames: {'the boxes of ' + Path(detector).name if detector else 'public detections'}, re-ID "
+          f"{Path(args.model).name}; labels: motion only (no frames)")
     print(f"machine: {machine()}")
     if args.json:
         report = {
-            "machine": machine(), "model": args.model, "reference": reference,
+            "machine": machine(), "model": args.model, "detections": detections, "reference": reference,
             "configs": {name: cfg.to_dict() for name, cfg in configs.items()},
             "configs_described": {name: about for name, (_, about) in described.items()},
             "groups": group_of, "seconds": seconds,

@@ -26,6 +26,7 @@ Files it reads, each optional (a missing one leaves its section out):
 * ``detector.json``: ``scripts/bench_detector.py`` (the built-in detector's recall on small people by input size);
 * ``validation.json``: ``scripts/bench_validation.py`` (candidate defaults on the validation set);
 * ``validation_seeds.json``: ``scripts/bench_validation.py --seeds`` (the same, means over jittered copies);
+* ``validation_private.json``: ``scripts/bench_validation.py --detector-model`` (the same from the detector's boxes);
 * ``identities_public.json``: ``scripts/identity_analysis.py`` (fragmentations and switches by stage);
 * ``false_boxes.json``: ``scripts/fp_analysis.py`` (every output box and its FP by the stage that wrote it);
 * ``confidence_fit.json``: ``scripts/fit_confidence.py --json`` (the packaged calibration, held out);
@@ -616,15 +617,24 @@ def validation_section(data: dict | None) -> list[str]:
     ref, groups = data["reference"], data["groups"]
     names = list(data["configs"])
     shown = ("HOTA", "MOTA", "IDF1", "FP", "FN")
-    lines = ["## The validation set: defaults judged by their worst sequence", "",
-             f"`scripts/bench_validation.py` (issue #39): {len(groups)} sequences, each configuration tracking "
-             "every one from the same preparation; the reference is `" + ref + "` (today's defaults). "
-             "Configurations: " + "; ".join(f"`{n}` {data['configs_described'].get(n, '')}".rstrip()
-                                             for n in names) + ".", "",
+    detector = data.get("detections", "public").removeprefix("private: ")
+    private = detector != "public"
+    group_names = dict(VALIDATION_GROUPS, frames=VALIDATION_GROUPS["frames"].replace(
+        "public detections", "the detector's boxes")) if private else VALIDATION_GROUPS
+    what = (f"`scripts/bench_validation.py --detector-model` (issue #39): the {len(groups)} sequences with frames "
+            f"tracked from the boxes of {detector} (MOTChallenge's private detections, what `sotmot track` does "
+            "with a video; MOT16-09 and the MOT17-09 sets are one video, the same boxes scored against each "
+            "ground truth)" if private else
+            f"`scripts/bench_validation.py` (issue #39): {len(groups)} sequences")
+    lines = ["### The same from the built-in detector's boxes" if private
+             else "## The validation set: defaults judged by their worst sequence", "",
+             what + ", each configuration tracking every one from the same preparation; the reference is `" + ref
+             + "` (today's defaults). Configurations: "
+             + "; ".join(f"`{n}` {data['configs_described'].get(n, '')}".rstrip() for n in names) + ".", "",
              "| group | configuration | " + " | ".join(shown) + " |", "|" + "---|" * (len(shown) + 2)]
-    for group in [g for g in VALIDATION_GROUPS if g in set(groups.values())]:
+    for group in [g for g in group_names if g in set(groups.values())]:
         for name in names:
-            lines.append(f"| {VALIDATION_GROUPS[group]} | {name} | " + cells(data["combined"][name][group], shown)
+            lines.append(f"| {group_names[group]} | {name} | " + cells(data["combined"][name][group], shown)
                          + " |")
     floor = data.get("noise_floor") or {}
     lines += ["", f"Change against `{ref}` per sequence (the selection rule: a new default loses at most 0.5 HOTA "
@@ -813,6 +823,7 @@ def page() -> str:
                               "Each sequence's own `det/det.txt` (MOTChallenge's public detections).")
     lines += validation_section(load("validation.json"))
     lines += seeds_section(load("validation_seeds.json"))
+    lines += validation_section(load("validation_private.json"))
     lines += identities_section(load("identities_public.json"))
     lines += false_boxes_section(load("false_boxes.json"))
     lines += accuracy_section("Private detections", load("accuracy_private.json"), load("peers_private.json"),

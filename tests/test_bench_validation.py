@@ -33,6 +33,9 @@ def test_a_rerun_group_replaces_its_rows_and_the_worst_sequence_is_recomputed_ov
     assert merged["worst"]["x"]["MOTA"]["mean"] == pytest.approx(0.5)  # (0 + 1) / 2
     assert merged["peers"] == {"SORT": {}}
     assert merged["groups"] == groups
+    merged_before = dict(merged, machine="m (rows not rerun); n (this run's rows)")
+    again = script.merge_reports(merged_before, dict(new, machine="n"))
+    assert again["machine"] == "m; n (rows not rerun); n (this run's rows)"  # not nested twice
 
 
 def test_a_new_configuration_must_cover_every_sequence_and_the_reference_must_agree():
@@ -106,3 +109,26 @@ def test_seeds_is_a_report_of_its_own(capsys):
         with pytest.raises(SystemExit):
             script.main(["--model", "r.onnx", *extra])
         assert said in capsys.readouterr().err
+
+
+def test_private_detections_are_a_report_of_their_own(tmp_path, capsys):
+    script, page = load_script("bench_validation"), load_script("make_results_page")
+    detector = tmp_path / "det.xml"
+    detector.write_text("<net/>")
+    for extra, said in ((["--groups", "frames,labels"], "the label-only sequences have none"),
+                        (["--noise"], "--noise is for the public detections"),
+                        (["--peers", "SORT"], "--peers is for the public detections"),
+                        (["--detector-model", str(tmp_path / "none.xml")], "no such file")):
+        with pytest.raises(SystemExit):
+            script.main(["--model", "r.onnx", "--detector-model", str(detector), *extra])
+        assert said in capsys.readouterr().err
+    public = report({"defaults": {"A": (60, 70)}}, {"A": "frames"})
+    private = dict(report({"defaults": {"A": (61, 71)}}, {"A": "frames"}), detections="private: det.xml")
+    with pytest.raises(ValueError, match="one report per protocol"):
+        script.merge_reports(public, private)
+    for rows in [*private["sequences"].values(), *private["combined"].values()]:
+        for r in rows.values():
+            r.update(FP=7, FN=0)
+    text = "\n".join(page.validation_section(dict(private, worst={})))
+    assert "### The same from the built-in detector's boxes" in text and "the boxes of det.xml" in text
+    assert "| full-length sequences with frames (the detector's boxes, re-ID) | defaults |" in text
