@@ -61,7 +61,7 @@ class PostprocessConfig:
         whom the detector lost for over a second was hidden by someone; a
         still thing the detector fires on now and then (a sign, a poster, a
         mannequin) is not a person. ``None`` (default): such gaps are filled
-        on trust. Off by default, chosen leave one video out (0.01 to 0.1):
+        on trust. Judged leave one video out (0.01 to 0.1) it stays off:
         from the built-in detector's boxes 0.02 lifts the MOT16-09 video by
         0.7-0.9 HOTA and 2.3-3.1 MOTA at every rate, removing only false boxes
         (a sign with balloons, bridged across 4 s), and costs no other
