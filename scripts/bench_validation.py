@@ -50,9 +50,9 @@ the default groups then) are tracked from the person detector's boxes instead of
 their ``det/det.txt`` (MOTChallenge's private detections: what ``sotmot track``
 does with a video), each detected once and kept under ``--det-cache``, as
 ``scripts/bench_accuracy.py`` and ``scripts/fp_analysis.py`` take them; a report
-of its own (``--merge`` refuses to mix the two protocols), without ``--noise``,
-``--seeds`` or ``--peers``. MOT16-09 and the MOT17-09 sets are one video: the
-same boxes, scored against each ground truth.
+of its own (``--merge`` refuses to mix the two protocols), without ``--seeds``
+or ``--peers``; ``--noise`` moves the detector's boxes. MOT16-09 and the
+MOT17-09 sets are one video: the same boxes, scored against each ground truth.
 
     python scripts/bench_validation.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --config defaults= --config paper-gap=gap60.toml --json docs/results/validation.json
@@ -75,8 +75,8 @@ import numpy as np
 
 from common import DEFAULT_DATA, named_config, validation_groups
 from sotmot.appearance import resolve_backend
-from sotmot.benchmarks import (GROUPS, LABEL_GROUPS, for_group, group_features, jittered_sequence, machine,
-                               preparation_key, private_config, validation_set)
+from sotmot.benchmarks import (GROUPS, LABEL_GROUPS, for_group, group_features, jittered_detections,
+                               jittered_sequence, machine, preparation_key, private_config, validation_set)
 from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
@@ -112,14 +112,27 @@ def keep_result(runs: dict[str, list[tuple[Path, Path, int, str]]], label: str, 
     runs.setdefault(label, []).append((path, info.gt_path, info.length, info.name))
 
 
-def noise_runs(seq: Path, group: str, reference: TrackerConfig, model: str, cache: Path
+def noise_runs(seq: Path, group: str, reference: TrackerConfig, model: str, cache: Path,
+               detector: str | None = None, det_cache: Path | None = None
                ) -> dict[str, tuple[Path, TrackerConfig, Path]]:
     """The ``--noise`` runs of one validation sequence (:data:`NOISE`): name -> (the folder tracked, its
     configuration, its feature cache). ``runtime`` only where re-ID runs; the jittered folders are made once
-    under ``cache`` and keep the sequence's name, their features in a cache of their own."""
+    under ``cache`` and keep the sequence's name, their features in a cache of their own. With ``detector``
+    (private detections) the detector's boxes of ``seq`` are what moves, a file made once under ``cache``."""
     config = for_group(reference, group, model)
     runs = {}
     other = OTHER_RUNTIME.get(resolve_backend(config.appearance).backend)
+    if detector:
+        private = private_config(config, seq, detector, det_cache)
+        if other:
+            runs["runtime"] = (seq, private_config(config.replace("appearance", backend=other), seq, detector,
+                                                   det_cache), cache / "features")
+        for run in (r for r in NOISE if r.startswith("jitter")):
+            seed = int(run.removeprefix("jitter"))
+            moved = jittered_detections(Path(private.detection.file), seed, cache / "private", JITTER_PIXELS)
+            runs[run] = (seq, private_config(config, seq, detector, det_cache, boxes=moved),
+                         cache / f"features-jitter{seed}")
+        return runs
     if group not in LABEL_GROUPS and other:
         runs["runtime"] = (seq, config.replace("appearance", backend=other), cache / "features")
     for run in (r for r in NOISE if r.startswith("jitter")):
@@ -278,7 +291,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.groups and set(LABEL_GROUPS) & set(args.groups):
             parser.error("--detector-model detects on frames: the label-only sequences have none; give --groups "
                          "frames (or frames,rates)")
-        for flag, given in (("--noise", args.noise), ("--seeds", args.seeds), ("--peers", args.peers)):
+        for flag, given in (("--seeds", args.seeds), ("--peers", args.peers)):
             if given:
                 parser.error(f"{flag} is for the public detections (their boxes moved, the label-only sequences): "
                              "not with --detector-model")
@@ -350,7 +363,8 @@ def main(argv: list[str] | None = None) -> int:
                     keep_result(pairs, name + suffix, result.tracks, result.info, Path(tmp))
                 if not suffix:
                     prepared = made[preparation[reference]]
-            neutral = noise_runs(seq, group, configs[reference], args.model, args.cache) if args.noise else {}
+            neutral = noise_runs(seq, group, configs[reference], args.model, args.cache, detector,
+                                 args.det_cache) if args.noise else {}
             for run, (run_seq, cfg, cache) in neutral.items():
                 features = group_features(run_seq, cfg, group, cache, embedders)
                 result = finish_sequence(prepare_sequence(run_seq, cfg, features=features), cfg)

@@ -196,16 +196,18 @@ def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
     return path
 
 
-def private_config(config: TrackerConfig, seq: Path, detector_model: str, cache: Path) -> TrackerConfig:
+def private_config(config: TrackerConfig, seq: Path, detector_model: str, cache: Path, boxes: Path | None = None
+                   ) -> TrackerConfig:
     """``config`` for tracking ``seq`` from a detector's boxes (MOTChallenge's private detections): the boxes
-    from :func:`model_detections`, and, with ``auto`` confidence, the detector's family when it is a known
+    from :func:`model_detections` (or ``boxes``, a file of that detector's boxes, e.g. moved by
+    :func:`jittered_detections`), and, with ``auto`` confidence, the detector's family when it is a known
     one, and with ``auto`` weak boxes, the detector's weak boxes checking the SOT step and extending trajectory
     ends (found again on the frames visited), as ``sotmot track --detections model`` would take them."""
     from sotmot.detection import known_family
 
     detection = config.replace("detection", source="model", model=detector_model)
     family = known_family(detection.detection, read_seqinfo(seq))
-    out = config.replace("detection", file=str(model_detections(seq, detection, cache)), model=detector_model)
+    out = config.replace("detection", file=str(boxes or model_detections(seq, detection, cache)), model=detector_model)
     if family and config.preprocess.confidence == "auto":
         out = out.replace("preprocess", confidence=family)
     if config.detection.weak_boxes == "auto":
@@ -280,15 +282,33 @@ def jittered_sequence(seq: Path, seed: int, root: Path, pixels: float = 0.5) -> 
     folder, which is reused. Boxes are ``x, y, w, h`` in pixels.
     """
     info = read_seqinfo(seq)
-    lines = [line for line in info.det_path.read_text(encoding="utf-8-sig").splitlines() if line.strip()]
+    texts = {info.det_path: jittered_text(info.det_path.read_text(encoding="utf-8-sig"), seed, pixels),
+             info.gt_path: info.gt_path.read_text(encoding="utf-8-sig")}
+    return _derived_sequence(info, root / f"jitter{seed}" / info.name, texts, 1, info.length, name=info.name)
+
+
+def jittered_detections(path: Path, seed: int, root: Path, pixels: float = 0.5) -> Path:
+    """The detections file ``path`` (``det.txt`` layout) with every box moved as :func:`jittered_sequence` moves
+    a sequence's, written once as ``root / f"jitter{seed}" / path.name``: the same change for boxes that come
+    from a detector run rather than from the sequence's folder (``[detection] file``)."""
+    out = root / f"jitter{seed}" / path.name
+    if not out.is_file():
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(out, jittered_text(path.read_text(encoding="utf-8-sig"), seed, pixels))
+    return out
+
+
+def jittered_text(text: str, seed: int, pixels: float) -> str:
+    """The lines of a ``det.txt`` with each box's ``x, y`` moved by a seeded offset of at most ``pixels`` (its
+    size kept), the other fields as they were."""
+    lines = [line for line in text.splitlines() if line.strip()]
     offsets = np.random.default_rng(seed).uniform(-pixels, pixels, size=(len(lines), 2))
     moved = []
     for line, (dx, dy) in zip(lines, offsets):
         fields = line.split(",")
         fields[2], fields[3] = f"{float(fields[2]) + dx:.3f}", f"{float(fields[3]) + dy:.3f}"
         moved.append(",".join(fields))
-    texts = {info.det_path: "\n".join(moved) + "\n", info.gt_path: info.gt_path.read_text(encoding="utf-8-sig")}
-    return _derived_sequence(info, root / f"jitter{seed}" / info.name, texts, 1, info.length, name=info.name)
+    return "\n".join(moved) + "\n"
 
 
 def _derived_sequence(info: SeqInfo, out: Path, texts: dict[Path, str], step: int, length: int, name: str | None = None

@@ -116,7 +116,7 @@ def test_private_detections_are_a_report_of_their_own(tmp_path, capsys):
     detector = tmp_path / "det.xml"
     detector.write_text("<net/>")
     for extra, said in ((["--groups", "frames,labels"], "the label-only sequences have none"),
-                        (["--noise"], "--noise is for the public detections"),
+                        (["--seeds", "1"], "--seeds is for the public detections"),
                         (["--peers", "SORT"], "--peers is for the public detections"),
                         (["--detector-model", str(tmp_path / "none.xml")], "no such file")):
         with pytest.raises(SystemExit):

@@ -205,6 +205,11 @@ def test_jittered_sequences_move_each_box_by_under_half_a_pixel_and_keep_the_res
     again = read_detections(read_seqinfo(jittered_sequence(seq, 1, tmp_path / "again")).det_path, 7)
     other = read_detections(read_seqinfo(jittered_sequence(seq, 2, tmp_path / "noise")).det_path, 7)
     assert np.array_equal(again.boxes, moved.boxes) and not np.array_equal(other.boxes, moved.boxes)  # by seed
+    # a detector run's boxes (a det.txt of their own) move the very same way, into a file made once
+    from sotmot.benchmarks import jittered_detections
+
+    file = jittered_detections(original.det_path, 1, tmp_path / "private")
+    assert file == tmp_path / "private" / "jitter1" / "det.txt" and file.read_text() == info.det_path.read_text()
 
 
 def test_cached_features_refuse_an_embedder_that_flips_otherwise_than_asked(tmp_path):
