@@ -125,13 +125,11 @@ def noise_runs(seq: Path, group: str, reference: TrackerConfig, model: str, cach
     if detector:
         private = private_config(config, seq, detector, det_cache)
         if other:
-            runs["runtime"] = (seq, private_config(config.replace("appearance", backend=other), seq, detector,
-                                                   det_cache), cache / "features")
+            runs["runtime"] = (seq, private.replace("appearance", backend=other), cache / "features")
         for run in (r for r in NOISE if r.startswith("jitter")):
             seed = int(run.removeprefix("jitter"))
             moved = jittered_detections(Path(private.detection.file), seed, cache / "private", JITTER_PIXELS)
-            runs[run] = (seq, private_config(config, seq, detector, det_cache, boxes=moved),
-                         cache / f"features-jitter{seed}")
+            runs[run] = (seq, private.replace("detection", file=str(moved)), cache / f"features-jitter{seed}")
         return runs
     if group not in LABEL_GROUPS and other:
         runs["runtime"] = (seq, config.replace("appearance", backend=other), cache / "features")

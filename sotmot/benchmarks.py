@@ -196,18 +196,16 @@ def model_detections(seq: Path, config: TrackerConfig, cache: Path) -> Path:
     return path
 
 
-def private_config(config: TrackerConfig, seq: Path, detector_model: str, cache: Path, boxes: Path | None = None
-                   ) -> TrackerConfig:
+def private_config(config: TrackerConfig, seq: Path, detector_model: str, cache: Path) -> TrackerConfig:
     """``config`` for tracking ``seq`` from a detector's boxes (MOTChallenge's private detections): the boxes
-    from :func:`model_detections` (or ``boxes``, a file of that detector's boxes, e.g. moved by
-    :func:`jittered_detections`), and, with ``auto`` confidence, the detector's family when it is a known
+    from :func:`model_detections`, and, with ``auto`` confidence, the detector's family when it is a known
     one, and with ``auto`` weak boxes, the detector's weak boxes checking the SOT step and extending trajectory
     ends (found again on the frames visited), as ``sotmot track --detections model`` would take them."""
     from sotmot.detection import known_family
 
     detection = config.replace("detection", source="model", model=detector_model)
     family = known_family(detection.detection, read_seqinfo(seq))
-    out = config.replace("detection", file=str(boxes or model_detections(seq, detection, cache)), model=detector_model)
+    out = config.replace("detection", file=str(model_detections(seq, detection, cache)), model=detector_model)
     if family and config.preprocess.confidence == "auto":
         out = out.replace("preprocess", confidence=family)
     if config.detection.weak_boxes == "auto":

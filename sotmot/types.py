@@ -27,7 +27,8 @@ def rows_by_frame(frames: np.ndarray) -> dict[int, np.ndarray]:
     f = frames[order]
     starts = np.flatnonzero(np.r_[True, f[1:] != f[:-1]])
     ends = np.r_[starts[1:], len(f)]
-    return {int(f[s]): np.sort(order[s:e]) for s, e in zip(starts, ends)}
+    # a stable sort keeps each frame's rows in ascending order already
+    return {int(f[s]): order[s:e].copy() for s, e in zip(starts, ends)}
 
 
 @dataclass(frozen=True, eq=False)
