@@ -335,20 +335,33 @@ def long_gap_frames(seconds: float, frame_rate: float) -> int:
     return max(1, int(round(seconds * frame_rate)))
 
 
+def seen_share(trajectory: Tracklet) -> float:
+    """The share of the frames from ``trajectory``'s first to its last in which it has a box."""
+    return len(trajectory) / float(trajectory.end - trajectory.start + 1)
+
+
+def too_sparse(trajectory: Tracklet, config: PostprocessConfig) -> bool:
+    """Whether ``trajectory`` has boxes in fewer than ``[postprocess] min_seen_share`` of its frames (then its long
+    gaps stay empty: :func:`unhidden`)."""
+    return config.min_seen_share is not None and seen_share(trajectory) < config.min_seen_share
+
+
 def unhidden(trajectory: Tracklet, frames: np.ndarray, boxes: np.ndarray, filled: np.ndarray,
              config: PostprocessConfig, frame_rate: float | None, occluders: Occluders | None) -> np.ndarray:
     """``(L,)`` True for each interpolated box of ``trajectory`` (expanded to ``frames``, ``boxes``, ``filled``) that
     ``[postprocess] occlusion_seconds`` takes out: in a gap longer than it whose straight line the walk around it
     does not lead along, or across which the box stood still (:func:`off_the_line`), with nothing in front that
-    could hide the person (:meth:`Occluders.hide`). All False when there is no check, no frame rate or no
-    ``occluders``."""
+    could hide the person (:meth:`Occluders.hide`); in every gap longer than it when the trajectory is too sparse
+    (:func:`too_sparse`). All False when there is no check, no frame rate or no ``occluders``."""
     out = np.zeros(len(frames), dtype=bool)
     long = judged_gaps(trajectory, config, frame_rate, occluders) if filled.any() else _NONE
     if not len(long):
         return out
     t = trajectory
-    off_line = long[off_the_line(t.frames, t.boxes, long, config, frame_rate)]
     gap = np.searchsorted(t.frames, frames) - 1  # the gap each interpolated box lies in (after box ``gap``)
+    if too_sparse(t, config):
+        return filled & np.isin(gap, long)
+    off_line = long[off_the_line(t.frames, t.boxes, long, config, frame_rate)]
     candidates = np.flatnonzero(filled & np.isin(gap, off_line))
     out[candidates] = ~occluders.hide(frames[candidates], boxes[candidates])
     return out
@@ -359,8 +372,8 @@ def expand(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig()
     """The boxes of ``trajectory`` as post-processing writes them, interpolated if enabled (not smoothed).
 
     Gaps longer than ``interpolate_max_seconds`` at ``frame_rate`` stay gaps; in gaps longer than
-    ``occlusion_seconds`` off the walk's line, boxes nothing in ``occluders`` could hide are left out
-    (:func:`unhidden`).
+    ``occlusion_seconds`` off the walk's line, boxes nothing in ``occluders`` could hide are left out, and such
+    gaps of a trajectory seen too little stay empty (:func:`unhidden`).
     """
     t = trajectory
     if not (config.interpolate and len(t) > 1):
@@ -404,7 +417,7 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
     """Every gap of ``trajectory`` (frames without a box between two of its boxes) and what :func:`expand` wrote
     in it, with the rule that decided: interpolation off, longer than ``interpolate_max_seconds``, filled, or
     judged by the occlusion check (on the walk's line: filled on trust; off it: the boxes a detection in front could
-    hide)."""
+    hide; a sparse trajectory's: left empty)."""
     t = trajectory
     gaps = np.flatnonzero(np.diff(t.frames) > 1)
     if not len(gaps):
@@ -416,7 +429,7 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
     agreement = dict(zip(judged.tolist(), gap_agreement(t.frames, t.boxes, judged).tolist()))
     off = dict(zip(judged.tolist(), off_the_line(t.frames, t.boxes, judged, config, frame_rate).tolist())) \
         if len(judged) else {}
-    report = []
+    report, sparse = [], too_sparse(t, config)
     for k in gaps.tolist():
         length, n = int(t.frames[k + 1] - t.frames[k]) - 1, int(written[k])
         a = agreement.get(k)
@@ -428,6 +441,9 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
                    f"{config.interpolate_max_seconds:g} s ({limit} frames)")
         elif a is None:
             why = "interpolated"
+        elif sparse:
+            why = (f"left empty: the trajectory has boxes in {seen_share(t):.0%} of its frames, fewer than "
+                   f"min_seen_share {config.min_seen_share:g} (a long gap of a sparse trajectory is not filled)")
         elif not off[k]:
             why = (f"interpolated on trust: the walk on both sides leads along the line (motion agreement {a:.3f} "
                    f">= min_agreement {config.min_agreement:g})")

@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from helpers import tk
 from sotmot.config import PostprocessConfig
@@ -181,6 +182,38 @@ def test_a_long_gap_across_which_the_box_stood_still_is_filled_only_where_someon
     (gap,) = gaps_of(still, checked, 10, occluders)
     assert (gap.written, gap.left_out) == (6, 24) and "stood still across it (0.000 heights per second" in gap.why
     assert gap.agreement >= 0.5  # the line agreed; standing still is what sent it to the check
+
+
+def test_a_sparse_trajectory_gets_no_box_in_its_long_gaps_and_keeps_its_short_ones():
+    """min_seen_share: a few detections joined across long gaps (a sign fired on now and then, pieces of several
+    people) are not a walk to fill, on the line or off it, hidden or not; short gaps are filled as any."""
+    from sotmot.errors import ConfigError
+    from sotmot.postprocess import Occluders, expand, gaps_of, seen_share
+    from sotmot.types import Tracklet
+
+    # 6 boxes over 87 frames: 1-3, a 40-frame gap, 44 and 46 (a 1-frame gap), a 40-frame gap, 87
+    frames = np.array([1, 2, 3, 44, 46, 87])
+    boxes = np.stack([2.0 * frames, np.zeros(6), np.full(6, 20.0), np.full(6, 50.0)], axis=1)  # on one line
+    sparse = Tracklet(id=1, frames=frames, boxes=boxes, scores=np.ones(6), det_index=np.arange(6),
+                      feature=np.zeros(0), n_features=6)
+    assert seen_share(sparse) == 6 / 87
+    everywhere = Occluders(Detections(np.arange(1, 88), np.tile([0.0, 10.0, 400.0, 60.0], (87, 1)), np.ones(87)))
+    base = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=1.0, smooth_window=0,
+                             min_seen_share=None)
+    judged = PostprocessConfig(interpolate_max_seconds=None, occlusion_seconds=1.0, smooth_window=0)
+    assert judged.min_seen_share == 0.3  # the default
+    assert expand(sparse, base, 10, everywhere).filled.sum() == 81  # on the line, and hidden anyway
+    e = expand(sparse, judged, 10, everywhere)
+    assert e.frames[e.filled].tolist() == [45]  # only the short gap
+    assert e.det_index[~e.filled].tolist() == list(range(6))  # every detection kept
+    assert expand(sparse, judged, 10).filled.sum() == 81  # no occluders given: no long gap is judged
+    assert expand(walker(x_after=80.0), judged, 10, everywhere).filled.sum() == 30  # seen in 20 of 50 frames
+    whys = [g.why for g in gaps_of(sparse, judged, 10, everywhere)]
+    assert [w.startswith("left empty: the trajectory has boxes in 7% of its frames") for w in whys] == [True,
+                                                                                                       False, True]
+    assert [g.written for g in gaps_of(sparse, judged, 10, everywhere)] == [0, 1, 0]
+    with pytest.raises(ConfigError, match="min_seen_share must be in"):
+        PostprocessConfig(min_seen_share=1.5)
 
 
 def test_each_gap_says_what_was_written_in_it_and_which_rule_decided():
