@@ -272,15 +272,27 @@ def line_checked(config: PostprocessConfig, trajectories: Sequence[Tracklet], fr
 def off_the_line(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray, config: PostprocessConfig,
                  frame_rate: float) -> np.ndarray:
     """``(K,)`` True for the long gaps after boxes ``gaps`` of one trajectory (1-based ``frames``, ``x, y, w, h``
-    ``boxes``) that are not filled on trust: the walk around the gap does not lead along its line
-    (:func:`gap_agreement` below ``min_agreement``), or the box stood still across it (its centre moved less than
-    ``still_speed`` of its heights per second, :func:`~sotmot.boxes.heights_moved`)."""
-    gaps = np.asarray(gaps, dtype=np.int64)
-    out = gap_agreement(frames, boxes, gaps) < config.min_agreement
-    if config.still_speed is not None and len(gaps):
-        seconds = (frames[gaps + 1] - frames[gaps]) / frame_rate
-        out |= heights_moved(boxes[gaps], boxes[gaps + 1]) < config.still_speed * seconds
+    ``boxes``) that are not filled on trust (:func:`judged_off_line` of their :func:`gap_agreement` and
+    :func:`gap_speed`)."""
+    return judged_off_line(gap_agreement(frames, boxes, gaps), gap_speed(frames, boxes, gaps, frame_rate), config)
+
+
+def judged_off_line(agreement: np.ndarray, speed: np.ndarray, config: PostprocessConfig) -> np.ndarray:
+    """``(K,)`` True for the long gaps not filled on trust, from their ``(K,)`` motion ``agreement`` and ``speed``:
+    the walk around the gap does not lead along its line (agreement below ``min_agreement``), or the box stood
+    still across it (``speed`` below ``still_speed``)."""
+    out = np.asarray(agreement) < config.min_agreement
+    if config.still_speed is not None:
+        out |= np.asarray(speed) < config.still_speed
     return out
+
+
+def gap_speed(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray, frame_rate: float) -> np.ndarray:
+    """``(K,)`` how far the box's centre moved across each gap after boxes ``gaps`` of one trajectory (1-based
+    ``frames``, ``x, y, w, h`` ``boxes``), in its heights (:func:`~sotmot.boxes.heights_moved`) per second."""
+    gaps = np.asarray(gaps, dtype=np.int64)
+    seconds = (frames[gaps + 1] - frames[gaps]) / frame_rate
+    return heights_moved(boxes[gaps], boxes[gaps + 1]) / seconds
 
 
 def gap_agreement(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray) -> np.ndarray:
@@ -426,9 +438,11 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
     written = np.bincount(np.searchsorted(t.frames, out.frames[out.filled]) - 1, minlength=len(t))
     limit = max_interpolated_gap(config, frame_rate)
     judged = judged_gaps(t, config, frame_rate, occluders)
-    agreement = dict(zip(judged.tolist(), gap_agreement(t.frames, t.boxes, judged).tolist()))
-    off = dict(zip(judged.tolist(), off_the_line(t.frames, t.boxes, judged, config, frame_rate).tolist())) \
-        if len(judged) else {}
+    agreement, speed, off = {}, {}, {}
+    if len(judged):
+        a, v = gap_agreement(t.frames, t.boxes, judged), gap_speed(t.frames, t.boxes, judged, frame_rate)
+        agreement, speed = dict(zip(judged.tolist(), a.tolist())), dict(zip(judged.tolist(), v.tolist()))
+        off = dict(zip(judged.tolist(), judged_off_line(a, v, config).tolist()))
     report, sparse = [], too_sparse(t, config)
     for k in gaps.tolist():
         length, n = int(t.frames[k + 1] - t.frames[k]) - 1, int(written[k])
@@ -448,8 +462,7 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
             why = (f"interpolated on trust: the walk on both sides leads along the line (motion agreement {a:.3f} "
                    f">= min_agreement {config.min_agreement:g})")
         elif a >= config.min_agreement:
-            speed = float(heights_moved(t.boxes[k:k + 1], t.boxes[k + 1:k + 2])[0]) * frame_rate / (length + 1)
-            why = (f"stood still across it ({speed:.3f} heights per second < still_speed {config.still_speed:g}): "
+            why = (f"stood still across it ({speed[k]:.3f} heights per second < still_speed {config.still_speed:g}): "
                    f"a box is written only where a detection stands in front and could hide the person")
         else:
             why = (f"off the walk's line (motion agreement {a:.3f} < {config.min_agreement:g}): a box is written only "

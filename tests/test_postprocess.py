@@ -182,6 +182,8 @@ def test_a_long_gap_across_which_the_box_stood_still_is_filled_only_where_someon
     (gap,) = gaps_of(still, checked, 10, occluders)
     assert (gap.written, gap.left_out) == (6, 24) and "stood still across it (0.000 heights per second" in gap.why
     assert gap.agreement >= 0.5  # the line agreed; standing still is what sent it to the check
+    (gap,) = gaps_of(barely, checked, 10, nothing)
+    assert gap.written == 0 and "stood still across it (0.026 heights per second < still_speed 0.03)" in gap.why
 
 
 def test_a_sparse_trajectory_gets_no_box_in_its_long_gaps_and_keeps_its_short_ones():
