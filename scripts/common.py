@@ -32,8 +32,10 @@ LABEL_ONLY = ("MOT16-labels/*", "MOT17-labels/*-FRCNN", "MOT17-labels/*-SDP")
 
 
 def video_of(name: str) -> str:
-    """The video a sequence shows: MOT16-09 and MOT17-09-FRCNN / -SDP are one video under three detectors (a
-    leave-one-out fold leaves out the video, not the sequence)."""
+    """The video a sequence shows: MOT16-09 and MOT17-09-FRCNN / -SDP are one video under three detectors, and a
+    validation copy at a lower frame rate (``...-every2``, :func:`sotmot.benchmarks.subsampled_name`) shows its
+    sequence's video (a leave-one-out fold leaves out the video, not the sequence)."""
+    name = re.sub(r"-every\d+", "", name)
     match = re.match(r"MOT1[67]-(\d+)", name)
     return f"MOT-{match.group(1)}" if match else name
 

@@ -687,6 +687,39 @@ def seeds_section(data: dict | None) -> list[str]:
     return lines + ["", f"Machine: {data['machine']}.", ""]
 
 
+def choice_section(data: dict | None) -> list[str]:
+    """``scripts/choose_default.py``: the choice among the validation reports' configurations replayed with one
+    video held out at a time."""
+    if data is None:
+        return []
+    ref, folds = data["reference"], data["folds"]
+    kept = sum(f["chose"] == ref for f in folds.values())
+    noisy = data["floor"]
+    lines = ["### Today's defaults, chosen again leaving one video out", "",
+             f"`scripts/choose_default.py` on {', '.join(f'`{Path(r).name}`' for r in data['reports'])} (nothing "
+             f"tracked again): {data['runs']} runs (a sequence of one report; MOT16-09 and the MOT17-09 sets are "
+             "one video, and a sequence's lower-rate copies are its video). Each fold trains on the other videos' "
+             f"runs: a candidate ({', '.join(f'`{c}`' for c in data['candidates'])}) that loses more than "
+             f"{data['rule']:g} HOTA or MOTA on a training run"
+             + (" beyond its noise floor" if noisy else "") + " is out; of the rest the one with the largest mean "
+             "change of (HOTA + MOTA) / 2 is chosen, "
+             + ("if it is larger than the largest such change a noise run of the reference makes over the same "
+                "runs (`noise gain`: changes that should change nothing), " if noisy else "")
+             + f"else `{ref}` stays. The held-out columns: what the choice does to the video left out (`–`: "
+             f"nothing, `{ref}` kept). "
+             f"**{kept} of {len(folds)} folds keep `{ref}`.**", "",
+             "| held out | runs | chose | training gain | " + ("noise gain | " if noisy else "")
+             + "held-out mean HOTA / MOTA | held-out worst HOTA (run) / MOTA (run) |",
+             "|---|---|---|---|" + ("---|" if noisy else "") + "---|---|"]
+    for video, fold in folds.items():
+        h = fold["held_out"]
+        held = ("– | – |" if fold["chose"] == ref else f"{h['HOTA']['mean']:+.2f} / {h['MOTA']['mean']:+.2f} | "
+                + " / ".join(f"{h[m]['worst']:+.2f} ({h[m]['worst_run']})" for m in ("HOTA", "MOTA")) + " |")
+        lines.append(f"| {video} | {len(fold['runs'])} | `{fold['chose']}` | {fold['training_gain']:+.3f} | "
+                     + (f"{fold['noise_gain']:.3f} | " if noisy else "") + held)
+    return lines + [""]
+
+
 def noise_words(data: dict, ref: str) -> str:
     """What the noise floor is, for the validation section's sentence on the selection rule."""
     runs = list(data.get("noise", {}))
@@ -824,6 +857,7 @@ def page() -> str:
     lines += validation_section(load("validation.json"))
     lines += seeds_section(load("validation_seeds.json"))
     lines += validation_section(load("validation_private.json"))
+    lines += choice_section(load("choice.json"))
     lines += identities_section(load("identities_public.json"))
     lines += false_boxes_section(load("false_boxes.json"))
     lines += accuracy_section("Private detections", load("accuracy_private.json"), load("peers_private.json"),

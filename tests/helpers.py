@@ -45,6 +45,7 @@ def load_script(name: str):
     try:
         spec = importlib.util.spec_from_file_location(name, scripts / f"{name}.py")
         module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module  # as an import would: a dataclass in the script looks its module up there
         spec.loader.exec_module(module)
     finally:
         sys.path.remove(str(scripts))

@@ -1,0 +1,82 @@
+"""scripts/choose_default.py: the choice of a default replayed with one video held out at a time."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from helpers import load_script
+
+
+def report(configs: dict[str, dict[str, tuple[float, float]]], private: bool = False,
+           floor: dict[str, float] | None = None, noise: dict[str, dict[str, tuple[float, float]]] | None = None
+           ) -> dict:
+    """A validation report as bench_validation.py writes it, with only what the choice reads."""
+    def row(hota: float, mota: float) -> dict:
+        return {"HOTA": hota, "MOTA": mota, "IDF1": hota}
+
+    names = list(next(iter(configs.values())))
+    return {"detections": "private detections: the boxes of x.xml" if private else "public detections: det.txt",
+            "groups": {s: "frames" for s in names},
+            "sequences": {c: {s: row(*v) for s, v in rows.items()} for c, rows in configs.items()},
+            "noise_floor": {s: {"HOTA": f, "MOTA": f, "IDF1": f} for s, f in (floor or {}).items()},
+            "noise": {n: {s: row(*v) for s, v in rows.items()} for n, rows in (noise or {}).items()}}
+
+
+def write(tmp_path, name: str, content: dict):
+    path = tmp_path / name
+    path.write_text(json.dumps(content))
+    return path
+
+
+def test_a_fold_chooses_on_the_other_videos_and_reports_the_one_held_out(tmp_path, capsys):
+    """'x' gains 1 everywhere but loses 2 on TUD-Stadtmitte: the fold that holds TUD-Stadtmitte out chooses it (and
+    shows the loss held out); every other fold sees the loss in training and keeps the defaults. A video is all
+    of its sequences: MOT16-09, MOT17-09-SDP and their lower-rate copies are one, in both protocols."""
+    script = load_script("choose_default")
+    base = {"MOT16-09": (50, 50), "MOT17-09-every2-SDP": (50, 50), "PETS09-S2L1": (50, 50),
+            "TUD-Stadtmitte": (50, 50), "TUD-Stadtmitte-every3": (50, 50)}
+    x = {s: (h + 1, m + 1) for s, (h, m) in base.items()} | {"TUD-Stadtmitte": (48, 49)}
+    public = write(tmp_path, "v.json", report({"defaults": base, "x": x}))
+    private = write(tmp_path, "p.json", report({"defaults": {"MOT16-09": (60, 60)}, "x": {"MOT16-09": (61, 61)}},
+                                               private=True))
+    out = tmp_path / "lovo.json"
+    assert script.main([str(public), str(private), "--json", str(out)]) == 0
+    folds = json.loads(out.read_text())["folds"]
+    assert list(folds) == ["MOT-09", "PETS09-S2L1", "TUD-Stadtmitte"]
+    assert folds["MOT-09"]["runs"] == ["MOT16-09 (public)", "MOT17-09-every2-SDP (public)", "MOT16-09 (private)"]
+    assert [f["chose"] for f in folds.values()] == ["defaults", "defaults", "x"]
+    held = folds["TUD-Stadtmitte"]["held_out"]
+    assert held["HOTA"]["worst"] == -2 and held["HOTA"]["worst_run"] == "TUD-Stadtmitte (public)"
+    assert held["MOTA"]["mean"] == 0  # -1 and +1 on its two runs
+    assert "2 of 3 folds keep 'defaults'; 'x' chosen by 1" in capsys.readouterr().out
+
+
+def test_a_gain_within_chance_is_a_tie_and_a_loss_within_the_floor_is_not_one(tmp_path):
+    """With --floor a loss within the run's noise floor does not disqualify, and a mean gain no larger than what
+    a noise run (a change that should change nothing) makes is a tie that keeps the defaults."""
+    script = load_script("choose_default")
+    base = {"MOT16-09": (50, 50), "PETS09-S2L1": (50, 50), "TUD-Stadtmitte": (50, 50)}
+    small = {"MOT16-09": (50.2, 50.2), "PETS09-S2L1": (50.2, 50.2), "TUD-Stadtmitte": (49.2, 50)}
+    noise = {"jitter1": {"MOT16-09": (50.3, 50.3), "PETS09-S2L1": (50.3, 50.3), "TUD-Stadtmitte": (50, 50)}}
+    path = write(tmp_path, "v.json", report({"defaults": base, "small": small}, floor={"TUD-Stadtmitte": 1.0},
+                                            noise=noise))
+    out = tmp_path / "lovo.json"
+    assert script.main([str(path), "--json", str(out)]) == 0
+    assert [f["chose"] for f in json.loads(out.read_text())["folds"].values()] == ["defaults", "defaults", "small"]
+    assert script.main([str(path), "--floor", "--json", str(out)]) == 0
+    folds = json.loads(out.read_text())["folds"]
+    # the TUD-Stadtmitte loss (0.8) is within its floor now, but 'small' gains 0.2 where jitter1 moved 0.3 or less
+    assert [f["chose"] for f in folds.values()] == ["defaults", "defaults", "defaults"]
+    assert folds["TUD-Stadtmitte"]["noise_gain"] == pytest.approx(0.3)
+
+
+def test_a_report_without_the_candidate_is_named(tmp_path):
+    script = load_script("choose_default")
+    a = write(tmp_path, "a.json", report({"defaults": {"PETS09-S2L1": (1, 1)}, "x": {"PETS09-S2L1": (2, 2)}}))
+    b = write(tmp_path, "b.json", report({"defaults": {"PETS09-S2L1": (1, 1)}}))
+    with pytest.raises(SystemExit):
+        script.main([str(a), str(b)])
+    with pytest.raises(ValueError, match=r"b\.json: no configuration 'x'; it has defaults"):
+        script.read_runs([a, b], "defaults", None)
