@@ -80,3 +80,18 @@ def test_a_report_without_the_candidate_is_named(tmp_path):
         script.main([str(a), str(b)])
     with pytest.raises(ValueError, match=r"b\.json: no configuration 'x'; it has defaults"):
         script.read_runs([a, b], "defaults", None)
+
+
+def test_the_committed_choice_is_the_one_the_committed_reports_give(tmp_path):
+    """docs/results/choice.json (the results page's section) follows the validation reports it was made from: a
+    report measured again must be followed by the choice made again."""
+    from pathlib import Path
+
+    script = load_script("choose_default")
+    root = Path(__file__).resolve().parents[1]
+    committed = json.loads((root / "docs/results/choice.json").read_text())
+    out = tmp_path / "choice.json"
+    reports = [str(root / r) for r in committed["reports"]]
+    assert script.main([*reports, *(["--floor"] if committed["floor"] else []), "--json", str(out)]) == 0
+    again = json.loads(out.read_text())
+    assert {k: v for k, v in again.items() if k != "reports"} == {k: v for k, v in committed.items() if k != "reports"}
