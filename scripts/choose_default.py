@@ -23,9 +23,13 @@ choice with one video held out at a time:
 
     python scripts/choose_default.py docs/results/validation.json docs/results/validation_private.json
     python scripts/choose_default.py /tmp/seen.json --reference off --candidates 0.2,0.25,0.3 --json /tmp/lovo.json
+    # candidates measured later beside the same defaults, judged with the committed reports' noise floors
+    python scripts/choose_default.py docs/results/validation.json /tmp/new.json --candidates new1,new2 --floor
 
 The reports' own configurations are the candidates (``--candidates`` picks some, in the order to prefer on a
-tie); each must be in every report. Nothing is tracked: it takes seconds.
+tie); each must have tracked every run. Reports of the same runs are merged (a candidate measured later beside
+the same defaults joins the report whose noise runs measured their floor), and must agree where they overlap.
+Nothing is tracked: it takes seconds.
 """
 
 from __future__ import annotations
@@ -66,10 +70,16 @@ class Run:
 
 
 def read_runs(paths: list[Path], reference: str, candidates: list[str] | None) -> tuple[list[Run], list[str]]:
-    """The runs of the reports at ``paths`` and the candidates judged (``candidates``, or every configuration of
-    the first report but ``reference``); raises ``ValueError`` naming the file when a report is not a validation
-    report or lacks the reference or a candidate."""
-    runs: list[Run] = []
+    """The runs of the reports at ``paths`` and the candidates judged (``candidates``, or every configuration the
+    reports hold but ``reference``, in the order found).
+
+    Reports that hold the same run (a sequence under the same protocol) are merged: each adds its configurations
+    and noise runs, and they must agree on every configuration both hold (a candidate measured later, beside the
+    same defaults, joins the report that measured the noise). Raises ``ValueError`` naming the file when a report
+    is not a validation report, lacks the reference, disagrees with an earlier one, or a candidate is missing
+    from a run."""
+    merged: dict[tuple[str, str], dict] = {}
+    found: list[str] = []
     for path in paths:
         try:
             report = json.loads(path.read_text())
@@ -78,24 +88,35 @@ def read_runs(paths: list[Path], reference: str, candidates: list[str] | None) -
         if not isinstance(report, dict) or not isinstance(report.get("sequences"), dict):
             raise ValueError(f"{path}: not a report of scripts/bench_validation.py (no 'sequences')")
         per_config = report["sequences"]
-        if candidates is None:
-            candidates = [name for name in per_config if name != reference]
-        missing = [name for name in [reference, *candidates] if name not in per_config]
-        if missing:
-            raise ValueError(f"{path}: no configuration {', '.join(map(repr, missing))}; it has "
-                             f"{', '.join(per_config)}")
+        if reference not in per_config:
+            raise ValueError(f"{path}: no configuration {reference!r}; it has {', '.join(per_config)}")
+        found += [c for c in per_config if c != reference and c not in found]
         protocol = "private" if str(report.get("detections", "")).startswith("private") else "public"
         floors, noise = report.get("noise_floor") or {}, report.get("noise") or {}
-        for name, scores in per_config[reference].items():
-            rows = {c: per_config[c][name] for c in [reference, *candidates] if name in per_config[c]}
-            if len(rows) < len(candidates) + 1:
-                raise ValueError(f"{path}: {name} was not tracked by every configuration")
-            runs.append(Run(name, protocol, report.get("groups", {}).get(name, ""), video_of(name),
-                            {c: {m: float(r[m]) for m in METRICS} for c, r in rows.items()},
-                            {m: float(v) for m, v in floors.get(name, {}).items() if m in METRICS},
-                            {f"{protocol} {n}": {m: float(per[name][m]) for m in METRICS}
-                             for n, per in noise.items() if name in per}))
-    return runs, candidates or []
+        for name in per_config[reference]:
+            run = merged.setdefault((protocol, name), {"group": report.get("groups", {}).get(name, ""),
+                                                       "scores": {}, "floor": {}, "noise": {}, "from": {}})
+            for config, rows in per_config.items():
+                if name not in rows:
+                    continue
+                scores = {m: float(rows[name][m]) for m in METRICS}
+                if config in run["scores"] and run["scores"][config] != scores:
+                    raise ValueError(f"{path}: {name} ({protocol}) under {config!r} scores otherwise than in "
+                                     f"{run['from'][config]}: not the same run")
+                run["scores"][config], run["from"][config] = scores, path
+            run["floor"].update({m: float(v) for m, v in floors.get(name, {}).items() if m in METRICS})
+            run["noise"].update({f"{protocol} {n}": {m: float(per[name][m]) for m in METRICS}
+                                 for n, per in noise.items() if name in per})
+    candidates = found if candidates is None else candidates
+    for (protocol, name), run in merged.items():
+        missing = [c for c in candidates if c not in run["scores"]]
+        if missing:
+            raise ValueError(f"{name} ({protocol}): no run of {', '.join(map(repr, missing))} in "
+                             f"{', '.join(str(p) for p in paths)}")
+    runs = [Run(name, protocol, run["group"], video_of(name),
+                {c: run["scores"][c] for c in [reference, *candidates]}, run["floor"], run["noise"])
+            for (protocol, name), run in merged.items()]
+    return runs, candidates
 
 
 def loses(run: Run, candidate: str, reference: str, floor: bool) -> bool:
@@ -171,8 +192,8 @@ def lines(result: dict) -> list[str]:
                    f"{h['HOTA']['mean']:>+12.2f} / {h['MOTA']['mean']:>+6.2f}      "
                    + " / ".join(f"{h[m]['worst']:+.2f} ({h[m]['worst_run']})" for m in METRICS))
     kept = sum(1 for f in result["folds"].values() if f["chose"] == ref)
-    out += ["", f"{kept} of {len(result['folds'])} folds keep {ref!r}; "
-            + ", ".join(f"{c!r} chosen by {n}" for c, n in result["chosen"].items() if c != ref and n), ""]
+    others = [f"{c!r} chosen by {n}" for c, n in result["chosen"].items() if c != ref and n]
+    out += ["", f"{kept} of {len(result['folds'])} folds keep {ref!r}" + "".join(f"; {o}" for o in others), ""]
     out.append(f"every candidate against {ref!r} over all {result['runs']} runs (in-sample):")
     for name, row in result["all"].items():
         out.append(f"  {name:<16}" + "   ".join(f"{m} mean {row[m]['mean']:+.2f} worst {row[m]['worst']:+.2f} "
@@ -195,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--reference", default="defaults",
                         help="the configuration every candidate is judged against (default: %(default)s)")
     parser.add_argument("--candidates", help="comma-separated configurations to choose from, the preferred first "
-                        "(default: every other configuration of the first report)")
+                        "(default: every other configuration the reports hold)")
     parser.add_argument("--floor", action="store_true",
                         help="allow for chance (reports made with --noise): a training loss counts only beyond the "
                         "run's noise floor, a gain only beyond the noise runs' mean change")
@@ -207,7 +228,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         parser.error(str(exc))
     if not candidates:
-        parser.error(f"no candidate besides {args.reference!r} in {args.reports[0]}")
+        parser.error(f"no candidate besides {args.reference!r} in {', '.join(map(str, args.reports))}")
     result_folds = folds(runs, candidates, args.reference, args.floor)
     result = {
         "reports": [str(p) for p in args.reports], "reference": args.reference, "candidates": candidates,

@@ -22,7 +22,9 @@ class TrackletConfig:
         ``round(batch_seconds * frameRate)``, at least 1.
     tail
         The affinity of a detection to a tracklet uses the mean feature of the
-        tracklet's last ``tail`` detections (paper: 5).
+        tracklet's last ``tail`` detections (paper: 5). On the validation set
+        3 and 10 each lose more than 0.5 HOTA or MOTA on some sequence
+        (MOT16-09 -1.9 and -1.7 HOTA; docs/benchmarks.md, "Four of the paper's constants").
     min_affinity
         Matches with a lower appearance affinity are not linked. The paper
         leaves this gate implicit; 0.45 lies between the balanced thresholds
@@ -73,6 +75,8 @@ class AssociationConfig:
     tau_iou
         On every temporally overlapping segment of two trajectories the mean
         IoU of their boxes must be strictly greater than this (paper: 0.5).
+        On the validation set 0.7 changes no output and 0.3 loses up to 0.87
+        MOTA on some sequences (docs/benchmarks.md, "Four of the paper's constants").
     l_max
         Every gap of the merged trajectory must be at most this many frames
         (frame difference between the boxes at the gap's ends; paper: 60).
@@ -91,7 +95,9 @@ class AssociationConfig:
         the two boxes at the gap's ends: ``w`` for a gap of 1 frame, ``2/3 w``
         for 2 to ``short_gap`` frames, ``1/3 w`` beyond (paper). Velocity is
         the centre displacement divided by the frame difference, in pixels
-        per frame (linear motion).
+        per frame (linear motion). All three at 0.75 or 1.5 times the paper's
+        lose more than 0.5 HOTA on some validation sequence (MOT16-13 at 15
+        fps -1.0, MOT17-09-SDP -1.9; docs/benchmarks.md, "Four of the paper's constants").
     short_gap
         Longest gap that counts as short (paper: 5).
     solver
