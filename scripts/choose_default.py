@@ -69,9 +69,10 @@ class Run:
         return self.scores[candidate][metric] - self.scores[reference][metric]
 
 
-def read_runs(paths: list[Path], reference: str, candidates: list[str] | None) -> tuple[list[Run], list[str]]:
-    """The runs of the reports at ``paths`` and the candidates judged (``candidates``, or every configuration the
-    reports hold but ``reference``, in the order found).
+def read_runs(paths: list[Path], reference: str, candidates: list[str] | None,
+              groups: list[str] | None = None) -> tuple[list[Run], list[str]]:
+    """The runs of the reports at ``paths`` (only those of ``groups``, when given) and the candidates judged
+    (``candidates``, or every configuration the reports hold but ``reference``, in the order found).
 
     Reports that hold the same run (a sequence under the same protocol) are merged: each adds its configurations
     and noise runs, and they must agree on every configuration both hold (a candidate measured later, beside the
@@ -108,6 +109,7 @@ def read_runs(paths: list[Path], reference: str, candidates: list[str] | None) -
             run["noise"].update({f"{protocol} {n}": {m: float(per[name][m]) for m in METRICS}
                                  for n, per in noise.items() if name in per})
     candidates = found if candidates is None else candidates
+    merged = {key: run for key, run in merged.items() if groups is None or run["group"] in groups}
     for (protocol, name), run in merged.items():
         missing = [c for c in candidates if c not in run["scores"]]
         if missing:
@@ -217,6 +219,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="the configuration every candidate is judged against (default: %(default)s)")
     parser.add_argument("--candidates", help="comma-separated configurations to choose from, the preferred first "
                         "(default: every other configuration the reports hold)")
+    parser.add_argument("--groups", help="comma-separated validation groups whose runs count (frames, rates, labels, "
+                        "label-rates; default: every run), e.g. for a setting the motion-only mode never reads")
     parser.add_argument("--floor", action="store_true",
                         help="allow for chance (reports made with --noise): a training loss counts only beyond the "
                         "run's noise floor, a gain only beyond the noise runs' mean change")
@@ -224,15 +228,18 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     wanted = [c for c in args.candidates.split(",") if c] if args.candidates else None
     try:
-        runs, candidates = read_runs(args.reports, args.reference, wanted)
+        runs, candidates = read_runs(args.reports, args.reference, wanted,
+                                     args.groups.split(",") if args.groups else None)
     except ValueError as exc:
         parser.error(str(exc))
     if not candidates:
         parser.error(f"no candidate besides {args.reference!r} in {', '.join(map(str, args.reports))}")
+    if not runs:
+        parser.error(f"no run of the groups {args.groups} in {', '.join(map(str, args.reports))}")
     result_folds = folds(runs, candidates, args.reference, args.floor)
     result = {
         "reports": [str(p) for p in args.reports], "reference": args.reference, "candidates": candidates,
-        "rule": RULE, "floor": args.floor, "runs": len(runs), "folds": result_folds,
+        "rule": RULE, "floor": args.floor, "groups": args.groups, "runs": len(runs), "folds": result_folds,
         "chosen": {c: sum(1 for f in result_folds.values() if f["chose"] == c) for c in [args.reference, *candidates]},
         "all": {c: {**summary(runs, c, args.reference),
                     "below_rule": sum(loses(r, c, args.reference, args.floor) for r in runs)} for c in candidates},

@@ -100,6 +100,9 @@ def test_reports_of_the_same_runs_merge_and_must_agree(tmp_path):
         script.read_runs([old, moved], "defaults", None)
     with pytest.raises(SystemExit):
         script.main([str(old)])  # no candidate
+    assert script.read_runs([old, new], "defaults", None, ["labels"])[0] == []  # --groups: the runs of a group
+    with pytest.raises(SystemExit):
+        script.main([str(old), str(new), "--groups", "labels"])
 
 
 def test_the_committed_choice_is_the_one_the_committed_reports_give(tmp_path):
