@@ -19,7 +19,9 @@ class TrackletConfig:
     ----------
     batch_seconds
         Length of a batch in seconds (paper: 1 s); frames per batch are
-        ``round(batch_seconds * frameRate)``, at least 1.
+        ``round(batch_seconds * frameRate)``, at least 1. On the validation set
+        0.5 s loses up to 3.3 HOTA (MOT16-04, motion only) and 2 s up to 5.2
+        (TUD-Stadtmitte at 8 fps; docs/benchmarks.md, "Three more of the constants").
     tail
         The affinity of a detection to a tracklet uses the mean feature of the
         tracklet's last ``tail`` detections (paper: 5). On the validation set
@@ -99,7 +101,8 @@ class AssociationConfig:
         lose more than 0.5 HOTA on some validation sequence (MOT16-13 at 15
         fps -1.0, MOT17-09-SDP -1.9; docs/benchmarks.md, "Four of the paper's constants").
     short_gap
-        Longest gap that counts as short (paper: 5).
+        Longest gap that counts as short (paper: 5). 3 and 8 tie with it on the
+        validation set, 8 losing MOT16-09 at 15 fps 1.1 MOTA (docs/benchmarks.md, "Three more of the constants").
     solver
         The long-term association solver, a name in ``sotmot.plugins.SOLVERS``:
         ``"greedy"`` (the paper's greedy merge), ``"flow"`` (min-cost flow,
