@@ -7,8 +7,8 @@ tuned on three videos cost eleven others 3.7 MOTA). This script reads reports of
 ``scripts/bench_validation.py`` (``--json``; public and private ones together, any groups) and replays the
 choice with one video held out at a time:
 
-* a **run** is one sequence of one report (MOT16-09 from its ``det.txt`` and from the built-in detector's boxes
-  are two runs); a **video** is what a run shows: MOT16-09 and the MOT17-09 sets are one video, and a
+* a **run** is one sequence under one protocol (MOT16-09 from its ``det.txt`` and from the built-in detector's
+  boxes are two runs); a **video** is what a run shows: MOT16-09 and the MOT17-09 sets are one video, and a
   sequence's 8-15 fps copies are its video too (:func:`common.video_of`);
 * each fold trains on every run of the other videos: a candidate is **eligible** when no training run loses more
   than :data:`bench_validation.RULE` HOTA or MOTA against the reference; the fold chooses the eligible candidate

@@ -697,8 +697,9 @@ def choice_section(data: dict | None) -> list[str]:
     noisy = data["floor"]
     lines = ["### Today's defaults, chosen again leaving one video out", "",
              f"`scripts/choose_default.py` on {', '.join(f'`{Path(r).name}`' for r in data['reports'])} (nothing "
-             f"tracked again): {data['runs']} runs (a sequence of one report; MOT16-09 and the MOT17-09 sets are "
-             "one video, and a sequence's lower-rate copies are its video). Each fold trains on the other videos' "
+             f"tracked again): {data['runs']} runs (a sequence from public or from private detections; MOT16-09 "
+             "and the MOT17-09 sets are one video, and a sequence's lower-rate copies are its video). Each fold "
+             "trains on the other videos' "
              f"runs: a candidate ({', '.join(f'`{c}`' for c in data['candidates'])}) that loses more than "
              f"{data['rule']:g} HOTA or MOTA on a training run"
              + (" beyond its noise floor" if noisy else "") + " is out; of the rest the one with the largest mean "
