@@ -37,6 +37,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -127,9 +128,14 @@ def loses(run: Run, candidate: str, reference: str, floor: bool) -> bool:
                for m in METRICS)
 
 
+def mean_change(runs: list[Run], scores: Callable[[Run], dict[str, float]], reference: str) -> float:
+    """The mean over ``runs`` of the change of (HOTA + MOTA) / 2 from ``reference``'s scores to ``scores(run)``."""
+    return sum(sum(scores(r)[m] - r.scores[reference][m] for m in METRICS) / len(METRICS) for r in runs) / len(runs)
+
+
 def gain(runs: list[Run], candidate: str, reference: str) -> float:
     """The mean over ``runs`` of ``candidate``'s change of (HOTA + MOTA) / 2 against ``reference``."""
-    return sum(sum(r.change(candidate, reference, m) for m in METRICS) / len(METRICS) for r in runs) / len(runs)
+    return mean_change(runs, lambda r: r.scores[candidate], reference)
 
 
 def noise_gain(runs: list[Run], reference: str) -> float:
@@ -138,9 +144,7 @@ def noise_gain(runs: list[Run], reference: str) -> float:
     largest = 0.0
     for name in dict.fromkeys(n for r in runs for n in r.noise):
         covered = [r for r in runs if name in r.noise]
-        change = sum(sum(r.noise[name][m] - r.scores[reference][m] for m in METRICS) / len(METRICS)
-                     for r in covered) / len(covered)
-        largest = max(largest, abs(change))
+        largest = max(largest, abs(mean_change(covered, lambda r: r.noise[name], reference)))
     return largest
 
 
@@ -154,10 +158,11 @@ def summary(runs: list[Run], candidate: str, reference: str) -> dict:
     return out
 
 
-def choose(runs: list[Run], candidates: list[str], reference: str, floor: bool) -> tuple[str, float]:
+def choose(runs: list[Run], candidates: list[str], reference: str, floor: bool, margin: float = 0.0
+           ) -> tuple[str, float]:
     """The candidate a fold trained on ``runs`` chooses and its mean gain there (the reference and 0 when no
-    eligible candidate gains, beyond the noise gain with ``floor``; the first of equals wins)."""
-    best, best_gain = reference, noise_gain(runs, reference) if floor else 0.0
+    eligible candidate gains more than ``margin``, the noise gain with ``floor``; the first of equals wins)."""
+    best, best_gain = reference, margin
     for candidate in candidates:
         if any(loses(r, candidate, reference, floor) for r in runs):
             continue
@@ -174,9 +179,10 @@ def folds(runs: list[Run], candidates: list[str], reference: str, floor: bool) -
     for video in dict.fromkeys(r.video for r in runs):
         train = [r for r in runs if r.video != video]
         held = [r for r in runs if r.video == video]
-        chosen, trained = choose(train, candidates, reference, floor) if train else (reference, 0.0)
+        noise = noise_gain(train, reference) if floor else None
+        chosen, trained = choose(train, candidates, reference, floor, noise or 0.0) if train else (reference, 0.0)
         out[video] = {"runs": [r.label for r in held], "chose": chosen, "training_gain": trained,
-                      "noise_gain": noise_gain(train, reference) if floor else None,
+                      "noise_gain": noise,
                       "held_out": summary(held, chosen, reference)}
     return out
 

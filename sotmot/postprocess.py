@@ -272,19 +272,23 @@ def line_checked(config: PostprocessConfig, trajectories: Sequence[Tracklet], fr
 def off_the_line(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray, config: PostprocessConfig,
                  frame_rate: float) -> np.ndarray:
     """``(K,)`` True for the long gaps after boxes ``gaps`` of one trajectory (1-based ``frames``, ``x, y, w, h``
-    ``boxes``) that are not filled on trust (:func:`judged_off_line` of their :func:`gap_agreement` and
-    :func:`gap_speed`)."""
-    return judged_off_line(gap_agreement(frames, boxes, gaps), gap_speed(frames, boxes, gaps, frame_rate), config)
+    ``boxes``) that are not filled on trust (:func:`judge_gaps`)."""
+    return judge_gaps(frames, boxes, gaps, config, frame_rate)[2]
 
 
-def judged_off_line(agreement: np.ndarray, speed: np.ndarray, config: PostprocessConfig) -> np.ndarray:
-    """``(K,)`` True for the long gaps not filled on trust, from their ``(K,)`` motion ``agreement`` and ``speed``:
-    the walk around the gap does not lead along its line (agreement below ``min_agreement``), or the box stood
-    still across it (``speed`` below ``still_speed``)."""
-    out = np.asarray(agreement) < config.min_agreement
+def judge_gaps(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray, config: PostprocessConfig,
+               frame_rate: float) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """What decides whether the long gaps after boxes ``gaps`` of one trajectory are filled on trust: their ``(K,)``
+    motion agreement (:func:`gap_agreement`), their ``(K,)`` speed (:func:`gap_speed`; None, and not computed,
+    without ``still_speed``) and ``(K,)`` True where not: the walk around the gap does not lead along its line
+    (agreement below ``min_agreement``), or the box stood still across it (speed below ``still_speed``)."""
+    agreement = gap_agreement(frames, boxes, gaps)
+    off = agreement < config.min_agreement
+    speed = None
     if config.still_speed is not None:
-        out |= np.asarray(speed) < config.still_speed
-    return out
+        speed = gap_speed(frames, boxes, gaps, frame_rate)
+        off |= speed < config.still_speed
+    return agreement, speed, off
 
 
 def gap_speed(frames: np.ndarray, boxes: np.ndarray, gaps: np.ndarray, frame_rate: float) -> np.ndarray:
@@ -440,9 +444,9 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
     judged = judged_gaps(t, config, frame_rate, occluders)
     agreement, speed, off = {}, {}, {}
     if len(judged):
-        a, v = gap_agreement(t.frames, t.boxes, judged), gap_speed(t.frames, t.boxes, judged, frame_rate)
-        agreement, speed = dict(zip(judged.tolist(), a.tolist())), dict(zip(judged.tolist(), v.tolist()))
-        off = dict(zip(judged.tolist(), judged_off_line(a, v, config).tolist()))
+        a, v, o = judge_gaps(t.frames, t.boxes, judged, config, frame_rate)
+        agreement, off = dict(zip(judged.tolist(), a.tolist())), dict(zip(judged.tolist(), o.tolist()))
+        speed = {} if v is None else dict(zip(judged.tolist(), v.tolist()))
     report, sparse = [], too_sparse(t, config)
     for k in gaps.tolist():
         length, n = int(t.frames[k + 1] - t.frames[k]) - 1, int(written[k])
