@@ -94,7 +94,9 @@ class EndsConfig:
         against no extension: public, by SOT +0.07 / +0.3, by the weak boxes
         ("public, refined") +0.55 / +0.9; private, by the weak boxes +0.0 /
         +0.0 (+0.1 / +0.1 before 1080p frames went to the detector at 544 x
-        960).
+        960). On the validation set 0.5, 1.5 and 2 s tie with 1 s (no sequence
+        moved by more than 0.05 HOTA; the detector's weak boxes run out within
+        0.5 s; docs/benchmarks.md, "The trajectory ends, judged by the validation set").
     min_confidence
         Only trajectories whose boxes' mean confirmation confidence
         (``[confirm]``, ``sotmot.confidence``) is at least this are extended:
@@ -115,9 +117,10 @@ class EndsConfig:
         (another trajectory, another detection) at IoU above this: a lagging
         duplicate of a detection overlaps it at 0.3-0.5. A detector's box is a
         detection of its own and stops an end only above 0.7. On the validation
-        set 0.2 loses up to 1.4 MOTA and 0.4 gains the public sequences with
-        frames a little (+0.18 HOTA, +0.27 MOTA on average, none below -0.1),
-        within what changes that should change nothing move (docs/benchmarks.md, "Three more of the constants").
+        set 0.2 loses up to 1.4 MOTA; 0.4 to 0.7 gain the public sequences with
+        frames a little (+0.18 to +0.29 HOTA, +0.27 to +0.41 MOTA on average,
+        PETS09-S2L1 down to -0.45 MOTA at 0.7), within what changes that should
+        change nothing move and on one video only (docs/benchmarks.md, "Three more of the constants").
     """
 
     seconds: float = 1.0
