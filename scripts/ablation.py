@@ -33,7 +33,7 @@ import numpy as np
 
 from sotmot.appearance import make_embedder
 from common import DEFAULT_DATA
-from sotmot.benchmarks import machine, sequences
+from sotmot.benchmarks import sequences
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import evaluate_files
@@ -41,6 +41,7 @@ from sotmot.io import read_ground_truth, read_seqinfo, results_path, write_resul
 from sotmot.detection import make_detector
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.plan import resolve
+from sotmot.versions import machine
 
 ENDS = None  # "+ends" rows: the end extension as configured (the default's, or --config's)
 OFF = {"detection": {"weak_boxes": "off"}}  # no weak boxes (the default, "auto", uses them in private runs)

@@ -43,13 +43,14 @@ from pathlib import Path
 
 from sotmot.appearance import make_embedder
 from common import DEFAULT_DATA
-from sotmot.benchmarks import FULL_LENGTH, before_confirmation, machine, private_config, sequences
+from sotmot.benchmarks import FULL_LENGTH, before_confirmation, private_config, sequences
 from sotmot.fitting.confidence import box_labels
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import METRICS, EvalReport, evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.postprocess import line_checked
+from sotmot.versions import machine
 
 COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 BEST_PEER_MOTA = {  # issue #11, same detections and embeddings; not re-measured here

@@ -28,9 +28,10 @@ from pathlib import Path
 
 from sotmot.runs import track_many
 from common import DEFAULT_DATA
-from sotmot.benchmarks import machine, sequences
+from sotmot.benchmarks import sequences
 from sotmot.config import TrackerConfig
 from sotmot.io import read_seqinfo, write_text_atomic
+from sotmot.versions import machine
 
 
 def outputs(folder: Path, names: list[str]) -> dict[str, bytes]:

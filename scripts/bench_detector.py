@@ -38,7 +38,6 @@ from pathlib import Path
 import numpy as np
 
 from common import DEFAULT_DATA
-from sotmot.benchmarks import machine
 from sotmot.config import DetectionConfig
 from sotmot.detection import make_detector
 from sotmot.detection.openvino import STRIDE, input_size
@@ -46,6 +45,7 @@ from sotmot.fitting.confidence import clear_matching
 from sotmot.io import FrameReader, SeqInfo, read_seqinfo, write_text_atomic
 from sotmot.progress import as_progress
 from sotmot.types import Tracks
+from sotmot.versions import machine
 
 #: Height bands, as a share of the frame's height: far people are below the first bound, near ones above the second.
 BANDS = (("far", 0.0, 0.1), ("mid", 0.1, 0.25), ("near", 0.25, float("inf")))

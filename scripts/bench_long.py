@@ -39,8 +39,8 @@ from pathlib import Path
 import numpy as np
 
 from common import DEFAULT_DATA, ROOT, run_timed
-from sotmot.benchmarks import machine
 from sotmot.io import read_seqinfo, write_text_atomic
+from sotmot.versions import machine
 
 #: The issue's targets for the longest MOT16-09 video (8x, 4,200 frames at 1080p).
 TARGETS = {"peak_rss_mb": 1536, "peak_tmp_mb": 100, "exponent": 1.1}

@@ -57,13 +57,14 @@ import numpy as np
 from common import DEFAULT_DATA, ROOT
 import make_moving
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import cached_features, machine
+from sotmot.benchmarks import cached_features
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import evaluate_files
 from sotmot.io import read_detections, read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.motion import compose, estimate_motion, invert
 from sotmot.pipeline import TrackResult, track_sequence
 from sotmot.sot.extend import MIN_INSIDE
+from sotmot.versions import machine
 
 #: The issue's targets: a moving window against the same window held still, and the estimator.
 TARGETS = {"hota_within": 1.0, "mota_within": 2.0, "median_error_px": 1.0, "ms_per_frame_1080p": 10.0}

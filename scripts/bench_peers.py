@@ -70,13 +70,14 @@ import numpy as np
 
 from sotmot.appearance import make_embedder
 from common import DEFAULT_DATA
-from sotmot.benchmarks import machine, private_config, sequences
+from sotmot.benchmarks import private_config, sequences
 from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.peers import BOXMOT, BOXMOT_CMC, BOXMOT_ROWS, TRACKERS_ROWS, SeqInput, load, run_boxmot, run_peer
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracks
+from sotmot.versions import machine
 
 COLUMNS = ("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 SOTMOT = {  # name -> (SOT variant, solver)

@@ -34,12 +34,12 @@ import numpy as np
 
 from sotmot.association import get_solver
 from sotmot.appearance import normalize
-from sotmot.benchmarks import machine
 from sotmot.config import TrackerConfig
 from sotmot.io import read_detections, read_seqinfo, write_text_atomic
 from sotmot.preprocess import preprocess
 from sotmot.tracklets import build_tracklets
 from sotmot.types import Detections
+from sotmot.versions import machine
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_LABELS = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data")) / "MOT16-labels"

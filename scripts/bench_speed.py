@@ -52,11 +52,12 @@ from pathlib import Path
 from sotmot.appearance import make_embedder, resolve_backend
 from sotmot.plugins import BACKENDS
 from common import DEFAULT_DATA, run_timed
-from sotmot.benchmarks import machine, sequences
+from sotmot.benchmarks import sequences
 from sotmot.config import TrackerConfig
 from sotmot.io import read_seqinfo, write_text_atomic
 from sotmot.pipeline import pass_detector, track_sequence
 from sotmot.plan import resolve
+from sotmot.versions import machine
 
 STAGES = ("read", "detect", "preprocess", "appearance", "decode", "motion", "sot", "tracklets", "association",
           "postprocess", "confirm", "extend")

@@ -75,14 +75,15 @@ import numpy as np
 
 from common import DEFAULT_DATA, named_config, validation_groups
 from sotmot.appearance import resolve_backend
-from sotmot.benchmarks import (GROUPS, LABEL_GROUPS, for_group, group_features, jittered_detections,
-                               jittered_sequence, machine, preparation_key, private_config, validation_set)
+from sotmot.benchmarks import (GROUPS, LABEL_GROUPS, for_group, group_features, jittered_detections, jittered_sequence,
+                               preparation_key, private_config, validation_set)
 from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.peers import TRACKERS_PACKAGE, TRACKERS_ROWS, SeqInput, peer_scores, run_peer
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracks
+from sotmot.versions import machine
 
 COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 #: The changes ``--noise`` makes to the reference: ``runtime`` (re-ID in the other runtime; sequences with

@@ -51,12 +51,12 @@ from pathlib import Path
 from bench_long import repeated_video
 from common import DEFAULT_DATA, ROOT
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import machine
 from sotmot.config import TrackerConfig
 from sotmot.io import read_seqinfo, write_text_atomic
 from sotmot.io.frames import VideoFile
 from sotmot.pipeline import pass_detector, track_sequence
 from sotmot.plan import resolve
+from sotmot.versions import machine
 
 STAGES = ("decode", "appearance", "motion_in_pass", "motion", "extend")
 

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from common import DEFAULT_DATA, add_confirmation_fit_arguments
-from sotmot.benchmarks import cached_features, machine, model_detections
+from sotmot.benchmarks import cached_features, model_detections
 from sotmot.fitting.confidence import (
     Labelled,
     detection_labels,
@@ -53,6 +53,7 @@ from sotmot.scoring import METRICS
 from sotmot.io import read_detections, read_seqinfo, write_text_atomic
 from sotmot.pipeline import prepare_sequence
 from sotmot.preprocess import preprocess_indices
+from sotmot.versions import machine
 
 ROOT = Path(__file__).resolve().parents[1]
 FAMILY = "pd0202"

@@ -38,11 +38,12 @@ import numpy as np
 from sotmot.association.objective import lifted_objective
 from sotmot.appearance import make_embedder
 from common import add_fit_arguments, fit_setup
-from sotmot.benchmarks import cached_features, machine
+from sotmot.benchmarks import cached_features
 from sotmot.fitting.lifted import fit_lifted_costs, lifted_pair_samples, tracklet_identities
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
+from sotmot.versions import machine
 
 ROOT = Path(__file__).resolve().parents[1]
 SHOWN = ("HOTA", "MOTA", "IDF1", "IDSW", "lifted_obj", "solver_s")

@@ -44,7 +44,7 @@ import numpy as np
 
 from common import add_fit_arguments, fit_setup, video_of
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import cached_features, machine, private_config
+from sotmot.benchmarks import cached_features, private_config
 from sotmot.fitting.confidence import box_labels
 from sotmot.scoring import evaluate_files
 from sotmot.sot.extend import extend_ends, gated, with_added
@@ -52,6 +52,7 @@ from sotmot.sot.support import DetectorSupport
 from sotmot.io import FrameReader, results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.plan import resolve
+from sotmot.versions import machine
 
 ROOT = Path(__file__).resolve().parents[1]
 SHOWN = ("HOTA", "MOTA", "IDF1", "FP", "FN", "IDSW")

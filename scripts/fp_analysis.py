@@ -50,14 +50,15 @@ from pathlib import Path
 import numpy as np
 
 from common import DEFAULT_DATA, named_config, validation_groups
-from sotmot.benchmarks import (FULL_LENGTH, GROUPS, LABEL_GROUPS, for_group, group_features, machine,
-                               preparation_key, private_config, sequences, validation_set)
+from sotmot.benchmarks import (FULL_LENGTH, GROUPS, LABEL_GROUPS, for_group, group_features, preparation_key,
+                               private_config, sequences, validation_set)
 from sotmot.boxes import iou_matrix
 from sotmot.config import PostprocessConfig
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.pipeline import TrackResult, finish_sequence, prepare_sequence
 from sotmot.postprocess import long_gap_frames, off_the_line
 from sotmot.scoring import FrameErrors, evaluate_files, frame_errors
+from sotmot.versions import machine
 
 ORIGINS = ("detection", "sot", "short gap", "long gap, on the line", "long gap, off the line")
 UNDER = ("misplaced", "double", "no one")

@@ -51,7 +51,7 @@ import numpy as np
 
 from common import DEFAULT_DATA
 from sotmot.association.checks import check_pair
-from sotmot.benchmarks import FULL_LENGTH, cached_features, machine, sequences
+from sotmot.benchmarks import FULL_LENGTH, cached_features, sequences
 from sotmot.association import Association
 from sotmot.config import TrackerConfig, load_config
 from sotmot.fitting.lifted import tracklet_identities
@@ -59,6 +59,7 @@ from sotmot.plugins import SOLVERS
 from sotmot.scoring import FrameErrors, evaluate_files, frame_errors
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.pipeline import TrackResult, finish_sequence, prepare_sequence
+from sotmot.versions import machine
 
 SCORES = ("HOTA", "IDF1", "MOTA")
 #: The ground-truth "solver" of the ceiling: tracklet id -> person, set for the sequence being finished.

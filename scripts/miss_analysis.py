@@ -63,7 +63,7 @@ import numpy as np
 
 from common import DEFAULT_DATA
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import machine, model_detections, private_config, sequences
+from sotmot.benchmarks import model_detections, private_config, sequences
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import evaluate_files, frame_errors
@@ -71,6 +71,7 @@ from sotmot.io import read_detections, read_ground_truth, read_seqinfo, results_
 from sotmot.io import write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.sot.support import WEAK_MIN_SCORE
+from sotmot.versions import machine
 
 EVIDENCE = ("input", "weak", "faint", "none")
 POSITIONS = ("gap", "link", "end<=E", "end<=L", "end>L", "never")

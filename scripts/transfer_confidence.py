@@ -39,7 +39,6 @@ from pathlib import Path
 import numpy as np
 
 from common import DEFAULT_DATA, ROOT, add_confirmation_fit_arguments, label_only_sequences
-from sotmot.benchmarks import machine
 from sotmot.confidence.calibration import Calibration
 from sotmot.confidence.maps import detection_confidence, quantile_map
 from sotmot.config import TrackerConfig
@@ -53,6 +52,7 @@ from sotmot.fitting.confidence import (
     unconfirmed_tracks,
 )
 from sotmot.io import write_text_atomic
+from sotmot.versions import machine
 
 #: The video under each detector: the tracking check's held-out sequences, by family.
 VIDEO = {"dpm": "MOT16-09", "frcnn": "MOT17-09-FRCNN", "sdp": "MOT17-09-SDP"}

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import platform
 import sys
 from pathlib import Path
 
@@ -33,20 +31,6 @@ GROUPS = ("frames", "rates", "labels", "label-rates")
 LABEL_GROUPS = ("labels", "label-rates")
 #: The configuration sections a preparation (:func:`sotmot.pipeline.prepare_sequence`) reads.
 PREPARATION = ("input", "detection", "preprocess", "appearance", "sot", "tracklets", "motion")
-
-
-def machine() -> str:
-    """One line: CPU model, logical CPUs, OS and Python version (benchmarks report what they ran on)."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return (f"{cpu}, {os.cpu_count()} logical CPUs, {platform.system()} {platform.release()}, "
-            f"Python {platform.python_version()}")
 
 
 def sequences(data: Path, only: str = "") -> list[Path]:

@@ -201,7 +201,7 @@ def test_a_run_record_is_a_configuration_file_with_its_runs_settings(tmp_path, c
     assert "other library versions" not in caplog.text  # a record without them (older sotmot) says nothing
     import numpy
 
-    from sotmot.versions import environment
+    from sotmot.versions import cpu, environment
 
     ran_on = environment()
     ran_on["packages"]["numpy"] = "1.0"
@@ -210,7 +210,17 @@ def test_a_run_record_is_a_configuration_file_with_its_runs_settings(tmp_path, c
     caplog.clear()
     with caplog.at_level(logging.WARNING):
         load_config(path)
-    assert f"other library versions (numpy 1.0 -> {numpy.__version__}; ortools absent -> " in caplog.text
+    assert f"or another CPU (numpy 1.0 -> {numpy.__version__}; ortools absent -> " in caplog.text
+    assert "CPU " not in caplog.text.split("another CPU", 1)[1]  # the same CPU is not named
+    ran_on = environment()
+    ran_on["cpu"] = {"model": "Some Other CPU", "features": ["avx2"]}  # re-ID in bf16 rounds otherwise there
+    path.write_text(json.dumps({**record, "environment": ran_on}))
+    caplog.clear()
+    with caplog.at_level(logging.WARNING):
+        load_config(path)
+    model, features = cpu()
+    assert f"(CPU Some Other CPU (avx2) -> {model}" in caplog.text
+    assert all(name in caplog.text for name in features)
     del record["results_sha256"]  # not a record: its extra keys are errors, as in any configuration file
     path.write_text(json.dumps(record))
     with pytest.raises(ConfigError, match="outside any"):

@@ -39,9 +39,11 @@ score, -1, -1, -1; boxes in pixels, frames 1-based), each file atomically; <name
 the name in seqinfo.ini (a video's or a folder of images' own name) and must be a plain file name (no path
 separators). Beside it:
 <name>.flags.csv (interpolated / SOT boxes, each box's confidence) and <name>.run.json
-(sotmot version, full configuration, solver, model and input hashes, library versions, time);
---resume skips a sequence only when that record matches the current run (library versions
-aside), and --config <name>.run.json repeats the run, saying which versions differ.
+(sotmot version, full configuration, solver, model and input hashes, library versions, the CPU,
+time); --resume skips a sequence only when that record matches the current run (library
+versions and CPU aside), and --config <name>.run.json repeats the run, saying which versions
+differ and whether the CPU does (re-ID runs in bf16 where the CPU has it, and another CPU can
+round it otherwise: a close decision may flip).
 """
 
 EPILOG_EVAL = """\

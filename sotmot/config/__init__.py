@@ -270,8 +270,8 @@ def run_record_settings(record: dict[str, Any], source: str | Path = "run record
                     "the results may differ", source, record["sotmot"], __version__)
     changed = environment_changes(record.get("environment"))
     if changed:
-        log.warning("%s: its run had other library versions (%s): a box may move and a close decision flip",
-                    source, "; ".join(changed))
+        log.warning("%s: its run had other library versions or another CPU (%s): a box may move and a close "
+                    "decision flip", source, "; ".join(changed))
     return settings
 
 
