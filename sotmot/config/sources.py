@@ -219,7 +219,14 @@ class AppearanceConfig:
         Path to the ONNX re-ID model (N x 3 x 256 x 128 BGR input, e.g. Intel's
         person-reidentification-retail-0288). ``None`` reads the environment
         variable ``SOTMOT_REID_MODEL``, else runs the bundled
-        person-reidentification-retail-0288 (``sotmot models``).
+        person-reidentification-retail-0288 (``sotmot models``). The larger
+        person-reidentification-retail-0277 (8.6 MB, not bundled; give its
+        path) tracks better on average with every gate as it is, at 2.2-2.5
+        times the whole run's time: on the validation set's 13 sequences with
+        frames +0.75 HOTA / +1.44 IDF1 from public detections and +0.53 / +0.71
+        from the built-in detector's boxes, the MOT16-09 video gaining most and
+        TUD-Stadtmitte at 8 fps losing 3.6 MOTA from the detector's boxes
+        (docs/benchmarks.md, "Re-ID").
     flip
         Average the features of the crop and its mirror image (paper eq. 1).
         Off halves the re-ID work, but the association gates and the
