@@ -44,7 +44,10 @@ def cpu() -> tuple[str, tuple[str, ...]]:
 
 
 def _cpu_words(described: dict) -> str:
-    features = described.get("features") or []
+    """``"model (feature, ...)"`` of a CPU as :func:`environment` records it (a hand-edited record may hold
+    anything: said as it is)."""
+    features = described.get("features")
+    features = [str(f) for f in features] if isinstance(features, list) else []
     return f"{described.get('model')}" + (f" ({', '.join(features)})" if features else "")
 
 
@@ -80,7 +83,7 @@ def environment() -> dict[str, Any]:
 def environment_changes(recorded: Any) -> list[str]:
     """How this process differs from a record's ``environment``: ``"openvino 2026.4.1 -> 2026.5.0"`` for each
     package installed in either with another version (``"absent"`` where one lacks it), then Python's, then the
-    CPU's (``"CPU AMD EPYC 9B14 (avx2, avx512f, avx512_bf16) -> Intel(R) Xeon(R) Processor (...)"``, where the
+    CPU's (``"CPU AMD EPYC (avx2, avx512f, avx512_bf16) -> Intel(R) Xeon(R) Processor (...)"``, where the
     record has one: records before sotmot kept it have none); empty when ``recorded`` is not such a table (a
     record written before sotmot recorded it)."""
     if not isinstance(recorded, dict) or not isinstance(recorded.get("packages"), dict):
