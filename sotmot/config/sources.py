@@ -225,7 +225,8 @@ class AppearanceConfig:
         times the whole run's time: on the validation set's 13 sequences with
         frames +0.75 HOTA / +1.44 IDF1 from public detections and +0.53 / +0.71
         from the built-in detector's boxes, the MOT16-09 video gaining most and
-        TUD-Stadtmitte at 8 fps losing 3.6 MOTA from the detector's boxes
+        TUD-Stadtmitte at 8 fps losing 3.6 MOTA from the detector's boxes, and
+        the vehicle clip MOT16-13 1.7 HOTA from its public ones
         (docs/benchmarks.md, "Re-ID").
     flip
         Average the features of the crop and its mirror image (paper eq. 1).
