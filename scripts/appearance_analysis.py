@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
 import sys
 import time
 from pathlib import Path
@@ -30,6 +29,7 @@ from sotmot.appearance import affinity_rows, make_embedder, roc_auc
 from sotmot.config import AppearanceConfig, AssociationConfig, TrackletConfig
 from sotmot.io import FrameReader, read_ground_truth, read_seqinfo, write_text_atomic
 from sotmot.progress import progress_bar
+from sotmot.versions import machine
 
 
 def sample_pairs(ids: np.ndarray, frames: np.ndarray, n: int, rng: np.random.Generator
@@ -143,8 +143,7 @@ def main(argv: list[str] | None = None) -> int:
                             tuple(v.strip() for v in args.variants.split(",") if v.strip())))
     print(format_rows(rows))
     if args.json:
-        write_text_atomic(args.json, json.dumps({"machine": f"{platform.node()} {platform.processor()} "
-                                                            f"{platform.system()}", "rows": rows}, indent=2) + "\n")
+        write_text_atomic(args.json, json.dumps({"machine": machine(), "rows": rows}, indent=2) + "\n")
     return 0
 
 
