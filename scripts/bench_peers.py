@@ -17,7 +17,7 @@ Trackers:
   boxmot builds no re-ID model and downloads nothing) and the frames (for
   camera-motion compensation); each again with boxmot's offline GSI
   post-processing (``+GSI``), and without camera-motion compensation where
-  it can be turned off (``no-CMC``; every sequence here has a static
+  it can be turned off (``no-CMC``; every full-length sequence here has a still
   camera), and given sotmot's memory (``+GSI 4s``: a lost track kept
   ``[association] l_max_seconds`` at the sequence's frame rate, boxmot's
   ``max_age`` or ``track_buffer``, and GSI filling gaps as long; issue #38's
@@ -38,15 +38,20 @@ peer's own confidence thresholds keep their meaning as quantiles.
 
 Scores come from TrackEval (HOTA, DetA, AssA, MOTA, IDF1, IDSW, FP, FN) per
 sequence, for the full-length sequences combined and for the 30-frame clips
-combined. Speed: ``loop fps`` is frames per second of each tracker's
-tracking loop, median of ``--runs`` runs, all in this process: detections
-are in memory, frames are read outside the clock, results are written after
-the clock stops; ``e2e fps`` adds the re-ID of the detector boxes (frame
-decoding included) for the trackers that use appearance. The re-ID features
-of the detector boxes are computed once per sequence, outside the clock, and
-given to sotmot, DeepSORT and the boxmot trackers alike (their time is
-printed separately); sotmot's SOT variants read frames and embed the boxes
-they add inside the clock, since that is part of their work.
+combined (``MOT16 clips``, and ``MOT17 clips``: with ``--mot17-clips``, each
+MOT17 label set's boxes, DPM, Faster R-CNN and SDP, on the frames of the
+MOT16 clip of the same video, its first 30 frames, made under ``--clip-cache``
+by :func:`sotmot.benchmarks.detector_clips`: the stronger detectors where a
+camera moves, MOT17-05 and -10, which no full-length sequence here has).
+Speed: ``loop fps`` is frames per second of each tracker's tracking loop,
+median of ``--runs`` runs, all in this process: detections are in memory,
+frames are read outside the clock, results are written after the clock stops;
+``e2e fps`` adds the re-ID of the detector boxes (frame decoding included) for
+the trackers that use appearance. The re-ID features of the detector boxes are
+computed once per sequence, outside the clock, and given to sotmot, DeepSORT
+and the boxmot trackers alike (their time is printed separately); sotmot's SOT
+variants read frames and embed the boxes they add inside the clock, since that
+is part of their work.
 
 Needs the benchmark extras (not needed to use sotmot)::
 
@@ -70,7 +75,7 @@ import numpy as np
 
 from sotmot.appearance import make_embedder
 from common import DEFAULT_DATA
-from sotmot.benchmarks import private_config, sequences
+from sotmot.benchmarks import detector_clips, private_config, sequences
 from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
@@ -90,7 +95,9 @@ SOTMOT = {  # name -> (SOT variant, solver)
     "sotmot SOT-deep flow": ("deep", "flow"),
 }
 PEERS = (*TRACKERS_ROWS, "DeepSORT", *BOXMOT_ROWS)
-GROUPS = {"full-length": lambda name: "clip" not in name, "MOT16 clips": lambda name: "clip" in name}
+GROUPS = {"full-length": lambda name: "-clip" not in name,
+          "MOT16 clips": lambda name: "-clip" in name and name.startswith("MOT16"),
+          "MOT17 clips": lambda name: "-clip" in name and name.startswith("MOT17")}
 
 
 def run_sotmot(seq: SeqInput, config: TrackerConfig, variant: str, solvers: list[str],
@@ -168,6 +175,12 @@ def main(argv: list[str] | None = None) -> int:
                              "sequence, cached in --det-cache) instead of the sequence's public det/det.txt")
     parser.add_argument("--det-cache", type=Path, default=Path(".cache/detections"),
                         help="where the detector's boxes are kept between runs (default: %(default)s)")
+    parser.add_argument("--mot17-clips", action="store_true",
+                        help="also the MOT17 label sets' boxes on the frames of the MOT16 clips of their videos "
+                             "(MOT17-04/05/10 under DPM, Faster R-CNN and SDP, first 30 frames; made once under "
+                             "--clip-cache); --sequences selects among them too")
+    parser.add_argument("--clip-cache", type=Path, default=Path(".cache/clips"),
+                        help="where --mot17-clips makes its sequences (default: %(default)s)")
     parser.add_argument("--shuffle-check", action="store_true",
                         help="also run each boxmot tracker with its embeddings permuted across the sequence's "
                              "detections (rows '... shuffled'): if they are used, scores must drop")
@@ -197,6 +210,9 @@ def main(argv: list[str] | None = None) -> int:
     embedder = make_embedder(config.appearance)
     from ortools.graph.python import min_cost_flow  # noqa: F401  (imported before any clock starts)
     seqs = sequences(args.data, args.sequences)
+    if args.mot17_clips:
+        seqs += [p for p in detector_clips(args.data, args.clip_cache)
+                 if not args.sequences or p.name in args.sequences.split(",")]
     if not seqs:
         print(f"no sequences with frames under {args.data}", file=sys.stderr)
         return 1

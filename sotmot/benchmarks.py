@@ -254,6 +254,53 @@ def subsampled_sequence(seq: Path, step: int, root: Path) -> Path:
     return _derived_sequence(info, root / subsampled_name(info.name, step), texts, step, length)
 
 
+def _first_frames_lines(text: str, length: int) -> str:
+    """The MOTChallenge rows (``frame, ...``) of frames ``1 .. length``."""
+    kept = [line for line in text.splitlines()
+            if line.partition(",")[1] and int(float(line.partition(",")[0])) <= length]
+    return "\n".join(kept) + ("\n" if kept else "")
+
+
+def detector_clips(data: Path, root: Path) -> list[Path]:
+    """Each label-only sequence of :data:`LABEL_SETS` whose video has a clip with frames under ``data``, on those
+    frames: another detector's boxes where the pixels are (MOTChallenge numbers a training video alike in MOT16
+    and MOT17, so ``MOT17-labels/MOT17-10-SDP`` and ``MOT16-10-clip30`` are one video).
+
+    Each is made once under ``root`` as ``<label set>-clip<K>`` (``MOT17-10-SDP-clip30``): ``img1/`` links to
+    the clip's frames, ``det/det.txt`` and ``gt/gt.txt`` the label set's rows of frames 1 to K, and
+    ``seqinfo.ini`` the clip's (rate, size), written last; a complete folder is reused. A label set whose frame
+    rate or image size differs from its clip's is not the same video and is left out; a label set of a clip's
+    own name (the MOT16 clip's own detections) too.
+
+    Returns
+    -------
+    list of Path
+        The clips, sorted by name.
+    """
+    clips = {}
+    for clip in sequences(data):
+        head = clip.name.split("-clip")[0]
+        if "-clip" in clip.name and head.count("-") == 1:  # MOT16-10-clip30 -> video "10"
+            clips.setdefault(head.split("-")[1], []).append(clip)
+    made = []
+    for pattern in LABEL_SETS:
+        for labels in sorted(data.glob(pattern)):
+            parts = labels.name.split("-")
+            if not (labels / "seqinfo.ini").is_file() or len(parts) < 2:
+                continue
+            info = read_seqinfo(labels)
+            for clip in clips.get(parts[1], []):
+                frames = read_seqinfo(clip)
+                if clip.name.startswith(labels.name) or (frames.frame_rate, frames.width, frames.height) != (
+                        info.frame_rate, info.width, info.height):
+                    continue
+                texts = {path: _first_frames_lines(path.read_text(encoding="utf-8-sig"), frames.length)
+                         for path in (info.det_path, info.gt_path)}
+                name = f"{labels.name}-clip{frames.length}"
+                made.append(_derived_sequence(frames, root / name, texts, 1, frames.length, name=name))
+    return sorted(made, key=lambda p: p.name)
+
+
 def jittered_sequence(seq: Path, seed: int, root: Path, pixels: float = 0.5) -> Path:
     """``seq`` with every detection box moved by a seeded offset of at most ``pixels`` in x and in y (its size
     kept): a change that should change nothing, less than a ``det.txt``'s own rounding to whole pixels.

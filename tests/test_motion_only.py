@@ -163,6 +163,34 @@ def test_subsampled_sequences_keep_every_nth_frame_and_say_their_rate(tmp_path):
     assert subsampled_sequence(seq, 3, tmp_path / "rates") == out  # made once
 
 
+def test_detector_clips_put_another_detectors_boxes_on_the_frames_of_the_same_video(tmp_path):
+    from sotmot.benchmarks import detector_clips
+    from sotmot.io import read_detections, read_ground_truth, read_seqinfo
+
+    data = tmp_path / "data"
+    clip = write_sequence(data, [f"{f},-1,1,1,10,20,-0.5" for f in range(1, 4)], length=3, frame_rate=14,
+                          name="MOT16-07-clip3", gt_lines=[f"{f},1,1,1,10,20,1,1,1" for f in range(1, 4)])
+    rows = [f"{f},-1,{f},10,10,20,0.9" for f in range(1, 8)]
+    gt = [f"{f},4,{f},10,10,20,1,1,1" for f in range(1, 8)]
+    write_sequence(data / "MOT17-labels", rows, length=7, frame_rate=14, name="MOT17-07-SDP", images=False,
+                   gt_lines=gt)
+    write_sequence(data / "MOT17-labels", rows, length=7, frame_rate=30, name="MOT17-07-FRCNN", images=False,
+                   gt_lines=gt)  # another rate: another video
+    write_sequence(data / "MOT16-labels", rows, length=7, frame_rate=14, name="MOT16-07", images=False,
+                   gt_lines=gt)  # the clip's own detections
+    write_sequence(data / "MOT17-labels", rows, length=7, frame_rate=14, name="MOT17-08-SDP", images=False,
+                   gt_lines=gt)  # no clip of its video
+
+    made = detector_clips(data, tmp_path / "clips")
+    assert [p.name for p in made] == ["MOT17-07-SDP-clip3"]
+    info = read_seqinfo(made[0])
+    assert (info.name, info.length, info.frame_rate) == ("MOT17-07-SDP-clip3", 3, 14.0)
+    assert read_detections(info.det_path, info.length).boxes[:, 0].tolist() == [1, 2, 3]
+    assert read_ground_truth(info.gt_path, info.length).frames.tolist() == [1, 2, 3]
+    assert info.frame_path(3).resolve() == (clip / "img1" / "000003.jpg").resolve()
+    assert detector_clips(data, tmp_path / "clips") == made  # made once
+
+
 def test_the_validation_set_tracks_label_only_sequences_and_their_lower_rates_without_frames(tmp_path):
     from sotmot.benchmarks import for_group, validation_set
     from sotmot.io import read_seqinfo
