@@ -179,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="also the MOT17 label sets' boxes on the frames of the MOT16 clips of their videos "
                              "(MOT17-04/05/10 under DPM, Faster R-CNN and SDP, first 30 frames; made once under "
                              "--clip-cache); --sequences selects among them too")
-    parser.add_argument("--clip-cache", type=Path, default=Path(".cache/clips"),
+    parser.add_argument("--clip-cache", type=Path, default=Path(".cache/validation/clips"),
                         help="where --mot17-clips makes its sequences (default: %(default)s)")
     parser.add_argument("--shuffle-check", action="store_true",
                         help="also run each boxmot tracker with its embeddings permuted across the sequence's "

@@ -6,6 +6,13 @@ The set, built from what ``../shared/data`` holds:
 * **frames**: the full-length sequences with frames (public detections, re-ID),
   and each 25-30 fps one at every 2nd and 3rd frame (``seqinfo.ini`` adjusted:
   the same people at 8-15 fps; made once under ``--cache``);
+* **clips**: the 30-frame clips with frames (the MOT16 clips' DPM boxes) and,
+  on the frames of the same videos, the MOT17 label sets' boxes (DPM, Faster
+  R-CNN, SDP; :func:`~sotmot.benchmarks.detector_clips`, made once under
+  ``--cache``): tracked as the full-length ones, the only moving cameras with
+  pixels (camera motion estimated and compensated) and the only stronger
+  detectors on them; one or two seconds each, so tracklets, compensation and
+  confirmation, not long-term association;
 * **labels**: the label-only sequences (``MOT16-labels``: DPM; ``MOT17-labels``:
   DPM, Faster R-CNN, SDP), 14 sequences with detections and ground truth but no
   frames, crowded and sparse, still and moving cameras, tracked in the

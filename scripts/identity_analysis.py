@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Where identities are lost: fragmentations and switches of sotmot, by the stage that made them, beside a peer's.
 
-Tracks every full-length sequence with frames (public detections, the
-configuration given or the defaults) and matches its output to the ground
-truth with TrackEval's own CLEAR matching (:func:`sotmot.scoring.frame_errors`).
+Tracks every full-length sequence with frames, or those ``--sequences`` names
+(public detections, the configuration given or the defaults) and matches its
+output to the ground truth with TrackEval's own CLEAR matching
+(:func:`sotmot.scoring.frame_errors`).
 Counted, for sotmot and for a peer's results on the same boxes (``--peer``, a
 results folder of ``scripts/bench_peers.py``, e.g. ``peers/results/StrongSORT_+GSI_4s``):
 
@@ -140,13 +141,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--peer", type=Path, help="a peer's results folder (<sequence>.txt), on the same boxes")
     parser.add_argument("--cache", type=Path, default=Path(".cache/validation/features"),
                         help="re-ID features kept between runs (default: %(default)s)")
+    parser.add_argument("--sequences", default="",
+                        help="comma-separated names under --data, whatever their length (default: every full-length "
+                             "sequence), e.g. the 30-frame clips that bench_peers.py --mot17-clips makes under "
+                             ".cache/clips")
     parser.add_argument("--json", type=Path, help="write the report here")
     args = parser.parse_args(argv)
 
     config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
     SOLVERS["ground-truth"] = f"{__name__}:ground_truth_solve"
     ceiling_config = config.replace("association", solver="ground-truth")
-    seqs = [p for p in sequences(args.data) if read_seqinfo(p).length > FULL_LENGTH]
+    seqs = sequences(args.data, args.sequences) if args.sequences else \
+        [p for p in sequences(args.data) if read_seqinfo(p).length > FULL_LENGTH]
+    if not seqs:
+        parser.error(f"no such sequences with frames under {args.data}: {args.sequences or 'none full-length'}")
     report: dict[str, dict] = {}
     embedder: list = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -635,6 +635,7 @@ def confidence_section(fitted: dict | None, transfer: dict | None) -> list[str]:
 #: The validation set's groups (``bench_validation.py``), in the order the page shows them.
 VALIDATION_GROUPS = {"frames": "full-length sequences with frames (public detections, re-ID)",
                      "rates": "the same at every 2nd and 3rd frame (8-15 fps)",
+                     "clips": "30-frame clips with frames (MOT16's DPM, MOT17's three detectors; moving cameras)",
                      "labels": "label-only sequences, motion only (no frames, no re-ID, no camera motion)",
                      "label-rates": "the same at every 2nd frame (12.5-15 fps), motion only"}
 

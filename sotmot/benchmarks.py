@@ -26,7 +26,7 @@ VARIANT_MIN_FPS = 20.0
 #: The validation set's label-only sequences (detections and ground truth, no frames), as patterns under the data.
 LABEL_SETS = ("MOT16-labels/*", "MOT17-labels/*")
 #: The validation set's groups (:func:`validation_set`).
-GROUPS = ("frames", "rates", "labels", "label-rates")
+GROUPS = ("frames", "rates", "clips", "labels", "label-rates")
 #: The groups without frames, tracked in the motion-only mode (:func:`for_group`).
 LABEL_GROUPS = ("labels", "label-rates")
 #: The configuration sections a preparation (:func:`sotmot.pipeline.prepare_sequence`) reads.
@@ -101,9 +101,11 @@ def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]"
                    ) -> list[tuple[str, Path]]:
     """``(group, folder)`` of every validation sequence under ``data`` (issue #39): ``frames``, the full-length
     sequences with frames; ``rates``, each of them at :data:`VARIANT_MIN_FPS` or above at every 2nd and 3rd
-    frame (:func:`subsampled_sequence`, made once under ``cache / "rates"``); ``labels``, the label-only
-    sequences (:data:`LABEL_SETS`), tracked without frames (:func:`for_group`); ``label-rates``, each label-only
-    sequence at :data:`VARIANT_MIN_FPS` or above at every 2nd frame (made alike), tracked alike."""
+    frame (:func:`subsampled_sequence`, made once under ``cache / "rates"``); ``clips``, the short sequences with
+    frames and the label-only sequences' boxes on the frames of their videos' clips (:func:`detector_clips`, made
+    once under ``cache / "clips"``): moving cameras with pixels, under the stronger detectors; ``labels``, the
+    label-only sequences (:data:`LABEL_SETS`), tracked without frames (:func:`for_group`); ``label-rates``, each
+    label-only sequence at :data:`VARIANT_MIN_FPS` or above at every 2nd frame (made alike), tracked alike."""
     members: list[tuple[str, Path]] = []
     full = {p: info for p in sequences(data) if (info := read_seqinfo(p)).length > FULL_LENGTH}
     if "frames" in groups:
@@ -111,6 +113,9 @@ def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]"
     if "rates" in groups:
         members += [("rates", subsampled_sequence(p, step, cache / "rates")) for p, info in full.items()
                     if info.frame_rate >= VARIANT_MIN_FPS for step in (2, 3)]
+    if "clips" in groups:
+        members += [("clips", p) for p in sequences(data) if p not in full]
+        members += [("clips", p) for p in detector_clips(data, cache / "clips")]
     labelled = [p for pattern in LABEL_SETS for p in sorted(data.glob(pattern)) if (p / "seqinfo.ini").is_file()]
     if "labels" in groups:
         members += [("labels", p) for p in labelled]

@@ -190,6 +190,13 @@ def test_detector_clips_put_another_detectors_boxes_on_the_frames_of_the_same_vi
     assert info.frame_path(3).resolve() == (clip / "img1" / "000003.jpg").resolve()
     assert detector_clips(data, tmp_path / "clips") == made  # made once
 
+    from sotmot.benchmarks import for_group, validation_set
+
+    members = validation_set(data, tmp_path / "cache", ("clips",))  # the clip itself and the boxes put on it
+    assert [(g, p.name) for g, p in members] == [("clips", "MOT16-07-clip3"), ("clips", "MOT17-07-SDP-clip3")]
+    assert members[1][1].parent == tmp_path / "cache" / "clips"
+    assert for_group(TrackerConfig(), "clips", "reid.onnx").appearance.backend == "auto"  # tracked with re-ID
+
 
 def test_the_validation_set_tracks_label_only_sequences_and_their_lower_rates_without_frames(tmp_path):
     from sotmot.benchmarks import for_group, validation_set
