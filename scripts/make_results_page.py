@@ -24,7 +24,7 @@ Files it reads, each optional (a missing one leaves its section out):
   ``--full-length`` run (the accuracy cost on each full-length sequence);
 * ``motion.json``: ``scripts/bench_motion.py`` (a moving camera, synthetic and real);
 * ``peers_clips.json``: ``scripts/bench_peers.py --mot17-clips`` on the 30-frame clips (the MOT16 clips and the
-  MOT17 label sets' boxes on their frames);
+  MOT17 label sets' boxes on their frames); ``peers_private_clips.json``: ``--detector-model`` on the MOT16 clips;
 * ``detector.json``: ``scripts/bench_detector.py`` (the built-in detector's recall on small people by input size);
 * ``validation.json``: ``scripts/bench_validation.py`` (candidate defaults on the validation set);
 * ``validation_seeds.json``: ``scripts/bench_validation.py --seeds`` (the same, means over jittered copies);
@@ -521,25 +521,38 @@ def motion_section(data: dict | None) -> list[str]:
     return lines
 
 
-def clips_section(peers: dict | None) -> list[str]:
-    """sotmot against the best peer on each 30-frame clip (``bench_peers.py --mot17-clips``), and on each group."""
-    if peers is None:
+def clips_section(public: dict | None, private: dict | None) -> list[str]:
+    """sotmot against the best peer on each 30-frame clip and on each group of them: ``public``, ``bench_peers.py
+    --mot17-clips`` (the MOT17 label sets' boxes on the MOT16 clips' frames among them); ``private``, ``bench_peers.py
+    --detector-model`` on the MOT16 clips."""
+    if public is None and private is None:
         return []
+    lines = ["## The 30-frame clips, with the peers", ""]
+    if public is not None:
+        lines += ["`scripts/bench_peers.py --mot17-clips`, public detections: the five MOT16 clips (DPM) and, on the "
+                  "frames of three of them, the MOT17 label sets' boxes of the same videos (DPM, Faster R-CNN, SDP, "
+                  "scored against MOT17's ground truth; MOT17's DPM boxes are MOT16's; "
+                  "`sotmot.benchmarks.detector_clips`): the stronger detectors where a camera moves (MOT16-05 and "
+                  "MOT17-05 a walking camera at 14 fps, MOT16-10 and MOT17-10 a hand-held one at night, MOT16-13 a "
+                  "vehicle's), which no full-length sequence here has. One to two seconds each: what they show is "
+                  "the tracklets, the camera-motion compensation and the confirmation, not long-term association. "
+                  "Each metric's best peer is named, `+GSI 4s` rows (the peers given sotmot's memory) among them.",
+                  "", *_clips_table(public)]
+    if private is not None:
+        lines += ["The five MOT16 clips from the built-in detector's boxes (`scripts/bench_peers.py "
+                  "--detector-model`; MOTChallenge's private detections, every tracker the same boxes):", "",
+                  *_clips_table(private)]
+    return lines
+
+
+def _clips_table(peers: dict) -> list[str]:
+    """One ``bench_peers.py`` JSON of clips: sotmot's HOTA / MOTA / IDF1 beside each metric's best peer."""
     sotmot = peers["table"]["sotmot"]
     clips = sorted(n for n in sotmot if "-clip" in n)
     groups = [g for g in ("MOT16 clips", "MOT17 clips", "ALL") if g in sotmot]
-    lines = ["## The 30-frame clips, with the peers", "",
-             "`scripts/bench_peers.py --mot17-clips`, public detections: the five MOT16 clips (DPM) and, on the "
-             "frames of three of them, the MOT17 label sets' boxes of the same videos (DPM, Faster R-CNN, SDP, "
-             "scored against MOT17's ground truth; MOT17's DPM boxes are MOT16's; "
-             "`sotmot.benchmarks.detector_clips`): the stronger detectors where a camera moves (MOT16-05 and "
-             "MOT17-05 a walking camera at 14 fps, MOT16-10 and MOT17-10 a hand-held one at night, MOT16-13 a "
-             "vehicle's), which no full-length sequence here has. One to two seconds each: what they show is the "
-             "tracklets, the camera-motion compensation and the confirmation, not long-term association. Each "
-             "metric's best peer is named, `+GSI 4s` rows (the peers given sotmot's memory) among them.", "",
-             "| clip | sotmot HOTA / MOTA / IDF1 | IDSW / FP / FN | best peer HOTA | best peer MOTA | best peer IDF1 |",
+    lines = ["| clip | sotmot HOTA / MOTA / IDF1 | IDSW / FP / FN | best peer HOTA | best peer MOTA | best peer IDF1 |",
              "|---|---|---|---|---|---|"]
-    for key in [*clips, *groups]:
+    for key in [*clips, *[g for g in groups if g != "ALL" or len(groups) > 2]]:
         row = sotmot[key]
         best = [best_peer(peers, key, m) for m in ("HOTA", "MOTA", "IDF1")]
         peer_cells = [f"{v:.1f} ({n}){' **ahead**' if v > row[m] else ''}"
@@ -549,9 +562,8 @@ def clips_section(peers: dict | None) -> list[str]:
         errors = " / ".join(number(m, row[m]) for m in ("IDSW", "FP", "FN"))
         lines.append(f"| {name} | {trio} | {errors} | " + " | ".join(peer_cells) + " |")
     peer_names = sorted(t for t in peers["table"] if not t.startswith("sotmot"))
-    lines += ["", f"Peers: {', '.join(peer_names)}, each fed the same boxes and re-ID embeddings; "
-                  f"**ahead** marks a peer above sotmot. Machine: {peers['machine']}; {peers['runs']} run.", ""]
-    return lines
+    return [*lines, "", f"Peers: {', '.join(peer_names)}, each fed the same boxes and re-ID embeddings; "
+                        f"**ahead** marks a peer above sotmot. Machine: {peers['machine']}; {peers['runs']} run.", ""]
 
 
 def detector_section(data: dict | None) -> list[str]:
@@ -922,7 +934,7 @@ def page() -> str:
     lines += windows_section(load("windows.json"))
     lines += confidence_section(load("confidence_fit.json"), load("transfer.json"))
     lines += motion_section(load("motion.json"))
-    lines += clips_section(load("peers_clips.json"))
+    lines += clips_section(load("peers_clips.json"), load("peers_private_clips.json"))
     lines += detector_section(load("detector.json"))
     return "\n".join(lines).rstrip() + "\n"
 
