@@ -52,14 +52,16 @@ detections, as it comes and given sotmot's memory (``+GSI 4s``: a lost track
 kept ``[association] l_max_seconds`` and boxmot's GSI filling gaps as long):
 motion-only peers beside sotmot's motion-only mode, scored the same way.
 
-With ``--detector-model`` the sequences with frames (``frames`` and ``rates``,
-the default groups then) are tracked from the person detector's boxes instead of
-their ``det/det.txt`` (MOTChallenge's private detections: what ``sotmot track``
-does with a video), each detected once and kept under ``--det-cache``, as
-``scripts/bench_accuracy.py`` and ``scripts/fp_analysis.py`` take them; a report
-of its own (``--merge`` refuses to mix the two protocols), without ``--seeds``
-or ``--peers``; ``--noise`` moves the detector's boxes. MOT16-09 and the
-MOT17-09 sets are one video: the same boxes, scored against each ground truth.
+With ``--detector-model`` the sequences with frames (``frames``, ``rates`` and
+``clips``, the default groups then; of the clips, those of the data folder) are
+tracked from the person detector's boxes instead of their ``det/det.txt``
+(MOTChallenge's private detections: what ``sotmot track`` does with a video),
+each detected once and kept under ``--det-cache``, as
+``scripts/bench_accuracy.py`` and ``scripts/fp_analysis.py`` take them; a
+report of its own (``--merge`` refuses to mix the two protocols), without
+``--seeds`` or ``--peers``; ``--noise`` moves the detector's boxes. MOT16-09
+and the MOT17-09 sets are one video: the same boxes, scored against each ground
+truth.
 
     python scripts/bench_validation.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --config defaults= --config paper-gap=gap60.toml --json docs/results/validation.json
@@ -265,7 +267,7 @@ def main(argv: list[str] | None = None) -> int:
                              "defaults; default: defaults=)")
     parser.add_argument("--groups", type=validation_groups,
                         help=f"which parts of the set, of those above (default: {','.join(GROUPS)}; with "
-                             f"--detector-model frames,rates)")
+                             f"--detector-model frames,rates,clips)")
     parser.add_argument("--cache", type=Path, default=Path(".cache/validation"),
                         help="frame-rate variants and re-ID features kept between runs (default: %(default)s)")
     parser.add_argument("--peers", default="",
@@ -281,7 +283,9 @@ def main(argv: list[str] | None = None) -> int:
                              "every run (default: %(default)s, one run)")
     parser.add_argument("--detector-model", metavar="PATH.xml",
                         help="track the sequences with frames from this person detector's boxes (private "
-                             "detections) instead of their det/det.txt; only --groups frames,rates")
+                             "detections) instead of their det/det.txt; only --groups frames,rates,clips (the clips "
+                             "of the data folder: another detector's boxes on their frames would be the same run "
+                             "again)")
     parser.add_argument("--det-cache", type=Path, default=Path(".cache/detections"),
                         help="where the detector's boxes are kept between runs (default: %(default)s)")
     parser.add_argument("--json", type=Path, help="write the report here")
@@ -296,13 +300,13 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--detector-model: no such file: {args.detector_model}")
         if args.groups and set(LABEL_GROUPS) & set(args.groups):
             parser.error("--detector-model detects on frames: the label-only sequences have none; give --groups "
-                         "frames (or frames,rates)")
+                         "frames, rates or clips")
         for flag, given in (("--seeds", args.seeds), ("--peers", args.peers)):
             if given:
                 parser.error(f"{flag} is for the public detections (their boxes moved, the label-only sequences): "
                              "not with --detector-model")
         detector = str(Path(args.detector_model).resolve())
-    args.groups = args.groups or (("frames", "rates") if detector else GROUPS)
+    args.groups = args.groups or (("frames", "rates", "clips") if detector else GROUPS)
     if args.seeds < 0:
         parser.error("--seeds takes a count, 0 or more")
     if args.seeds and (args.merge or args.noise):
@@ -341,7 +345,7 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--merge: {', '.join(fresh)} not in the old report: run them on every group it has")
     # configurations that agree on every section a preparation reads share one preparation of each sequence
     preparation = {name: preparation_key(cfg) for name, cfg in configs.items()}
-    members = validation_set(args.data, args.cache, set(args.groups))
+    members = validation_set(args.data, args.cache, set(args.groups), private=detector is not None)
     if not members:
         print(f"no validation sequences under {args.data}", file=sys.stderr)
         return 1

@@ -157,8 +157,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", required=True, help="ONNX re-ID model (for the sequences with frames)")
     parser.add_argument("--config", action="append", type=named_config, metavar="NAME=FILE",
                         help="a configuration to analyse (repeat; FILE empty: the defaults; default: defaults=)")
-    parser.add_argument("--groups", type=validation_groups, default=",".join(GROUPS),
-                        help=f"which parts of the validation set: {', '.join(GROUPS)} (default: %(default)s)")
+    parser.add_argument("--groups", type=validation_groups, default=",".join(g for g in GROUPS if g != "clips"),
+                        help=f"which parts of the validation set: {', '.join(GROUPS)} (default: %(default)s; the "
+                             f"clips are too short for long gaps)")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--cache", type=Path, default=Path(".cache/validation"),
                         help="frame-rate variants and re-ID features kept between runs (default: %(default)s)")
@@ -171,14 +172,14 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     groups = args.groups
     if args.detector_model and set(LABEL_GROUPS) & set(groups):
-        parser.error("--detector-model detects on frames: the label-only sequences have none; give --groups frames "
-                     "(or frames,rates)")
+        parser.error("--detector-model detects on frames: the label-only sequences have none; give --groups frames, "
+                     "rates or clips")
     if args.detector_model and not Path(args.detector_model).is_file():
         parser.error(f"--detector-model: no such file: {args.detector_model}")
     detections = (f"private detections: the boxes of {Path(args.detector_model).name}" if args.detector_model
                   else "public detections: each sequence's det/det.txt")
     described = dict(args.config or [named_config("defaults=")])
-    members = [(g, s) for g, s in validation_set(args.data, args.cache, groups)
+    members = [(g, s) for g, s in validation_set(args.data, args.cache, groups, private=bool(args.detector_model))
                if not args.sequences or s.name in args.sequences.split(",")]
     short = [p.name for p in sequences(args.data, args.sequences) if read_seqinfo(p).length <= FULL_LENGTH]
     if short and {"frames", "rates"} & set(groups):

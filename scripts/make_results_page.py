@@ -668,7 +668,8 @@ def validation_section(data: dict | None) -> list[str]:
     detector = data.get("detections", "public").removeprefix("private: ")
     private = detector != "public"
     group_names = dict(VALIDATION_GROUPS, frames=VALIDATION_GROUPS["frames"].replace(
-        "public detections", "the detector's boxes")) if private else VALIDATION_GROUPS
+        "public detections", "the detector's boxes"), clips="the MOT16 clips (30 frames; moving cameras among them)"
+    ) if private else VALIDATION_GROUPS
     what = (f"`scripts/bench_validation.py --detector-model` (issue #39): the {len(groups)} sequences with frames "
             f"tracked from the boxes of {detector} (MOTChallenge's private detections, what `sotmot track` does "
             "with a video; MOT16-09 and the MOT17-09 sets are one video, the same boxes scored against each "

@@ -97,7 +97,7 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
     return features
 
 
-def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]" = GROUPS
+def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]" = GROUPS, private: bool = False
                    ) -> list[tuple[str, Path]]:
     """``(group, folder)`` of every validation sequence under ``data`` (issue #39): ``frames``, the full-length
     sequences with frames; ``rates``, each of them at :data:`VARIANT_MIN_FPS` or above at every 2nd and 3rd
@@ -105,7 +105,9 @@ def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]"
     frames and the label-only sequences' boxes on the frames of their videos' clips (:func:`detector_clips`, made
     once under ``cache / "clips"``): moving cameras with pixels, under the stronger detectors; ``labels``, the
     label-only sequences (:data:`LABEL_SETS`), tracked without frames (:func:`for_group`); ``label-rates``, each
-    label-only sequence at :data:`VARIANT_MIN_FPS` or above at every 2nd frame (made alike), tracked alike."""
+    label-only sequence at :data:`VARIANT_MIN_FPS` or above at every 2nd frame (made alike), tracked alike.
+    ``private``: the sequences are tracked from a detector's boxes, so ``clips`` keeps the clips of ``data``
+    alone (another detector's boxes on the same frames would be the same run again)."""
     members: list[tuple[str, Path]] = []
     full = {p: info for p in sequences(data) if (info := read_seqinfo(p)).length > FULL_LENGTH}
     if "frames" in groups:
@@ -115,7 +117,7 @@ def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]"
                     if info.frame_rate >= VARIANT_MIN_FPS for step in (2, 3)]
     if "clips" in groups:
         members += [("clips", p) for p in sequences(data) if p not in full]
-        members += [("clips", p) for p in detector_clips(data, cache / "clips")]
+        members += [] if private else [("clips", p) for p in detector_clips(data, cache / "clips")]
     labelled = [p for pattern in LABEL_SETS for p in sorted(data.glob(pattern)) if (p / "seqinfo.ini").is_file()]
     if "labels" in groups:
         members += [("labels", p) for p in labelled]

@@ -195,6 +195,8 @@ def test_detector_clips_put_another_detectors_boxes_on_the_frames_of_the_same_vi
     members = validation_set(data, tmp_path / "cache", ("clips",))  # the clip itself and the boxes put on it
     assert [(g, p.name) for g, p in members] == [("clips", "MOT16-07-clip3"), ("clips", "MOT17-07-SDP-clip3")]
     assert members[1][1].parent == tmp_path / "cache" / "clips"
+    private = validation_set(data, tmp_path / "cache", ("clips",), private=True)  # a detector makes the boxes
+    assert [p.name for _, p in private] == ["MOT16-07-clip3"]
     assert for_group(TrackerConfig(), "clips", "reid.onnx").appearance.backend == "auto"  # tracked with re-ID
 
 
