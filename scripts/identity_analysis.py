@@ -143,8 +143,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="re-ID features kept between runs (default: %(default)s)")
     parser.add_argument("--sequences", default="",
                         help="comma-separated names under --data, whatever their length (default: every full-length "
-                             "sequence), e.g. the 30-frame clips that bench_peers.py --mot17-clips makes under "
-                             ".cache/clips")
+                             "sequence), e.g. the 30-frame clips the validation set makes under "
+                             ".cache/validation/clips")
     parser.add_argument("--json", type=Path, help="write the report here")
     args = parser.parse_args(argv)
 

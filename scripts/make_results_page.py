@@ -552,7 +552,7 @@ def _clips_table(peers: dict) -> list[str]:
     groups = [g for g in ("MOT16 clips", "MOT17 clips", "ALL") if g in sotmot]
     lines = ["| clip | sotmot HOTA / MOTA / IDF1 | IDSW / FP / FN | best peer HOTA | best peer MOTA | best peer IDF1 |",
              "|---|---|---|---|---|---|"]
-    for key in [*clips, *[g for g in groups if g != "ALL" or len(groups) > 2]]:
+    for key in [*clips, *[g for g in groups if g != "ALL" or len(groups) > 2]]:  # "ALL" only beside two groups
         row = sotmot[key]
         best = [best_peer(peers, key, m) for m in ("HOTA", "MOTA", "IDF1")]
         peer_cells = [f"{v:.1f} ({n}){' **ahead**' if v > row[m] else ''}"

@@ -302,7 +302,7 @@ def detector_clips(data: Path, root: Path) -> list[Path]:
                         info.frame_rate, info.width, info.height):
                     continue
                 texts = {path: _first_frames_lines(path.read_text(encoding="utf-8-sig"), frames.length)
-                         for path in (info.det_path, info.gt_path)}
+                         for path in (info.det_path, info.gt_path) if path.is_file()}
                 name = f"{labels.name}-clip{frames.length}"
                 made.append(_derived_sequence(frames, root / name, texts, 1, frames.length, name=name))
     return sorted(made, key=lambda p: p.name)

@@ -164,7 +164,7 @@ def test_subsampled_sequences_keep_every_nth_frame_and_say_their_rate(tmp_path):
 
 
 def test_detector_clips_put_another_detectors_boxes_on_the_frames_of_the_same_video(tmp_path):
-    from sotmot.benchmarks import detector_clips
+    from sotmot.benchmarks import detector_clips, for_group, validation_set
     from sotmot.io import read_detections, read_ground_truth, read_seqinfo
 
     data = tmp_path / "data"
@@ -189,8 +189,6 @@ def test_detector_clips_put_another_detectors_boxes_on_the_frames_of_the_same_vi
     assert read_ground_truth(info.gt_path, info.length).frames.tolist() == [1, 2, 3]
     assert info.frame_path(3).resolve() == (clip / "img1" / "000003.jpg").resolve()
     assert detector_clips(data, tmp_path / "clips") == made  # made once
-
-    from sotmot.benchmarks import for_group, validation_set
 
     members = validation_set(data, tmp_path / "cache", ("clips",))  # the clip itself and the boxes put on it
     assert [(g, p.name) for g, p in members] == [("clips", "MOT16-07-clip3"), ("clips", "MOT17-07-SDP-clip3")]
