@@ -178,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--mot17-clips", action="store_true",
                         help="also the MOT17 label sets' boxes on the frames of the MOT16 clips of their videos "
                              "(MOT17-04/05/10 under DPM, Faster R-CNN and SDP, first 30 frames; made once under "
-                             "--clip-cache); --sequences selects among them too")
+                             "--clip-cache; not with --detector-model); --sequences selects among them too")
     parser.add_argument("--clip-cache", type=Path, default=Path(".cache/validation/clips"),
                         help="where --mot17-clips makes its sequences (default: %(default)s)")
     parser.add_argument("--shuffle-check", action="store_true",
@@ -190,6 +190,9 @@ def main(argv: list[str] | None = None) -> int:
                              "that sotmot alone can be rerun after a change of its own; the JSON says which rows "
                              "came from where")
     args = parser.parse_args(argv)
+    if args.mot17_clips and args.detector_model:
+        parser.error("--mot17-clips puts other detectors' boxes on the MOT16 clips' frames; with --detector-model "
+                     "every tracker gets the detector's boxes instead, so they would be the MOT16 clips' runs again")
     trackers = [t.strip() for t in args.trackers.split(",") if t.strip()]
     kept = json.loads(args.keep.read_text(encoding="utf-8")) if args.keep else None
     unknown = [t for t in trackers if t not in SOTMOT and t not in PEERS]
