@@ -9,7 +9,7 @@ choice with one video held out at a time:
 
 * a **run** is one sequence under one protocol (MOT16-09 from its ``det.txt`` and from the built-in detector's
   boxes are two runs); a **video** is what a run shows: MOT16-09 and the MOT17-09 sets are one video, and a
-  sequence's 8-15 fps copies are its video too (:func:`common.video_of`);
+  sequence's 8-15 fps copies are its video too (:func:`sotmot.benchmarks.video_of`);
 * each fold trains on every run of the other videos: a candidate is **eligible** when no training run loses more
   than :data:`bench_validation.RULE` HOTA or MOTA against the reference; the fold chooses the eligible candidate
   whose mean change of (HOTA + MOTA) / 2 over its training runs is the largest, and keeps the reference when
@@ -42,7 +42,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bench_validation import RULE
-from common import video_of
+from sotmot.benchmarks import video_of
 from sotmot.io import write_text_atomic
 
 METRICS = ("HOTA", "MOTA")

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import subprocess
 import sys
 import tempfile
@@ -29,15 +28,6 @@ DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data
 #: The label-only sequences (detections and ground truth, no frames) whose detections the family maps learn from:
 #: MOT16's DPM sets and MOT17's Faster R-CNN and SDP sets (MOT17's DPM sets repeat MOT16's detections).
 LABEL_ONLY = ("MOT16-labels/*", "MOT17-labels/*-FRCNN", "MOT17-labels/*-SDP")
-
-
-def video_of(name: str) -> str:
-    """The video a sequence shows: MOT16-09 and MOT17-09-FRCNN / -SDP are one video under three detectors, and a
-    validation copy at a lower frame rate (``...-every2``, :func:`sotmot.benchmarks.subsampled_name`) shows its
-    sequence's video (a leave-one-out fold leaves out the video, not the sequence)."""
-    name = re.sub(r"-every\d+", "", name)
-    match = re.match(r"MOT1[67]-(\d+)", name)
-    return f"MOT-{match.group(1)}" if match else name
 
 
 def label_only_sequences(data: Path) -> list[Path]:

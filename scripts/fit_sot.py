@@ -42,9 +42,9 @@ from pathlib import Path
 
 import numpy as np
 
-from common import add_fit_arguments, fit_setup, video_of
+from common import add_fit_arguments, fit_setup
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import cached_features, private_config
+from sotmot.benchmarks import cached_features, private_config, video_of
 from sotmot.fitting.confidence import box_labels
 from sotmot.scoring import evaluate_files
 from sotmot.sot.extend import extend_ends, gated, with_added

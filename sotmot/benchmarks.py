@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -38,6 +39,16 @@ def sequences(data: Path, only: str = "") -> list[Path]:
     comma-separated list of folder names (a script's ``--sequences``), keeps those alone."""
     found = sorted(p for p in data.iterdir() if (p / "seqinfo.ini").is_file() and (p / "img1").exists())
     return [p for p in found if p.name in only.split(",")] if only else found
+
+
+def video_of(name: str) -> str:
+    """The video a sequence shows: MOT16-09 and MOT17-09-FRCNN / -SDP are one video under three detectors (MOTChallenge
+    numbers a training video alike in MOT16 and MOT17, its clips too: ``MOT16-10-clip30`` is ``MOT-10``), and a
+    validation copy at a lower frame rate (``...-every2``, :func:`subsampled_name`) shows its sequence's video (a
+    leave-one-out fold leaves out the video, not the sequence)."""
+    name = re.sub(r"-every\d+", "", name)
+    match = re.match(r"MOT1[67]-(\d+)", name)
+    return f"MOT-{match.group(1)}" if match else name
 
 
 def before_confirmation(config: TrackerConfig) -> TrackerConfig:
@@ -109,14 +120,15 @@ def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]"
     ``private``: the sequences are tracked from a detector's boxes, so ``clips`` keeps the clips of ``data``
     alone (another detector's boxes on the same frames would be the same run again)."""
     members: list[tuple[str, Path]] = []
-    full = {p: info for p in sequences(data) if (info := read_seqinfo(p)).length > FULL_LENGTH}
+    found = sequences(data)
+    full = {p: info for p in found if (info := read_seqinfo(p)).length > FULL_LENGTH}
     if "frames" in groups:
         members += [("frames", p) for p in full]
     if "rates" in groups:
         members += [("rates", subsampled_sequence(p, step, cache / "rates")) for p, info in full.items()
                     if info.frame_rate >= VARIANT_MIN_FPS for step in (2, 3)]
     if "clips" in groups:
-        members += [("clips", p) for p in sequences(data) if p not in full]
+        members += [("clips", p) for p in found if p not in full]
         members += [] if private else [("clips", p) for p in detector_clips(data, cache / "clips")]
     labelled = [p for pattern in LABEL_SETS for p in sorted(data.glob(pattern)) if (p / "seqinfo.ini").is_file()]
     if "labels" in groups:
@@ -284,19 +296,14 @@ def detector_clips(data: Path, root: Path) -> list[Path]:
     list of Path
         The clips, sorted by name.
     """
-    clips = {}
-    for clip in sequences(data):
-        head = clip.name.split("-clip")[0]
-        if "-clip" in clip.name and head.count("-") == 1:  # MOT16-10-clip30 -> video "10"
-            clips.setdefault(head.split("-")[1], []).append(clip)
+    clips = [clip for clip in sequences(data) if "-clip" in clip.name]
     made = []
     for pattern in LABEL_SETS:
         for labels in sorted(data.glob(pattern)):
-            parts = labels.name.split("-")
-            if not (labels / "seqinfo.ini").is_file() or len(parts) < 2:
+            if not (labels / "seqinfo.ini").is_file():
                 continue
             info = read_seqinfo(labels)
-            for clip in clips.get(parts[1], []):
+            for clip in (c for c in clips if video_of(c.name) == video_of(labels.name)):
                 frames = read_seqinfo(clip)
                 if clip.name.startswith(labels.name) or (frames.frame_rate, frames.width, frames.height) != (
                         info.frame_rate, info.width, info.height):
