@@ -32,8 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from common import DEFAULT_DATA
-from sotmot.benchmarks import sequences
+from common import DEFAULT_DATA, named_sequences
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import evaluate_files
@@ -146,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
         base = base.replace("detection", model=str(Path(args.detector_model).resolve()),
                             source="model" if args.private else base.detection.source)
     embedder = make_embedder(base.appearance)
-    seqs = [s for s in sequences(args.data, args.sequences) if read_seqinfo(s).length >= args.min_length]
+    seqs = [s for s in named_sequences(parser, args.data, args.sequences) if read_seqinfo(s).length >= args.min_length]
     if args.private:  # one run per video: the MOT17-09-* sequences repeat MOT16-09's frames
         seqs = [s for s in seqs if not (s.name.startswith("MOT17-09-"))]
     results: dict[str, dict[str, dict]] = {}

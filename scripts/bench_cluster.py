@@ -27,8 +27,7 @@ import time
 from pathlib import Path
 
 from sotmot.runs import track_many
-from common import DEFAULT_DATA
-from sotmot.benchmarks import sequences
+from common import DEFAULT_DATA, named_sequences
 from sotmot.config import TrackerConfig
 from sotmot.io import read_seqinfo, write_text_atomic
 from sotmot.versions import machine
@@ -53,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     except ImportError as exc:
         print(f"bench_cluster needs the dask extra ({exc}): pip install -e '.[dask]'", file=sys.stderr)
         return 2
-    seqs = sequences(args.data, args.sequences)
+    seqs = named_sequences(parser, args.data, args.sequences)
     if not seqs:
         print(f"no sequences with frames under {args.data}", file=sys.stderr)
         return 1

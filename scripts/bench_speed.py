@@ -51,8 +51,7 @@ from pathlib import Path
 
 from sotmot.appearance import make_embedder, resolve_backend
 from sotmot.plugins import BACKENDS
-from common import DEFAULT_DATA, run_timed
-from sotmot.benchmarks import sequences
+from common import DEFAULT_DATA, named_sequences, run_timed
 from sotmot.config import TrackerConfig
 from sotmot.io import read_seqinfo, write_text_atomic
 from sotmot.pipeline import pass_detector, track_sequence
@@ -124,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
                                      flip=not args.no_flip)
     config = config.replace("sot", variant=args.sot)
     detector = None
-    seqs = sequences(args.data, args.sequences)
+    seqs = named_sequences(parser, args.data, args.sequences)
     if args.detector_model:
         config = config.replace("detection", source="model", model=args.detector_model)
         # loaded once, outside the clock, like the re-ID model; at the weak boxes' threshold, as sotmot track runs it

@@ -17,9 +17,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from sotmot.benchmarks import GROUPS, fit_sequences
+from sotmot.benchmarks import GROUPS, fit_sequences, sequences
 from sotmot.config import TrackerConfig, load_config
-from sotmot.errors import SotmotError
+from sotmot.errors import InputError, SotmotError
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data"))
@@ -67,6 +67,15 @@ def fit_setup(args: argparse.Namespace) -> tuple[TrackerConfig, list[Path]]:
         return config, fit_sequences(args.data, args.min_length, args.sequences)
     except SotmotError as exc:
         sys.exit(f"{Path(sys.argv[0]).name}: error: {exc}")
+
+
+def named_sequences(parser: argparse.ArgumentParser, data: Path, only: str) -> list[Path]:
+    """The sequences with frames under ``data`` that ``--sequences`` (``only``) names, every one when it names none
+    (:func:`sotmot.benchmarks.sequences`); a name with no such folder ends the script with the parser's error."""
+    try:
+        return sequences(data, only)
+    except InputError as exc:
+        parser.error(f"--sequences: {exc}")
 
 
 def run_timed(command: list[str], env: dict[str, str] | None = None) -> dict[str, float]:

@@ -179,9 +179,15 @@ def main(argv: list[str] | None = None) -> int:
     detections = (f"private detections: the boxes of {Path(args.detector_model).name}" if args.detector_model
                   else "public detections: each sequence's det/det.txt")
     described = dict(args.config or [named_config("defaults=")])
-    members = [(g, s) for g, s in validation_set(args.data, args.cache, groups, private=bool(args.detector_model))
-               if not args.sequences or s.name in args.sequences.split(",")]
-    short = [p.name for p in sequences(args.data, args.sequences) if read_seqinfo(p).length <= FULL_LENGTH]
+    names = set(args.sequences.split(",")) - {""}
+    pool = validation_set(args.data, args.cache, groups, private=bool(args.detector_model))
+    members = [(g, s) for g, s in pool if not names or s.name in names]
+    short = [p.name for p in sequences(args.data) if (not names or p.name in names)
+             and read_seqinfo(p).length <= FULL_LENGTH]
+    unknown = sorted(names - {s.name for _, s in pool} - set(short))
+    if unknown:  # a typo must not shrink the report unnoticed
+        parser.error(f"--sequences: no sequence of the groups {','.join(groups)} under {args.data} is named "
+                     f"{', '.join(unknown)}")
     if short and {"frames", "rates"} & set(groups):
         print(f"left out, {FULL_LENGTH} frames or fewer (too short for long gaps): {', '.join(short)}",
               file=sys.stderr)

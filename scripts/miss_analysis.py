@@ -61,9 +61,9 @@ from pathlib import Path
 
 import numpy as np
 
-from common import DEFAULT_DATA
+from common import DEFAULT_DATA, named_sequences
 from sotmot.appearance import make_embedder
-from sotmot.benchmarks import model_detections, private_config, sequences
+from sotmot.benchmarks import model_detections, private_config
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, load_config
 from sotmot.scoring import evaluate_files, frame_errors
@@ -192,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
     config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
     detector_model = str(Path(args.detector_model).resolve())
     embedder = make_embedder(config.appearance)
-    seqs = [s for s in sequences(args.data, args.sequences) if read_seqinfo(s).length >= args.min_length]
+    seqs = [s for s in named_sequences(parser, args.data, args.sequences) if read_seqinfo(s).length >= args.min_length]
     if args.private:  # one run per video: the MOT17-09-* sequences repeat MOT16-09's frames
         seqs = [s for s in seqs if not s.name.startswith("MOT17-09-")]
     if not seqs:

@@ -36,9 +36,28 @@ PREPARATION = ("input", "detection", "preprocess", "appearance", "sot", "trackle
 
 def sequences(data: Path, only: str = "") -> list[Path]:
     """Sequence folders with frames under ``data`` (the label-only MOT16-labels folders are skipped); ``only``, a
-    comma-separated list of folder names (a script's ``--sequences``), keeps those alone."""
+    comma-separated list of folder names (a script's ``--sequences``), keeps those alone (:func:`only_named`)."""
     found = sorted(p for p in data.iterdir() if (p / "seqinfo.ini").is_file() and (p / "img1").exists())
-    return [p for p in found if p.name in only.split(",")] if only else found
+    return only_named(found, only, data)
+
+
+def only_named(found: list[Path], only: str, where: Path) -> list[Path]:
+    """``found`` kept to the comma-separated folder names ``only`` (a script's ``--sequences``; every one when
+    empty), in ``found``'s order.
+
+    Raises
+    ------
+    InputError
+        A name that none of ``found`` has (a typo must not shrink a benchmark unnoticed), naming ``where``.
+    """
+    if not only:
+        return found
+    names = [n for n in only.split(",") if n]
+    missing = [n for n in names if n not in {p.name for p in found}]
+    if missing:
+        raise InputError(where, f"no sequence named {', '.join(missing)} here; there are "
+                                f"{', '.join(p.name for p in found) or 'none'}")
+    return [p for p in found if p.name in names]
 
 
 def video_of(name: str) -> str:
