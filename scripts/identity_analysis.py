@@ -35,6 +35,20 @@ much association of these tracklets can still gain, and what is left to the
 stages before it (detection, tracklets). Not a strict bound: interpolation,
 confirmation and the end extension judge the joined trajectories again.
 
+**The tracklets' choices** (``--choices``): is appearance the right judge
+where the frame-by-frame matching of tracklets has a choice? Each detection
+gets the person the CLEAR rule matches it to (every detection a track of its
+own, :func:`detection_persons`); a choice is a detection of a known person with
+two or more detections of the frame before inside both gates of ``[tracklets]``
+(affinity and IoU), exactly one of them that person's. Each candidate's tail is
+its own person's last ``tail`` detections, so no earlier mistake of the tracker
+counts (a candidate of no known person is its one box). Counted: the choices,
+and how many each judge (:data:`JUDGES`) gets right, taking the candidate it
+ranks first: the matching's own (appearance), the IoU with the candidate's box,
+and the two added. Not counted: a detection whose person has no candidate (was
+not detected in the frame before, or fails a gate), the case where the right
+answer is to take nothing.
+
     python scripts/identity_analysis.py --model ../shared/models/person-reidentification-retail-0288.onnx \\
         --peer peers/results/StrongSORT_+GSI_4s --json identities.json
 """
@@ -50,16 +64,20 @@ from pathlib import Path
 
 import numpy as np
 
-from common import DEFAULT_DATA
+from common import DEFAULT_DATA, named_sequences
+from sotmot.appearance import affinity, motion_only
 from sotmot.association.checks import check_pair
 from sotmot.benchmarks import FULL_LENGTH, cached_features, sequences
 from sotmot.association import Association
-from sotmot.config import TrackerConfig, load_config
+from sotmot.boxes import iou_matrix
+from sotmot.config import TrackerConfig, TrackletConfig, load_config
+from sotmot.fitting.confidence import clear_matching
 from sotmot.fitting.lifted import tracklet_identities
 from sotmot.plugins import SOLVERS
 from sotmot.scoring import FrameErrors, evaluate_files, frame_errors
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
-from sotmot.pipeline import TrackResult, finish_sequence, prepare_sequence
+from sotmot.pipeline import Prepared, TrackResult, finish_sequence, prepare_sequence
+from sotmot.types import Detections, Tracks
 from sotmot.versions import machine
 
 SCORES = ("HOTA", "IDF1", "MOTA")
@@ -133,6 +151,53 @@ def explain(result: TrackResult, errors: FrameErrors, config: TrackerConfig) -> 
     return {"fragmentations": frag, "switches": switch}
 
 
+#: What ranks the candidates of one choice (:func:`choices`), from their affinity and IoU with the detection.
+JUDGES = {"appearance": lambda aff, iou: aff, "IoU": lambda aff, iou: iou,
+          "affinity + IoU": lambda aff, iou: aff + iou}
+
+
+def detection_persons(prepared: Prepared, workdir: Path) -> np.ndarray:
+    """``(N,)`` the ground-truth person each detection of ``prepared`` is matched to by the CLEAR rule (each
+    detection written as a track of its own, in its frame's pixels), -1 for none (a distractor, no one)."""
+    dets = prepared.detections
+    tracks = Tracks(dets.frames, np.arange(1, len(dets) + 1), dets.boxes, dets.scores)
+    matched = clear_matching(tracks, prepared.info, workdir).identities
+    return np.array([matched.get((int(f), k + 1), -1) for k, f in enumerate(dets.frames)], dtype=np.int64)
+
+
+def choices(detections: Detections, features: np.ndarray, persons: np.ndarray, config: TrackletConfig
+            ) -> dict[str, int]:
+    """The tracklets' matching where it has a choice with a known answer (module docstring, ``--choices``):
+    ``{"choices": n, judge: right, ...}`` for each of :data:`JUDGES`. ``detections`` as the tracklets see
+    them (``x, y, w, h`` pixels of the reference frame, 1-based frames), ``features`` theirs (none: motion
+    only, no choice is counted), ``persons`` from :func:`detection_persons`."""
+    counts = dict.fromkeys(("choices", *JUDGES), 0)
+    if motion_only(features):
+        return counts
+    by_frame = detections.by_frame()
+    seen: dict[int, list[int]] = {}  # person -> their detections so far, in frame order
+    for frame in sorted(by_frame):
+        cur, prev = by_frame[frame], by_frame.get(frame - 1, [])
+        if len(prev):
+            tails = np.stack([features[seen[persons[i]][-config.tail:] if persons[i] >= 0 else [i]].mean(axis=0)
+                              for i in prev])
+            aff = affinity(tails, features[cur])
+            iou = iou_matrix(detections.boxes[prev], detections.boxes[cur])
+            allowed = (aff >= config.min_affinity) & (iou >= config.min_iou)
+            for c, j in enumerate(cur):
+                rows = np.flatnonzero(allowed[:, c])
+                right = persons[np.asarray(prev)[rows]] == persons[j]
+                if persons[j] < 0 or len(rows) < 2 or right.sum() != 1:
+                    continue
+                counts["choices"] += 1
+                for name, judge in JUDGES.items():
+                    counts[name] += int(right[np.argmax(judge(aff[rows, c], iou[rows, c]))])
+        for j in cur:
+            if persons[j] >= 0:
+                seen.setdefault(int(persons[j]), []).append(int(j))
+    return counts
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
@@ -145,13 +210,16 @@ def main(argv: list[str] | None = None) -> int:
                         help="comma-separated names under --data, whatever their length (default: every full-length "
                              "sequence), e.g. the 30-frame clips the validation set makes under "
                              ".cache/validation/clips")
+    parser.add_argument("--choices", action="store_true",
+                        help="also count the tracklets' choices with a known answer and how often appearance, the "
+                             "IoU and the two added pick right (see above)")
     parser.add_argument("--json", type=Path, help="write the report here")
     args = parser.parse_args(argv)
 
     config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
     SOLVERS["ground-truth"] = f"{__name__}:ground_truth_solve"
     ceiling_config = config.replace("association", solver="ground-truth")
-    seqs = sequences(args.data, args.sequences) if args.sequences else \
+    seqs = named_sequences(parser, args.data, args.sequences) if args.sequences else \
         [p for p in sequences(args.data) if read_seqinfo(p).length > FULL_LENGTH]
     if not seqs:
         parser.error(f"no such sequences with frames under {args.data}: {args.sequences or 'none full-length'}")
@@ -179,6 +247,10 @@ def main(argv: list[str] | None = None) -> int:
             if peer_file is not None and peer_file.is_file():
                 row["peer"] = counts(frame_errors(peer_file, info.gt_path, info.length, info.name))
                 row["peer_scores"] = scores(peer_file, info)
+            if args.choices:
+                row["choices"] = choices(prepared.in_ref, prepared.features,
+                                         detection_persons(prepared, Path(tmp) / "detections" / info.name),
+                                         config.tracklets)
             report[info.name] = row
             print(f"{info.name}: done", file=sys.stderr)
     peer = args.peer.name.replace("_", " ") if args.peer else None
@@ -196,6 +268,11 @@ def main(argv: list[str] | None = None) -> int:
     for name, row in report.items():
         lines.append(f"{name:<16}" + "".join(f"{row.get(w + '_scores', {}).get(k, float('nan')):>16.2f}"
                                              for w in ("sotmot", "ceiling", "peer") for k in SCORES))
+    if args.choices:
+        lines += ["", "the tracklets' choices with a known answer (each candidate's tail its own person's): "
+                  "right by each judge", f"{'sequence':<16}{'choices':>9}" + "".join(f"{j:>16}" for j in JUDGES)]
+        lines += [f"{name:<16}{row['choices']['choices']:>9}" + "".join(f"{row['choices'][j]:>16}" for j in JUDGES)
+                  for name, row in report.items()]
     print("\n".join(lines))
     print(f"peer: {peer or 'none'}; public detections; machine: {machine()}")
     if args.json:

@@ -15,3 +15,21 @@ def test_a_person_on_three_ids_is_two_fragmentations_and_an_id_on_two_people_one
     people, tracks = script.lives(errors)
     assert script.changes(people[0]) == [(2, 1, 3, 2), (3, 2, 4, 3)]
     assert script.changes(tracks[3]) == [(4, 0, 5, 1)]
+
+
+def test_a_choice_is_counted_for_each_judge_and_a_detection_of_no_one_is_not():
+    import numpy as np
+
+    from sotmot.config import TrackletConfig
+    from sotmot.types import Detections
+
+    script = load_script("identity_analysis")
+    # frame 1: person 1 at A, person 2 at B; frame 2: person 1 again on B's very box, looking like A; a box of no one
+    boxes = [[0, 0, 10, 40], [4, 0, 10, 40], [4, 0, 10, 40], [5, 0, 10, 40]]
+    dets = Detections(frames=[1, 1, 2, 2], boxes=boxes, scores=[1.0] * 4)
+    features = np.array([[1, 0, 0], [0.6, 0.8, 0], [1, 0.1, 0], [1, 0.1, 0]], dtype=np.float32)
+    persons = np.array([1, 2, 1, -1])
+    counts = script.choices(dets, features, persons, TrackletConfig())
+    # appearance (0.95 against 0.60) picks person 1; the IoU (0.43 against 1) and the sum pick person 2
+    assert counts == {"choices": 1, "appearance": 1, "IoU": 0, "affinity + IoU": 0}
+    assert script.choices(dets, np.zeros((4, 0), np.float32), persons, TrackletConfig())["choices"] == 0
