@@ -74,10 +74,9 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from common import DEFAULT_DATA
-from sotmot.benchmarks import detector_clips, only_named, private_config, sequences
+from common import DEFAULT_DATA, named_sequences
+from sotmot.benchmarks import detector_clips, private_config, sequences
 from sotmot.config import TrackerConfig
-from sotmot.errors import InputError
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.peers import BOXMOT, BOXMOT_CMC, BOXMOT_ROWS, TRACKERS_ROWS, SeqInput, load, run_boxmot, run_peer
@@ -210,11 +209,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"bench_peers needs the benchmark extras ({exc}); run: bash scripts/bootstrap.sh --bench",
               file=sys.stderr)
         return 2
-    try:  # --sequences names the data folder's sequences and, with --mot17-clips, the MOT17 clips
-        seqs = only_named(sequences(args.data) + (detector_clips(args.data, args.clip_cache) if args.mot17_clips
-                                                  else []), args.sequences, args.data)
-    except InputError as exc:
-        parser.error(f"--sequences: {exc}")
+    # --sequences names the data folder's sequences and, with --mot17-clips, the MOT17 clips
+    seqs = named_sequences(parser, args.data, args.sequences, sequences(args.data) + (
+        detector_clips(args.data, args.clip_cache) if args.mot17_clips else []))
     config = TrackerConfig().replace("appearance", model=args.model)
     embedder = make_embedder(config.appearance)
     from ortools.graph.python import min_cost_flow  # noqa: F401  (imported before any clock starts)

@@ -32,11 +32,10 @@ from pathlib import Path
 
 import numpy as np
 
+from common import named_sequences
 from sotmot.association import get_solver
 from sotmot.appearance import normalize
-from sotmot.benchmarks import only_named
 from sotmot.config import TrackerConfig
-from sotmot.errors import InputError
 from sotmot.io import read_detections, read_seqinfo, write_text_atomic
 from sotmot.preprocess import preprocess
 from sotmot.tracklets import build_tracklets
@@ -99,10 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     solvers_asked = args.solvers.split(",")
     config = TrackerConfig()
     seqs = sorted(p for p in args.labels.iterdir() if (p / "seqinfo.ini").is_file())
-    try:
-        seqs = only_named(seqs, args.sequences, args.labels)
-    except InputError as exc:
-        parser.error(f"--sequences: {exc}")
+    seqs = named_sequences(parser, args.labels, args.sequences, seqs)
     rows = []
     head = f"{'sequence':<10}{'frames':>7}{'dets':>7}{'tracklets':>10}" + "".join(
         f"{m + ' s':>10}{m + ' MB':>10}{m + ' traj':>11}" for m in solvers_asked)

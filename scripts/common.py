@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from sotmot.benchmarks import GROUPS, fit_sequences, sequences
+from sotmot.benchmarks import GROUPS, fit_sequences, only_named, sequences
 from sotmot.config import TrackerConfig, load_config
 from sotmot.errors import InputError, SotmotError
 
@@ -69,11 +69,13 @@ def fit_setup(args: argparse.Namespace) -> tuple[TrackerConfig, list[Path]]:
         sys.exit(f"{Path(sys.argv[0]).name}: error: {exc}")
 
 
-def named_sequences(parser: argparse.ArgumentParser, data: Path, only: str) -> list[Path]:
-    """The sequences with frames under ``data`` that ``--sequences`` (``only``) names, every one when it names none
-    (:func:`sotmot.benchmarks.sequences`); a name with no such folder ends the script with the parser's error."""
+def named_sequences(parser: argparse.ArgumentParser, data: Path, only: str,
+                    found: list[Path] | None = None) -> list[Path]:
+    """Of ``found`` (default: the sequences with frames under ``data``, :func:`sotmot.benchmarks.sequences`), those
+    that ``--sequences`` (``only``) names, every one when it names none (:func:`sotmot.benchmarks.only_named`); a
+    name none of them has ends the script with the parser's error, naming ``data``."""
     try:
-        return sequences(data, only)
+        return only_named(sequences(data) if found is None else found, only, data)
     except InputError as exc:
         parser.error(f"--sequences: {exc}")
 

@@ -49,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import DEFAULT_DATA, named_config, validation_groups
+from common import DEFAULT_DATA, named_config, named_sequences, validation_groups
 from sotmot.benchmarks import (FULL_LENGTH, GROUPS, LABEL_GROUPS, for_group, group_features, preparation_key,
                                private_config, sequences, validation_set)
 from sotmot.boxes import iou_matrix
@@ -179,15 +179,13 @@ def main(argv: list[str] | None = None) -> int:
     detections = (f"private detections: the boxes of {Path(args.detector_model).name}" if args.detector_model
                   else "public detections: each sequence's det/det.txt")
     described = dict(args.config or [named_config("defaults=")])
-    names = set(args.sequences.split(",")) - {""}
     pool = validation_set(args.data, args.cache, groups, private=bool(args.detector_model))
-    members = [(g, s) for g, s in pool if not names or s.name in names]
-    short = [p.name for p in sequences(args.data) if (not names or p.name in names)
-             and read_seqinfo(p).length <= FULL_LENGTH]
-    unknown = sorted(names - {s.name for _, s in pool} - set(short))
-    if unknown:  # a typo must not shrink the report unnoticed
-        parser.error(f"--sequences: no sequence of the groups {','.join(groups)} under {args.data} is named "
-                     f"{', '.join(unknown)}")
+    too_short = [p for p in sequences(args.data) if read_seqinfo(p).length <= FULL_LENGTH]
+    # a name is a validation sequence or a clip left out for its length (each name once); any other is refused
+    chosen = {p.name for p in named_sequences(parser, args.data, args.sequences,
+                                              list({p.name: p for p in [*(s for _, s in pool), *too_short]}.values()))}
+    members = [(g, s) for g, s in pool if s.name in chosen]
+    short = [p.name for p in too_short if p.name in chosen]
     if short and {"frames", "rates"} & set(groups):
         print(f"left out, {FULL_LENGTH} frames or fewer (too short for long gaps): {', '.join(short)}",
               file=sys.stderr)

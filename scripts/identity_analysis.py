@@ -177,17 +177,20 @@ def choices(detections: Detections, features: np.ndarray, persons: np.ndarray, c
     by_frame = detections.by_frame()
     seen: dict[int, list[int]] = {}  # person -> their detections so far, in frame order
     for frame in sorted(by_frame):
-        cur, prev = by_frame[frame], by_frame.get(frame - 1, [])
-        if len(prev):
+        cur, prev = by_frame[frame], by_frame.get(frame - 1)
+        if prev is not None and len(prev):
             tails = np.stack([features[seen[persons[i]][-config.tail:] if persons[i] >= 0 else [i]].mean(axis=0)
                               for i in prev])
             aff = affinity(tails, features[cur])
             iou = iou_matrix(detections.boxes[prev], detections.boxes[cur])
             allowed = (aff >= config.min_affinity) & (iou >= config.min_iou)
+            prev_persons = persons[prev]
             for c, j in enumerate(cur):
+                if persons[j] < 0:
+                    continue
                 rows = np.flatnonzero(allowed[:, c])
-                right = persons[np.asarray(prev)[rows]] == persons[j]
-                if persons[j] < 0 or len(rows) < 2 or right.sum() != 1:
+                right = prev_persons[rows] == persons[j]
+                if len(rows) < 2 or right.sum() != 1:
                     continue
                 counts["choices"] += 1
                 for name, judge in JUDGES.items():

@@ -53,7 +53,8 @@ def only_named(found: list[Path], only: str, where: Path) -> list[Path]:
     if not only:
         return found
     names = [n for n in only.split(",") if n]
-    missing = [n for n in names if n not in {p.name for p in found}]
+    have = {p.name for p in found}
+    missing = [n for n in names if n not in have]
     if missing:
         raise InputError(where, f"no sequence named {', '.join(missing)} here; there are "
                                 f"{', '.join(p.name for p in found) or 'none'}")
