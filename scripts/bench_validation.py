@@ -84,8 +84,8 @@ import numpy as np
 
 from common import DEFAULT_DATA, named_config, validation_groups
 from sotmot.appearance import resolve_backend
-from sotmot.benchmarks import (GROUPS, LABEL_GROUPS, for_group, group_features, jittered_detections, jittered_sequence,
-                               preparation_key, private_config, validation_set)
+from sotmot.benchmarks import (GROUPS, JITTER_PIXELS, LABEL_GROUPS, for_group, group_features, jittered_detections,
+                               jittered_sequence, preparation_key, private_config, validation_set)
 from sotmot.config import TrackerConfig
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
@@ -98,8 +98,6 @@ COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "FP", "FN")
 #: The changes ``--noise`` makes to the reference: ``runtime`` (re-ID in the other runtime; sequences with
 #: frames) and ``jitter<seed>`` (every detection box moved by under :data:`JITTER_PIXELS` in x and y).
 NOISE = ("runtime", "jitter1", "jitter2")
-#: The largest offset of a jittered box, pixels: below a ``det.txt``'s own rounding to whole pixels.
-JITTER_PIXELS = 0.5
 #: The other re-ID runtime of each: the same network, other arithmetic.
 OTHER_RUNTIME = {"openvino": "onnx", "onnx": "openvino"}
 #: The selection rule: a new default loses at most this much HOTA and MOTA on any sequence.

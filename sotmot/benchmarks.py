@@ -1,4 +1,5 @@
-"""What the benchmark and fit scripts in ``scripts/`` share: which sequences, which machine, cached inputs.
+"""What the benchmark and fit scripts in ``scripts/`` share: which sequences, which machine, cached inputs
+(and the jittered copies ``sotmot compare --jitter`` runs too).
 
 Library code: every function takes its paths from the caller and raises on
 bad input; the scripts' command-line side (default paths, shared arguments)
@@ -335,7 +336,12 @@ def detector_clips(data: Path, root: Path) -> list[Path]:
     return sorted(made, key=lambda p: p.name)
 
 
-def jittered_sequence(seq: Path, seed: int, root: Path, pixels: float = 0.5) -> Path:
+#: The largest offset of a jittered box (:func:`jittered_text`), pixels: below a ``det.txt``'s own rounding to whole
+#: pixels, so a change that should change nothing.
+JITTER_PIXELS = 0.5
+
+
+def jittered_sequence(seq: Path, seed: int, root: Path, pixels: float = JITTER_PIXELS) -> Path:
     """``seq`` with every detection box moved by a seeded offset of at most ``pixels`` in x and in y (its size
     kept): a change that should change nothing, less than a ``det.txt``'s own rounding to whole pixels.
 
@@ -350,7 +356,7 @@ def jittered_sequence(seq: Path, seed: int, root: Path, pixels: float = 0.5) -> 
     return _derived_sequence(info, root / f"jitter{seed}" / info.name, texts, 1, info.length, name=info.name)
 
 
-def jittered_detections(path: Path, seed: int, root: Path, pixels: float = 0.5) -> Path:
+def jittered_detections(path: Path, seed: int, root: Path, pixels: float = JITTER_PIXELS) -> Path:
     """The detections file ``path`` (``det.txt`` layout) with every box moved as :func:`jittered_sequence` moves
     a sequence's, written once as ``root / f"jitter{seed}" / path.name``: the same change for boxes that come
     from a detector run rather than from the sequence's folder (``[detection] file``)."""
@@ -363,15 +369,16 @@ def jittered_detections(path: Path, seed: int, root: Path, pixels: float = 0.5) 
 
 def jittered_text(text: str, seed: int, pixels: float) -> str:
     """The lines of a ``det.txt`` with each box's ``x, y`` moved by a seeded offset of at most ``pixels`` (its
-    size kept), the other fields as they were."""
+    size kept), the other fields as they were; comment lines (``#``, the header ``sotmot track`` writes) kept
+    as they are, the offsets drawn for the boxes alone."""
     lines = [line for line in text.splitlines() if line.strip()]
-    offsets = np.random.default_rng(seed).uniform(-pixels, pixels, size=(len(lines), 2))
-    moved = []
-    for line, (dx, dy) in zip(lines, offsets):
-        fields = line.split(",")
+    boxes = [k for k, line in enumerate(lines) if not line.lstrip().startswith("#")]
+    offsets = np.random.default_rng(seed).uniform(-pixels, pixels, size=(len(boxes), 2))
+    for k, (dx, dy) in zip(boxes, offsets):
+        fields = lines[k].split(",")
         fields[2], fields[3] = f"{float(fields[2]) + dx:.3f}", f"{float(fields[3]) + dy:.3f}"
-        moved.append(",".join(fields))
-    return "\n".join(moved) + "\n"
+        lines[k] = ",".join(fields)
+    return "\n".join(lines) + "\n"
 
 
 def _derived_sequence(info: SeqInfo, out: Path, texts: dict[Path, str], step: int, length: int, name: str | None = None

@@ -245,6 +245,12 @@ def test_jittered_sequences_move_each_box_by_under_half_a_pixel_and_keep_the_res
 
     file = jittered_detections(original.det_path, 1, tmp_path / "private")
     assert file == tmp_path / "private" / "jitter1" / "det.txt" and file.read_text() == info.det_path.read_text()
+    # a header line (sotmot track writes one in <name>.det.txt) is kept, and the boxes move as without it
+    from sotmot.benchmarks import jittered_text
+
+    header = "# sotmot detections: detector=x sha256=0 family=unknown\n"
+    text = original.det_path.read_text()
+    assert jittered_text(header + text, 1, 0.5) == header + jittered_text(text, 1, 0.5)
 
 
 def test_cached_features_refuse_an_embedder_that_flips_otherwise_than_asked(tmp_path):
