@@ -175,3 +175,76 @@ def test_explain_lists_every_track_the_least_certain_first(tmp_path, capsys):
     assert "the least certain first; confirmation's threshold" in out and "median P(true)" in out
     assert main(["explain", str(seq), "--tracks", "--ids", "1", "-q"]) == 2
     assert "give one of --ids" in capsys.readouterr().err
+
+
+def test_compare_with_jitter_scores_each_solver_on_moved_copies_and_judges_them_run_by_run(tmp_path, capsys):
+    seq, other = require(DATA / "MOT16-05-clip30"), require(DATA / "MOT16-02-clip30")
+    out = tmp_path / "cmp.json"
+    assert main(["compare", str(seq), str(other), "--solvers", "greedy,flow", "--jitter", "2", "-q",
+                 "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    data = json.loads(out.read_text())
+    assert data["jitter"]["copies"] == 2 and data["jitter"]["pixels"] == 0.5
+    runs = data["jitter"]["runs"]
+    assert set(runs) == {"MOT16-05-clip30", "MOT16-02-clip30", "COMBINED"}
+    for name, by_solver in runs.items():
+        assert set(by_solver) == {"greedy", "flow"}
+        for solver, scores in by_solver.items():
+            for column in ("HOTA", "MOTA", "IDF1"):  # the sequence itself first: the table's own value
+                assert len(scores[column]) == 3 and scores[column][0] == data["rows"][name][solver][column]
+            # each copy holds its own sequence's boxes, moved a little (two det.txt files, one name)
+            assert max(scores["HOTA"]) - min(scores["HOTA"]) < 5, (name, solver, scores["HOTA"])
+    assert "over 3 runs (in 2 of them every box moved by under 0.5 px)" in printed
+    assert re.search(r"flow - greedy, HOTA: [+-]\d+\.\d\d \(runs [+-]\d+\.\d\d to [+-]\d+\.\d\d: ", printed)
+    assert not list(tmp_path.glob("sotmot-compare-*"))  # the copies lived in a temporary folder only
+    # without --jitter: no runs in the JSON, no spread in the table
+    assert main(["compare", str(seq), "--solvers", "greedy", "-q", "--json", str(tmp_path / "one.json")]) == 0
+    assert "over " not in capsys.readouterr().out
+    assert "jitter" not in json.loads((tmp_path / "one.json").read_text())
+    with pytest.raises(SystemExit) as stop:
+        main(["compare", str(seq), "--jitter", "-1"])
+    assert stop.value.code == 2 and "must be at least 0" in capsys.readouterr().err
+
+
+def test_jittered_runs_move_the_detections_file_the_run_reads_and_refuse_the_detector(tmp_path, capsys):
+    import numpy as np
+
+    from conftest import write_sequence
+    from sotmot.config import TrackerConfig
+    from sotmot.inspect.compare import jitter_runs
+    from sotmot.io import read_detections
+
+    lines = ["# sotmot detections: detector=x sha256=0 family=unknown"] + [
+        f"{f},-1,{10 * f},10.5,10,20,0.9" for f in range(1, 6)]
+    gt = [f"{f},1,{10 * f},10,10,20,1,1,1" for f in range(1, 6)]
+    seq = write_sequence(tmp_path, lines[1:], length=5, gt_lines=gt)
+    config = TrackerConfig()
+    runs = jitter_runs(seq, config, 2, tmp_path / "noise")
+    assert [folder for folder, _ in runs] == [seq] * 3 and runs[0][1] is config
+    before = read_detections(seq / "det" / "det.txt", 5)
+    files = [c.detection.file for _, c in runs[1:]]
+    assert len(set(files)) == 2 and all(str(tmp_path / "noise") in f for f in files)
+    for file in files:  # the folder's det.txt, moved by under half a pixel, by seed
+        moved = read_detections(file, 5)
+        assert 0 < np.abs(moved.boxes[:, :2] - before.boxes[:, :2]).max() <= 0.5
+        assert np.array_equal(moved.boxes[:, 2:], before.boxes[:, 2:])
+    # a detections file of its own (with sotmot's header line): that file moved, its header kept
+    own = tmp_path / "own.det.txt"
+    own.write_text("\n".join(lines) + "\n")
+    runs = jitter_runs(seq, config.replace("detection", file=str(own)), 1, tmp_path / "own")
+    text = open(runs[1][1].detection.file).read()
+    assert text.splitlines()[0] == lines[0] and text != own.read_text()
+    assert jitter_runs(seq, config, 0, tmp_path / "none") == [(seq, config)]
+    assert not (tmp_path / "none").exists()
+    # boxes from the detector: nothing to move, refused before any work (no model loaded, nothing written)
+    assert main(["compare", str(seq), "--jitter", "1", "--detections", "model", "-q"]) == 2
+    assert "jittered copies move the boxes of a detections file" in capsys.readouterr().err
+
+
+def test_paired_verdicts_need_one_sign_in_every_run():
+    from sotmot.inspect.compare import paired_verdict
+
+    assert paired_verdict([0.4, 1.2, 0.1]) == "above in every run"
+    assert paired_verdict([-0.4, -1.2]) == "below in every run"
+    assert paired_verdict([0.0, 0.0]) == "equal in every run"
+    assert paired_verdict([1.0, -0.2]) == paired_verdict([0.0, 0.3]) == "not told apart from chance"

@@ -10,7 +10,7 @@ import sys
 import threading
 from pathlib import Path
 
-from sotmot.cli.commands import (_positive_float, _positive_int, cmd_compare, cmd_eval, cmd_explain,
+from sotmot.cli.commands import (_non_negative_int, _positive_float, _positive_int, cmd_compare, cmd_eval, cmd_explain,
                                  cmd_graph, cmd_models, cmd_render, cmd_track, cmd_train)
 from sotmot.cli.flags import add_tracker_flags
 from sotmot.errors import SotmotError
@@ -70,8 +70,16 @@ proven optimal (0: every window optimal); flow_net_cost, the flow
 network's own cost (entry cost per trajectory + (1 - affinity) per link; lower is better for that
 network only); the solver's time in seconds.
 
-example:
+One run's scores move with changes that should change nothing: with every detection box moved
+by under half a pixel, MOT16-09's HOTA moves by up to about 2 and TUD-Stadtmitte's MOTA by over
+10 (docs/results.md, the validation set's noise floor). --jitter K runs every solver on K such
+copies of each sequence too, prints each solver's lowest and highest HOTA, MOTA and IDF1 over the
+runs, and each solver's difference from the first, run by run: a difference whose sign changes
+between runs cannot be told from chance (one sign in every run is the more telling the larger K).
+
+examples:
   sotmot compare ../shared/data/PETS09-S2L1 --solvers greedy,flow,lifted --json compare.json
+  sotmot compare ../shared/data/PETS09-S2L1 ../shared/data/TUD-Stadtmitte --jitter 2
 """
 
 
@@ -132,6 +140,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR", help="sequence folders with gt/gt.txt")
     p.add_argument("--solvers", "--mergers", dest="solvers", default="greedy,flow", metavar="SOLVERS",
                    help="comma-separated solver names (default: %(default)s; --mergers is the older name)")
+    p.add_argument("--jitter", type=_non_negative_int, default=0, metavar="K",
+                   help="also run every solver on K copies of each sequence whose detection boxes moved by under "
+                        "half a pixel (a change that should change nothing), and say which differences between "
+                        "solvers keep their sign in every run; K + 1 times the work (default: 0, the sequence "
+                        "itself only)")
     add_tracker_flags(p, "compare")
     p.add_argument("--json", type=Path, metavar="FILE", help="also write the table as JSON")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars (drawn only when stderr is a terminal)")

@@ -14,15 +14,25 @@ from sotmot.errors import SotmotError
 #: train-appearance warns when fewer people than this are held out: their validation AUC is then mostly chance.
 MIN_VALIDATION_IDENTITIES = 5
 
-def _positive_int(text: str) -> int:
-    """argparse type: an integer >= 1."""
+def _int_at_least(text: str, lowest: int) -> int:
+    """An integer >= ``lowest`` from ``text``, else argparse's error saying why."""
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    if value < lowest:
+        raise argparse.ArgumentTypeError(f"must be at least {lowest}, got {value}")
     return value
+
+
+def _positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    return _int_at_least(text, 1)
+
+
+def _non_negative_int(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    return _int_at_least(text, 0)
 
 
 def _positive_float(text: str) -> float:
@@ -201,7 +211,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
             raise SotmotError(f"{info.gt_path}: compare scores each solver against the ground truth of {info.name}, "
                               f"and there is none")
     _check_json(args.json, args.seq_dirs)
-    result = compare(args.seq_dirs, solvers, config, progress=_progress(args))
+    result = compare(args.seq_dirs, solvers, config, progress=_progress(args), jitter=args.jitter)
     print(format_comparison(result))
     _write_json(args.json, result.to_dict(), "comparison")
     return 0

@@ -5,6 +5,17 @@ tracklets; then every solver runs on those tracklets, its output is
 post-processed, written and scored with TrackEval. A fingerprint of the
 tracklets is checked after every solver, so no solver can change anything
 before long-term association.
+
+With ``jitter = K`` every sequence is also taken, the same way, through ``K``
+copies of its detections file whose boxes moved by a seeded offset of under
+:data:`~sotmot.benchmarks.JITTER_PIXELS` in x and y (seeds 1 to K): a change
+that should change nothing, yet one that flips thresholds all along the
+pipeline (a box kept or not by NMS, a tracklet of two boxes or none, the
+bridges it allows), so that one run's score moves by up to about 2 HOTA on a
+busy sequence. Each solver's scores over the ``1 + K`` runs show that spread,
+and each solver is judged against the first one run by run (paired): a
+difference that changes sign between runs cannot be told from chance; one sign
+in every run is the more telling the more runs there are.
 """
 
 from __future__ import annotations
@@ -21,11 +32,13 @@ import numpy as np
 
 from sotmot.association import get_solver
 from sotmot.appearance import Embedder, embedder_for
+from sotmot.benchmarks import JITTER_PIXELS, jittered_detections
 from sotmot.config import TrackerConfig
+from sotmot.detection import detection_source
 from sotmot.errors import SotmotError
 from sotmot.scoring import evaluate_files
 from sotmot.association.objective import flow_objective, lifted_objective
-from sotmot.io import results_path, write_results
+from sotmot.io import read_seqinfo, results_path, write_results
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracklet
 
@@ -38,6 +51,8 @@ from sotmot.types import Tracklet
 #: in the results the solver's run writes (after confirmation), as ``sotmot track`` counts them.
 COLUMNS = ("HOTA", "MOTA", "IDF1", "IDSW", "tracks", "lifted_obj", "window_gap", "flow_net_cost", "solver_s")
 _FLOAT_COLUMNS = {"lifted_obj": 1, "window_gap": 1, "flow_net_cost": 3, "solver_s": 3}
+#: The scores followed over the jittered runs (``jitter``).
+SPREAD_COLUMNS = ("HOTA", "MOTA", "IDF1")
 
 
 def fingerprint(tracklets: Sequence[Tracklet]) -> str:
@@ -52,58 +67,112 @@ def fingerprint(tracklets: Sequence[Tracklet]) -> str:
 
 @dataclass
 class Comparison:
-    """Rows of the comparison: ``rows[sequence][solver] -> metric -> value``, plus ``"COMBINED"``."""
+    """Rows of the comparison: ``rows[sequence][solver] -> metric -> value``, plus ``"COMBINED"``.
+
+    With jittered runs (``jitter`` copies of each sequence), ``runs[sequence][solver][metric]`` holds the
+    :data:`SPREAD_COLUMNS` of the ``1 + jitter`` runs, the sequence itself first (``rows``' values)."""
 
     rows: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
     tracklets: dict[str, int] = field(default_factory=dict)
+    jitter: int = 0
+    runs: dict[str, dict[str, dict[str, list[float]]]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
-        return {"rows": self.rows, "tracklets": self.tracklets}
+        out: dict[str, Any] = {"rows": self.rows, "tracklets": self.tracklets}
+        if self.jitter:
+            out["jitter"] = {"copies": self.jitter, "pixels": JITTER_PIXELS, "runs": self.runs}
+        return out
+
+
+def jitter_runs(seq: str | Path, config: TrackerConfig, copies: int, root: Path
+                ) -> list[tuple[Path, TrackerConfig]]:
+    """The configuration of each run of ``seq``: its own, then ``copies`` whose ``[detection] file`` is a copy
+    of the detections the run reads (the folder's ``det/det.txt`` or its ``[detection] file``) with every box
+    moved by under :data:`~sotmot.benchmarks.JITTER_PIXELS` (seeds 1 to ``copies``, written under ``root``,
+    which must be this sequence's own). Boxes from the built-in detector are refused: there is no file to
+    move."""
+    runs = [(Path(seq), config)]
+    if copies == 0:
+        return runs
+    source, det_file = detection_source(config.detection, read_seqinfo(seq, config.input.fps))
+    if source != "file":
+        raise SotmotError(f"{seq}: jittered copies move the boxes of a detections file, and this run takes its "
+                          f"boxes from the detector; write them once (sotmot track --detections model keeps "
+                          f"<name>.det.txt beside the results) and compare on that file ([detection] file in "
+                          f"--config)")
+    for seed in range(1, copies + 1):
+        moved = jittered_detections(Path(det_file), seed, root)
+        runs.append((Path(seq), config.replace("detection", file=str(moved))))
+    return runs
 
 
 def compare(seq_dirs: Sequence[str | Path], solvers: Sequence[str], config: TrackerConfig = TrackerConfig(),
-            embedder: Embedder | None = None, progress: bool = False) -> Comparison:
-    """Run every solver in ``solvers`` on the same tracklets of each sequence and score them."""
+            embedder: Embedder | None = None, progress: bool = False, jitter: int = 0) -> Comparison:
+    """Run every solver in ``solvers`` on the same tracklets of each sequence and score them; with ``jitter``,
+    also on that many copies of each sequence whose boxes moved by under half a pixel (module docstring)."""
     for name in solvers:
         get_solver(name)
-    embedder = embedder_for(config.appearance, embedder)
-    result = Comparison()
-    pairs: dict[str, list[tuple[Path, Path, int, str]]] = {m: [] for m in solvers}
+    if jitter < 0:
+        raise ValueError(f"jitter must be 0 or more copies, got {jitter}")
+    result = Comparison(jitter=jitter)
+    # pairs[run][solver]: the (results, ground truth, length, name) rows TrackEval scores, run 0 the sequences
+    pairs: list[dict[str, list[tuple[Path, Path, int, str]]]] = [{m: [] for m in solvers} for _ in range(jitter + 1)]
     with tempfile.TemporaryDirectory(prefix="sotmot-compare-") as tmp:
-        for seq in seq_dirs:
-            prepared = prepare_sequence(seq, config, embedder, progress)
-            name = prepared.info.name
-            before = fingerprint(prepared.tracklets)
-            result.tracklets[name] = len(prepared.tracklets)
-            result.rows[name] = {}
-            gaps = config.association.at(prepared.info.frame_rate)  # the constraints as the solvers saw them
-            for solver in solvers:
-                start = time.perf_counter()
-                run = finish_sequence(prepared, config.replace("association", solver=solver), embedder)
-                seconds = run.timings["association"]
-                if fingerprint(prepared.tracklets) != before:
-                    raise SotmotError(f"solver {solver!r} changed the tracklets of {name}")
-                path = results_path(Path(tmp) / solver, name)
-                write_results(path, run.tracks)
-                pairs[solver].append((path, prepared.info.gt_path, prepared.info.length, name))
-                result.rows[name][solver] = {
-                    "tracks": float(run.tracks.n_tracks),  # the ids of the results file, as `track` writes it
-                    "lifted_obj": lifted_objective(prepared.tracklets, run.association.groups, gaps),
-                    "window_gap": run.association.stats.get("bound_gap", float("nan")),
-                    "flow_net_cost": flow_objective(prepared.tracklets, run.association.groups, gaps),
-                    "solver_s": seconds, "total_s": time.perf_counter() - start,
-                }
+        runs = [jitter_runs(seq, config, jitter, Path(tmp) / "jitter" / str(k))  # refusals before the work
+                for k, seq in enumerate(seq_dirs)]
+        embedder = embedder_for(config.appearance, embedder)
+        for seq_runs in runs:
+            for run, (folder, run_config) in enumerate(seq_runs):
+                _compare_sequence(folder, run_config, solvers, embedder, progress, Path(tmp) / f"run{run}",
+                                  pairs[run], result if run == 0 else None)
         result.rows["COMBINED"] = {m: {} for m in solvers}
+        for run, by_solver in enumerate(pairs):
+            for solver in solvers:
+                report = evaluate_files(by_solver[solver])
+                for name, scores in [*report.sequences.items(), ("COMBINED", report.combined)]:
+                    if run == 0:
+                        result.rows[name][solver].update(scores)
+                    if jitter:
+                        spread = result.runs.setdefault(name, {}).setdefault(solver, {})
+                        for column in SPREAD_COLUMNS:
+                            spread.setdefault(column, []).append(float(scores[column]))
         for solver in solvers:
-            report = evaluate_files(pairs[solver])
-            for name, scores in report.sequences.items():
-                result.rows[name][solver].update(scores)
             combined = result.rows["COMBINED"][solver]
-            combined.update(report.combined)
             for key in ("tracks", "lifted_obj", "window_gap", "flow_net_cost", "solver_s"):
                 combined[key] = float(sum(result.rows[n][solver][key] for n in result.tracklets))
     return result
+
+
+def _compare_sequence(seq: Path, config: TrackerConfig, solvers: Sequence[str], embedder: Embedder,
+                      progress: bool, out: Path, pairs: dict[str, list[tuple[Path, Path, int, str]]],
+                      result: Comparison | None) -> None:
+    """Every solver on the same tracklets of ``seq``: results written under ``out`` and listed in ``pairs``; with
+    ``result`` (the sequence itself, not a jittered copy) its rows filled too."""
+    prepared = prepare_sequence(seq, config, embedder, progress)
+    name = prepared.info.name
+    before = fingerprint(prepared.tracklets)
+    if result is not None:
+        result.tracklets[name] = len(prepared.tracklets)
+        result.rows[name] = {}
+    gaps = config.association.at(prepared.info.frame_rate)  # the constraints as the solvers saw them
+    for solver in solvers:
+        start = time.perf_counter()
+        run = finish_sequence(prepared, config.replace("association", solver=solver), embedder)
+        seconds = run.timings["association"]
+        if fingerprint(prepared.tracklets) != before:
+            raise SotmotError(f"solver {solver!r} changed the tracklets of {name}")
+        path = results_path(out / solver, name)
+        write_results(path, run.tracks)
+        pairs[solver].append((path, prepared.info.gt_path, prepared.info.length, name))
+        if result is not None:
+            result.rows[name][solver] = {
+                "tracks": float(run.tracks.n_tracks),  # the ids of the results file, as `track` writes it
+                "lifted_obj": lifted_objective(prepared.tracklets, run.association.groups, gaps),
+                "window_gap": run.association.stats.get("bound_gap", float("nan")),
+                "flow_net_cost": flow_objective(prepared.tracklets, run.association.groups, gaps),
+                "solver_s": seconds, "total_s": time.perf_counter() - start,
+            }
 
 
 def _width(column: str) -> int:
@@ -126,5 +195,34 @@ def format_comparison(comparison: Comparison) -> str:
                 digits = 1 if c in ("HOTA", "MOTA", "IDF1") else _FLOAT_COLUMNS.get(c, 0)
                 cells.append(f"{v:{_width(c)}.{digits}f}")
             lines.append(f"  {solver:<{solver_width}}" + "".join(cells))
+        if name in comparison.runs:
+            lines.extend(_spread_lines(comparison.runs[name], comparison.jitter, solver_width))
         lines.append("")
     return "\n".join(lines)
+
+
+def paired_verdict(differences: Sequence[float]) -> str:
+    """What run-by-run differences of one score between two solvers say: the same sign in every run, or not."""
+    if all(d > 0 for d in differences):
+        return "above in every run"
+    if all(d < 0 for d in differences):
+        return "below in every run"
+    if all(d == 0 for d in differences):
+        return "equal in every run"
+    return "not told apart from chance"
+
+
+def _spread_lines(runs: dict[str, dict[str, list[float]]], jitter: int, solver_width: int) -> list[str]:
+    """Each solver's lowest and highest score over the runs, then each solver against the first, run by run."""
+    lines = [f"  over {1 + jitter} runs (in {jitter} of them every box moved by under {JITTER_PIXELS:g} px): "
+             f"lowest - highest"]
+    for solver, scores in runs.items():
+        lines.append(f"  {solver:<{solver_width}}" + "".join(
+            f"  {c} {min(scores[c]):5.1f} - {max(scores[c]):5.1f}" for c in SPREAD_COLUMNS))
+    first, *others = runs
+    for solver in others:
+        for c in SPREAD_COLUMNS:
+            d = [a - b for a, b in zip(runs[solver][c], runs[first][c])]
+            lines.append(f"  {solver} - {first}, {c}: {d[0]:+.2f} (runs {min(d):+.2f} to {max(d):+.2f}: "
+                         f"{paired_verdict(d)})")
+    return lines
