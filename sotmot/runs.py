@@ -190,10 +190,9 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
     """Track one sequence into ``out_dir``; never raises (errors become a ``failed`` outcome). With ``[windows]``
     on and a sequence longer than one window, window by window (:func:`track_windowed`, its windows in
     ``window_workers`` processes, or submitted to ``window_submit``, a Dask client's ``submit``)."""
-    from sotmot.detection import detections_header, detections_path, format_detections
+    from sotmot.detection import detections_path, detector_file_text
     from sotmot.hashing import file_sha256
     from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
-    from sotmot.models import model_in_use
     from sotmot.pipeline import track_sequence
     from sotmot.provenance import record_path, run_record, why_rerun, write_record
     from sotmot.io.flags import flags_path, write_flags
@@ -230,10 +229,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
                 write_results(low_confidence_path(out), result.dropped)
                 written.append(low_confidence_path(out))
             if result.detected is not None:  # what the model found, to repeat the run or feed the peers
-                found = result.detected
-                header = detections_header(model_in_use(config.detection.model, "detector"))
-                write_text_atomic(detections_path(out),
-                                  format_detections(found.frames, found.boxes, found.scores, header))
+                write_text_atomic(detections_path(out), detector_file_text(result.detected, config.detection))
                 written.append(detections_path(out))
             write_flags(out, result.tracks)
             written.append(flags_path(out))

@@ -206,13 +206,14 @@ def test_compare_with_jitter_scores_each_solver_on_moved_copies_and_judges_them_
     assert stop.value.code == 2 and "must be at least 0" in capsys.readouterr().err
 
 
-def test_jittered_runs_move_the_detections_file_the_run_reads_and_refuse_the_detector(tmp_path, capsys):
+def test_jittered_runs_move_the_detections_the_run_reads(tmp_path):
     import numpy as np
 
     from conftest import write_sequence
     from sotmot.config import TrackerConfig
     from sotmot.inspect.compare import jitter_runs
     from sotmot.io import read_detections
+    from sotmot.types import Detections
 
     lines = ["# sotmot detections: detector=x sha256=0 family=unknown"] + [
         f"{f},-1,{10 * f},10.5,10,20,0.9" for f in range(1, 6)]
@@ -220,9 +221,9 @@ def test_jittered_runs_move_the_detections_file_the_run_reads_and_refuse_the_det
     seq = write_sequence(tmp_path, lines[1:], length=5, gt_lines=gt)
     config = TrackerConfig()
     runs = jitter_runs(seq, config, 2, tmp_path / "noise")
-    assert [folder for folder, _ in runs] == [seq] * 3 and runs[0][1] is config
+    assert [folder for folder, _ in runs] == [seq] * 2
     before = read_detections(seq / "det" / "det.txt", 5)
-    files = [c.detection.file for _, c in runs[1:]]
+    files = [c.detection.file for _, c in runs]
     assert len(set(files)) == 2 and all(str(tmp_path / "noise") in f for f in files)
     for file in files:  # the folder's det.txt, moved by under half a pixel, by seed
         moved = read_detections(file, 5)
@@ -232,13 +233,29 @@ def test_jittered_runs_move_the_detections_file_the_run_reads_and_refuse_the_det
     own = tmp_path / "own.det.txt"
     own.write_text("\n".join(lines) + "\n")
     runs = jitter_runs(seq, config.replace("detection", file=str(own)), 1, tmp_path / "own")
-    text = open(runs[1][1].detection.file).read()
+    text = open(runs[0][1].detection.file).read()
     assert text.splitlines()[0] == lines[0] and text != own.read_text()
-    assert jitter_runs(seq, config, 0, tmp_path / "none") == [(seq, config)]
-    assert not (tmp_path / "none").exists()
-    # boxes from the detector: nothing to move, refused before any work (no model loaded, nothing written)
-    assert main(["compare", str(seq), "--jitter", "1", "--detections", "model", "-q"]) == 2
-    assert "jittered copies move the boxes of a detections file" in capsys.readouterr().err
+    assert jitter_runs(seq, config, 0, tmp_path / "none") == [] and not (tmp_path / "none").exists()
+    # boxes from the detector: the boxes it gave the first run, written with its header, then moved
+    model = config.replace("detection", source="model")
+    with pytest.raises(ValueError, match="boxes of the run on the sequence itself"):
+        jitter_runs(seq, model, 1, tmp_path / "model")
+    found = Detections(before.frames, before.boxes, before.scores)
+    (folder, moved_config), = jitter_runs(seq, model, 1, tmp_path / "model", found)
+    assert moved_config.detection.source == "file" and folder == seq
+    text = open(moved_config.detection.file).read()
+    assert text.startswith("# sotmot detections: detector=person-detection-0202") and "family=pd0202" in text
+    assert 0 < np.abs(read_detections(moved_config.detection.file, 5).boxes[:, :2] - before.boxes[:, :2]).max() <= 0.5
+
+
+def test_compare_with_jitter_moves_the_boxes_the_detector_found(tmp_path, capsys):
+    seq = require(DATA / "MOT16-05-clip30")
+    out = tmp_path / "cmp.json"
+    assert main(["compare", str(seq), "--solvers", "greedy", "--detections", "model", "--jitter", "1", "-q",
+                 "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    hota = data["jitter"]["runs"]["MOT16-05-clip30"]["greedy"]["HOTA"]
+    assert hota[0] == data["rows"]["MOT16-05-clip30"]["greedy"]["HOTA"] and abs(hota[1] - hota[0]) < 5, hota
 
 
 def test_paired_verdicts_need_one_sign_in_every_run():

@@ -162,6 +162,14 @@ def format_detections(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
                                                                     np.asarray(scores).tolist()))
 
 
+def detector_file_text(found, config: DetectionConfig) -> str:
+    """The ``<name>.det.txt`` text of the boxes ``found`` (:class:`~sotmot.types.Detections`) that the detector of
+    ``config`` gave a run: its header (:func:`detections_header`), then the boxes, so that the file replays the
+    run exactly (``--det``)."""
+    header = detections_header(model_in_use(config.model, "detector"))
+    return format_detections(found.frames, found.boxes, found.scores, header)
+
+
 def detections_path(results: str | Path) -> Path:
     """``<name>.det.txt`` beside ``<name>.txt``: the detections a model run used."""
     results = Path(results)
@@ -169,5 +177,5 @@ def detections_path(results: str | Path) -> Path:
 
 
 __all__ = ["BOX_FORMAT", "DETECTORS", "ENV_VAR", "HEADER", "KNOWN_FAMILIES", "SCORE_FORMAT", "Detector",
-           "detection_source", "detections_header", "detections_path", "format_detections", "known_family",
-           "make_detector", "read_header", "resolve_detector_path", "rounded"]
+           "detection_source", "detections_header", "detections_path", "detector_file_text", "format_detections",
+           "known_family", "make_detector", "read_header", "resolve_detector_path", "rounded"]

@@ -7,12 +7,13 @@ tracklets is checked after every solver, so no solver can change anything
 before long-term association.
 
 With ``jitter = K`` every sequence is also taken, the same way, through ``K``
-copies of its detections file whose boxes moved by a seeded offset of under
-:data:`~sotmot.benchmarks.JITTER_PIXELS` in x and y (seeds 1 to K): a change
-that should change nothing, yet one that flips thresholds all along the
-pipeline (a box kept or not by NMS, a tracklet of two boxes or none, the
-bridges it allows), so that one run's score moves by up to about 2 HOTA on a
-busy sequence. Each solver's scores over the ``1 + K`` runs show that spread,
+copies of its detections (its file, or the boxes the built-in detector gave the
+first run, written as the ``<name>.det.txt`` that replays it) with every box
+moved by a seeded offset of under :data:`~sotmot.benchmarks.JITTER_PIXELS` in x
+and y (seeds 1 to K): a change that should change nothing, yet one that flips
+thresholds all along the pipeline (a box kept or not by NMS, a tracklet of two
+boxes or none, the bridges it allows), so that one run's score moves by up to
+about 2 HOTA on a busy sequence. Each solver's scores over the ``1 + K`` runs show that spread,
 and each solver is judged against the first one run by run (paired): a
 difference that changes sign between runs cannot be told from chance; one sign
 in every run is the more telling the more runs there are.
@@ -34,13 +35,13 @@ from sotmot.association import get_solver
 from sotmot.appearance import Embedder, embedder_for
 from sotmot.benchmarks import JITTER_PIXELS, jittered_detections
 from sotmot.config import TrackerConfig
-from sotmot.detection import detection_source
+from sotmot.detection import detection_source, detector_file_text
 from sotmot.errors import SotmotError
 from sotmot.scoring import evaluate_files
 from sotmot.association.objective import flow_objective, lifted_objective
-from sotmot.io import read_seqinfo, results_path, write_results
+from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.pipeline import finish_sequence, prepare_sequence
-from sotmot.types import Tracklet
+from sotmot.types import Detections, Tracklet
 
 #: ``lifted_obj``: the lifted objective of the solver's grouping
 #: (:func:`sotmot.association.objective.lifted_objective`, higher is
@@ -85,26 +86,25 @@ class Comparison:
         return out
 
 
-def jitter_runs(seq: str | Path, config: TrackerConfig, copies: int, root: Path
+def jitter_runs(seq: str | Path, config: TrackerConfig, copies: int, root: Path, detected: Detections | None = None
                 ) -> list[tuple[Path, TrackerConfig]]:
-    """The configuration of each run of ``seq``: its own, then ``copies`` whose ``[detection] file`` is a copy
-    of the detections the run reads (the folder's ``det/det.txt`` or its ``[detection] file``) with every box
-    moved by under :data:`~sotmot.benchmarks.JITTER_PIXELS` (seeds 1 to ``copies``, written under ``root``,
-    which must be this sequence's own). Boxes from the built-in detector are refused: there is no file to
-    move."""
-    runs = [(Path(seq), config)]
+    """The configurations of the ``copies`` jittered runs of ``seq``: each reads, as its ``[detection] file``, a
+    copy of the run's detections with every box moved by under :data:`~sotmot.benchmarks.JITTER_PIXELS` (seeds 1
+    to ``copies``, written under ``root``, which must be this sequence's own). The detections are the file the
+    run reads (the folder's ``det/det.txt`` or its ``[detection] file``), or, where the built-in detector gives
+    them, the boxes it gave the run on the sequence itself (``detected``, ``Prepared.detected``), written first as
+    the ``<name>.det.txt`` a model run writes, which replays that run exactly."""
     if copies == 0:
-        return runs
-    source, det_file = detection_source(config.detection, read_seqinfo(seq, config.input.fps))
+        return []
+    info = read_seqinfo(seq, config.input.fps)
+    source, det_file = detection_source(config.detection, info)
     if source != "file":
-        raise SotmotError(f"{seq}: jittered copies move the boxes of a detections file, and this run takes its "
-                          f"boxes from the detector; write them once (sotmot track --detections model keeps "
-                          f"<name>.det.txt beside the results) and compare on that file ([detection] file in "
-                          f"--config)")
-    for seed in range(1, copies + 1):
-        moved = jittered_detections(Path(det_file), seed, root)
-        runs.append((Path(seq), config.replace("detection", file=str(moved))))
-    return runs
+        if detected is None:
+            raise ValueError(f"{seq}: the detector's boxes of the run on the sequence itself are needed")
+        det_file = root / f"{info.name}.det.txt"
+        write_text_atomic(det_file, detector_file_text(detected, config.detection))
+    return [(Path(seq), config.replace("detection", source="file", file=str(
+        jittered_detections(Path(det_file), seed, root)))) for seed in range(1, copies + 1)]
 
 
 def compare(seq_dirs: Sequence[str | Path], solvers: Sequence[str], config: TrackerConfig = TrackerConfig(),
@@ -115,17 +115,18 @@ def compare(seq_dirs: Sequence[str | Path], solvers: Sequence[str], config: Trac
         get_solver(name)
     if jitter < 0:
         raise ValueError(f"jitter must be 0 or more copies, got {jitter}")
+    embedder = embedder_for(config.appearance, embedder)
     result = Comparison(jitter=jitter)
     # pairs[run][solver]: the (results, ground truth, length, name) rows TrackEval scores, run 0 the sequences
     pairs: list[dict[str, list[tuple[Path, Path, int, str]]]] = [{m: [] for m in solvers} for _ in range(jitter + 1)]
     with tempfile.TemporaryDirectory(prefix="sotmot-compare-") as tmp:
-        runs = [jitter_runs(seq, config, jitter, Path(tmp) / "jitter" / str(k))  # refusals before the work
-                for k, seq in enumerate(seq_dirs)]
-        embedder = embedder_for(config.appearance, embedder)
-        for seq_runs in runs:
-            for run, (folder, run_config) in enumerate(seq_runs):
+        for k, seq in enumerate(seq_dirs):
+            detected = _compare_sequence(Path(seq), config, solvers, embedder, progress, Path(tmp) / "run0", pairs[0],
+                                         result)
+            copies = jitter_runs(seq, config, jitter, Path(tmp) / "jitter" / str(k), detected)
+            for run, (folder, run_config) in enumerate(copies, 1):
                 _compare_sequence(folder, run_config, solvers, embedder, progress, Path(tmp) / f"run{run}",
-                                  pairs[run], result if run == 0 else None)
+                                  pairs[run], None)
         result.rows["COMBINED"] = {m: {} for m in solvers}
         for run, by_solver in enumerate(pairs):
             for solver in solvers:
@@ -146,9 +147,10 @@ def compare(seq_dirs: Sequence[str | Path], solvers: Sequence[str], config: Trac
 
 def _compare_sequence(seq: Path, config: TrackerConfig, solvers: Sequence[str], embedder: Embedder,
                       progress: bool, out: Path, pairs: dict[str, list[tuple[Path, Path, int, str]]],
-                      result: Comparison | None) -> None:
+                      result: Comparison | None) -> Detections | None:
     """Every solver on the same tracklets of ``seq``: results written under ``out`` and listed in ``pairs``; with
-    ``result`` (the sequence itself, not a jittered copy) its rows filled too."""
+    ``result`` (the sequence itself, not a jittered copy) its rows filled too. Returns the boxes the built-in
+    detector gave (None where they came from a file)."""
     prepared = prepare_sequence(seq, config, embedder, progress)
     name = prepared.info.name
     before = fingerprint(prepared.tracklets)
@@ -173,6 +175,7 @@ def _compare_sequence(seq: Path, config: TrackerConfig, solvers: Sequence[str], 
                 "flow_net_cost": flow_objective(prepared.tracklets, run.association.groups, gaps),
                 "solver_s": seconds, "total_s": time.perf_counter() - start,
             }
+    return prepared.detected
 
 
 def _width(column: str) -> int:
