@@ -79,10 +79,10 @@ def main(argv: list[str] | None = None) -> int:
                 parser.error(f"{path}: no {tracker} rows for {', '.join(sorted(missing))}, which "
                              f"{args.reports[0]} has: the reports must hold the same trackers and sequences")
     out = {}
+    sequences = list(first[args.reference])
     for metric in SPREAD_COLUMNS:
         rows = paired_rows(tables, args.reference, metric)
         out[metric] = rows
-        sequences = list(first[args.reference])
         print(f"\n{metric}: on the boxes themselves (lowest - highest over {len(tables)} runs); "
               f"{args.reference}'s lead over it, run by run")
         print("| tracker | " + " | ".join(sequences) + " |")

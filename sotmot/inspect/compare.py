@@ -87,10 +87,11 @@ class Comparison:
 
 
 def jitter_runs(seq: str | Path, config: TrackerConfig, copies: int, root: Path, detected: Detections | None = None
-                ) -> list[tuple[Path, TrackerConfig]]:
-    """The configurations of the ``copies`` jittered runs of ``seq``: each reads, as its ``[detection] file``, a
-    copy of the run's detections with every box moved by under :data:`~sotmot.benchmarks.JITTER_PIXELS` (seeds 1
-    to ``copies``, written under ``root``, which must be this sequence's own). The detections are the file the
+                ) -> list[TrackerConfig]:
+    """The configurations of the ``copies`` jittered runs of ``seq`` (the same folder): each reads, as its
+    ``[detection] file``, a copy of the run's detections with every box moved by under
+    :data:`~sotmot.benchmarks.JITTER_PIXELS` (seeds 1 to ``copies``, written under ``root``, which must be this
+    sequence's own). The detections are the file the
     run reads (the folder's ``det/det.txt`` or its ``[detection] file``), or, where the built-in detector gives
     them, the boxes it gave the run on the sequence itself (``detected``, ``Prepared.detected``), written first as
     the ``<name>.det.txt`` a model run writes, which replays that run exactly."""
@@ -103,8 +104,8 @@ def jitter_runs(seq: str | Path, config: TrackerConfig, copies: int, root: Path,
             raise ValueError(f"{seq}: the detector's boxes of the run on the sequence itself are needed")
         det_file = root / f"{info.name}.det.txt"
         write_text_atomic(det_file, detector_file_text(detected, config.detection))
-    return [(Path(seq), config.replace("detection", source="file", file=str(
-        jittered_detections(Path(det_file), seed, root)))) for seed in range(1, copies + 1)]
+    return [config.replace("detection", source="file", file=str(jittered_detections(Path(det_file), seed, root)))
+            for seed in range(1, copies + 1)]
 
 
 def compare(seq_dirs: Sequence[str | Path], solvers: Sequence[str], config: TrackerConfig = TrackerConfig(),
@@ -124,8 +125,8 @@ def compare(seq_dirs: Sequence[str | Path], solvers: Sequence[str], config: Trac
             detected = _compare_sequence(Path(seq), config, solvers, embedder, progress, Path(tmp) / "run0", pairs[0],
                                          result)
             copies = jitter_runs(seq, config, jitter, Path(tmp) / "jitter" / str(k), detected)
-            for run, (folder, run_config) in enumerate(copies, 1):
-                _compare_sequence(folder, run_config, solvers, embedder, progress, Path(tmp) / f"run{run}",
+            for run, run_config in enumerate(copies, 1):
+                _compare_sequence(Path(seq), run_config, solvers, embedder, progress, Path(tmp) / f"run{run}",
                                   pairs[run], None)
         result.rows["COMBINED"] = {m: {} for m in solvers}
         for run, by_solver in enumerate(pairs):
