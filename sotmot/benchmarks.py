@@ -19,7 +19,7 @@ import numpy as np
 from sotmot.appearance import resolve_backend
 from sotmot.config import TrackerConfig
 from sotmot.errors import InputError
-from sotmot.io import SeqInfo, atomic_path, read_detections, read_seqinfo, write_text_atomic
+from sotmot.io import SeqInfo, atomic_path, is_row, read_detections, read_seqinfo, write_text_atomic
 
 #: Full-length sequences are longer than this many frames; shorter ones are the 30-frame clips (quick tests only).
 FULL_LENGTH = 100
@@ -372,7 +372,7 @@ def jittered_text(text: str, seed: int, pixels: float) -> str:
     size kept), the other fields as they were; comment lines (``#``, the header ``sotmot track`` writes) kept
     as they are, the offsets drawn for the boxes alone."""
     lines = [line for line in text.splitlines() if line.strip()]
-    boxes = [k for k, line in enumerate(lines) if not line.lstrip().startswith("#")]
+    boxes = [k for k, line in enumerate(lines) if is_row(line)]
     offsets = np.random.default_rng(seed).uniform(-pixels, pixels, size=(len(boxes), 2))
     for k, (dx, dy) in zip(boxes, offsets):
         fields = lines[k].split(",")

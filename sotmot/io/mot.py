@@ -212,9 +212,9 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
     first: tuple[int, int] | None = None  # (columns, line) of the first row: every row has as many
     with open(path, encoding="utf-8-sig", errors="replace") as fh:  # -sig: tolerate a leading BOM
         for number, text in enumerate(fh, 1):
-            text = text.strip()
-            if not text or text.startswith("#"):  # a blank line, or a comment (the header sotmot's .det.txt has)
+            if not is_row(text):
                 continue
+            text = text.strip()
             fields = _fields(text)
             if not (min_cols <= len(fields) <= max_cols):
                 hint = ("; no score column? a detector that gives none: add the same score to every line (e.g. "
@@ -280,6 +280,13 @@ def check_rows(arr: np.ndarray, lines: list[int], path: str | Path, seq_length: 
     if checks[3][k]:
         raise InputError(path, f"id '{row[1]:g}' must be an integer from 1 to {MAX_ID}", line=line)
     raise InputError(path, f"box width and height must be positive, got w={row[4]:g}, h={row[5]:g}", line=line)
+
+
+def is_row(line: str) -> bool:
+    """Whether a line of a MOTChallenge text file holds a row: neither blank nor a comment (``#``, as the header
+    of the ``<name>.det.txt`` that ``sotmot track`` writes)."""
+    text = line.strip()
+    return bool(text) and not text.startswith("#")
 
 
 def _fields(text: str) -> list[str]:
@@ -413,7 +420,7 @@ def gt_style(path: str | Path) -> GtStyle:
         raise InputError(path, "missing; expected the ground-truth file here")
     with open(path, encoding="utf-8-sig", errors="replace") as fh:  # -sig: tolerate a leading BOM
         for text in fh:
-            if text.strip() and not text.strip().startswith("#"):
+            if is_row(text):
                 return "MOT16" if len(_fields(text.strip())) == 9 else "MOT15"
     return "MOT15"
 
