@@ -53,6 +53,14 @@ and the boxmot trackers alike (their time is printed separately); sotmot's SOT
 variants read frames and embed the boxes they add inside the clock, since that
 is part of their work.
 
+One run of a sequence is a noisy measurement: moving every box by under half a pixel, a change that means
+nothing, moves a busy sequence's score by up to about 2 HOTA, for sotmot and the peers alike. ``--jitter K``
+runs every tracker once more on K copies of each sequence's detections so moved (seeds 1 to K, as ``sotmot
+compare --jitter`` makes them; results under ``--out/jitter<k>``, scored, not timed), and ``peers.md`` ends
+with each tracker's lowest and highest over the runs and sotmot's lead over it run by run
+(``scripts/peers_paired.py`` reads the same from ``peers.json``; the results page shows the peer sotmot leads
+least).
+
 Needs the benchmark extras (not needed to use sotmot)::
 
     bash scripts/bootstrap.sh --bench
@@ -68,6 +76,7 @@ import argparse
 import json
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -75,8 +84,10 @@ import numpy as np
 
 from sotmot.appearance import make_embedder
 from common import DEFAULT_DATA, named_sequences
-from sotmot.benchmarks import detector_clips, private_config, sequences
+from peers_paired import paired_text
+from sotmot.benchmarks import JITTER_PIXELS, detector_clips, private_config, sequences
 from sotmot.config import TrackerConfig
+from sotmot.inspect.compare import jitter_runs
 from sotmot.scoring import evaluate_files
 from sotmot.io import results_path, write_results, write_text_atomic
 from sotmot.peers import BOXMOT, BOXMOT_CMC, BOXMOT_ROWS, TRACKERS_ROWS, SeqInput, load, run_boxmot, run_peer
@@ -118,6 +129,41 @@ def run_sotmot(seq: SeqInput, config: TrackerConfig, variant: str, solvers: list
 def uses_appearance(tracker: str) -> bool:
     """Whether ``tracker`` needs the re-ID features (its end-to-end time includes computing them)."""
     return tracker.startswith("sotmot") or tracker == "DeepSORT" or tracker.split(" ")[0] in BOXMOT
+
+
+def run_trackers(seq: SeqInput, config: TrackerConfig, trackers: list[str], embedder, min_affinity: float,
+                 shuffle_check: bool = False) -> dict[str, tuple[Tracks, float]]:
+    """Every tracker of ``trackers`` once on ``seq``: ``tracker -> (tracks, seconds)``; sotmot's rows of one SOT
+    variant share its tracklets. With ``shuffle_check``, also each boxmot default row with shuffled embeddings."""
+    made: dict[str, tuple[Tracks, float]] = {}
+    for variant in dict.fromkeys(SOTMOT[t][0] for t in trackers if t in SOTMOT):
+        names = [t for t in trackers if t in SOTMOT and SOTMOT[t][0] == variant]
+        got = run_sotmot(seq, config, variant, [SOTMOT[t][1] for t in names], embedder)
+        made.update({t: got[SOTMOT[t][1]] for t in names})
+    for peer in (t for t in trackers if t in PEERS):
+        if peer in BOXMOT_ROWS:
+            made[peer] = run_boxmot(peer, seq)
+            if shuffle_check and BOXMOT_ROWS[peer][1] == "default":
+                made[f"{peer} shuffled"] = run_boxmot(peer, seq, shuffle=True)
+        else:
+            made[peer] = run_peer(peer, seq, min_affinity)
+    return made
+
+
+def score_table(files: dict[str, list[tuple[Path, Path, int, str]]]) -> dict[str, dict[str, dict[str, float]]]:
+    """TrackEval's scores of each tracker's results files: ``table[tracker][row]``, a row per sequence, per group
+    of :data:`GROUPS` it has sequences of (combined), and ``ALL`` (every sequence combined)."""
+    table: dict[str, dict[str, dict[str, float]]] = {}
+    for tracker, chosen_files in files.items():
+        report = evaluate_files(chosen_files)
+        table[tracker] = dict(report.sequences)
+        for group, member in GROUPS.items():
+            chosen = [f for f in chosen_files if member(f[3])]
+            if chosen:
+                table[tracker][group] = evaluate_files(chosen).combined if len(chosen) > 1 \
+                    else report.sequences[chosen[0][3]]
+        table[tracker]["ALL"] = report.combined
+    return table
 
 
 def bar_chart(path: Path, table: dict[str, dict[str, dict[str, float]]], trackers: list[str]) -> None:
@@ -184,6 +230,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--shuffle-check", action="store_true",
                         help="also run each boxmot tracker with its embeddings permuted across the sequence's "
                              "detections (rows '... shuffled'): if they are used, scores must drop")
+    parser.add_argument("--jitter", type=int, default=0, metavar="K",
+                        help="also run every tracker once on K copies of each sequence's detections whose every box "
+                             "moved by under half a pixel (seeds 1 to K; results under --out/jitter<k>, scored, not "
+                             "timed): one run's score moves by up to about 2 HOTA on a busy sequence from such a "
+                             "change, so peers.md and peers.json also give each tracker's lowest and highest and "
+                             "sotmot's lead over it run by run (default: 0)")
     parser.add_argument("--keep", type=Path, metavar="PEERS.json",
                         help="an earlier peers.json of the same sequences and detections: its peer rows for the "
                              "trackers not run now are kept (sotmot's are not: they depend on its defaults), so "
@@ -193,6 +245,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.mot17_clips and args.detector_model:
         parser.error("--mot17-clips puts other detectors' boxes on the MOT16 clips' frames; with --detector-model "
                      "every tracker gets the detector's boxes instead, so they would be the MOT16 clips' runs again")
+    if args.jitter < 0:
+        parser.error(f"--jitter takes a number of copies, 0 or more, not {args.jitter}")
     trackers = [t.strip() for t in args.trackers.split(",") if t.strip()]
     kept = json.loads(args.keep.read_text(encoding="utf-8")) if args.keep else None
     unknown = [t for t in trackers if t not in SOTMOT and t not in PEERS]
@@ -223,49 +277,45 @@ def main(argv: list[str] | None = None) -> int:
     files: dict[str, list[tuple[Path, Path, int, str]]] = {t: [] for t in trackers}
     reid: dict[str, float] = {}
     frames: dict[str, int] = {}
-    for path in seqs:
-        seq_config = config
-        if args.detector_model:  # the same model detections for sotmot and every peer
-            seq_config = private_config(config, path, args.detector_model, args.det_cache)
-        seq = load(path, seq_config, embedder)
-        name = seq.info.name
-        reid[name], frames[name] = seq.reid_seconds, seq.info.length
-        print(f"{name}: {len(seq.detections)} detections after preprocessing, re-ID {seq.reid_seconds:.1f} s",
-              file=sys.stderr, flush=True)
-        for run in range(args.runs):
-            made: dict[str, tuple[Tracks, float]] = {}
-            for variant in dict.fromkeys(SOTMOT[t][0] for t in trackers if t in SOTMOT):
-                names = [t for t in trackers if t in SOTMOT and SOTMOT[t][0] == variant]
-                got = run_sotmot(seq, seq_config, variant, [SOTMOT[t][1] for t in names], embedder)
-                made.update({t: got[SOTMOT[t][1]] for t in names})
-            for peer in (t for t in trackers if t in PEERS):
-                if peer in BOXMOT_ROWS:
-                    made[peer] = run_boxmot(peer, seq)
-                    if args.shuffle_check and BOXMOT_ROWS[peer][1] == "default":
-                        made[f"{peer} shuffled"] = run_boxmot(peer, seq, shuffle=True)
-                else:
-                    made[peer] = run_peer(peer, seq, config.association.min_affinity)
-            for tracker, (tracks, secs) in made.items():
-                seconds.setdefault(tracker, {}).setdefault(name, []).append(secs)
-                files.setdefault(tracker, [])
-                if run == 0:
-                    out = results_path(args.out / "results" / tracker.replace(" ", "_"), name)
-                    write_results(out, tracks)
-                    files[tracker].append((out, seq.info.gt_path, seq.info.length, name))
-            print(f"  run {run + 1}/{args.runs}: " + ", ".join(f"{t} {s:.2f} s" for t, (_, s) in made.items()),
+    jitter_trackers = [t for t in trackers if t in SOTMOT or t in PEERS]
+    jitter_files: list[dict[str, list[tuple[Path, Path, int, str]]]] = [
+        {t: [] for t in jitter_trackers} for _ in range(args.jitter)]
+    with tempfile.TemporaryDirectory(prefix="sotmot-peers-jitter-") as tmp:
+        for path in seqs:
+            seq_config = config
+            if args.detector_model:  # the same model detections for sotmot and every peer
+                seq_config = private_config(config, path, args.detector_model, args.det_cache)
+            seq = load(path, seq_config, embedder)
+            name = seq.info.name
+            reid[name], frames[name] = seq.reid_seconds, seq.info.length
+            print(f"{name}: {len(seq.detections)} detections after preprocessing, re-ID {seq.reid_seconds:.1f} s",
                   file=sys.stderr, flush=True)
+            for run in range(args.runs):
+                made = run_trackers(seq, seq_config, trackers, embedder, config.association.min_affinity,
+                                    args.shuffle_check)
+                for tracker, (tracks, secs) in made.items():
+                    seconds.setdefault(tracker, {}).setdefault(name, []).append(secs)
+                    files.setdefault(tracker, [])
+                    if run == 0:
+                        out = results_path(args.out / "results" / tracker.replace(" ", "_"), name)
+                        write_results(out, tracks)
+                        files[tracker].append((out, seq.info.gt_path, seq.info.length, name))
+                print(f"  run {run + 1}/{args.runs}: " + ", ".join(f"{t} {s:.2f} s" for t, (_, s) in made.items()),
+                      file=sys.stderr, flush=True)
+            # the same trackers again on --jitter copies of the detections, every box moved by under half a
+            # pixel: the spread of one run's score (scored, not timed)
+            for copy, copy_config in enumerate(jitter_runs(path, seq_config, args.jitter, Path(tmp) / name), 1):
+                made = run_trackers(load(path, copy_config, embedder), copy_config, jitter_trackers, embedder,
+                                    config.association.min_affinity)
+                for tracker, (tracks, _) in made.items():
+                    out = results_path(args.out / f"jitter{copy}" / "results" / tracker.replace(" ", "_"), name)
+                    write_results(out, tracks)
+                    jitter_files[copy - 1][tracker].append((out, seq.info.gt_path, seq.info.length, name))
+                print(f"  copy {copy}/{args.jitter} tracked", file=sys.stderr, flush=True)
 
     trackers += [t for t in seconds if t not in trackers]  # the shuffled-embedding rows
-    table: dict[str, dict[str, dict[str, float]]] = {}
+    table = score_table({t: files[t] for t in trackers})
     for tracker in trackers:
-        report = evaluate_files(files[tracker])
-        table[tracker] = dict(report.sequences)
-        for group, member in GROUPS.items():
-            chosen = [f for f in files[tracker] if member(f[3])]
-            if chosen:
-                table[tracker][group] = evaluate_files(chosen).combined if len(chosen) > 1 \
-                    else report.sequences[chosen[0][3]]
-        table[tracker]["ALL"] = report.combined
         med = {n: statistics.median(v) for n, v in seconds[tracker].items()}
         # end to end: the loop plus the re-ID of the detector boxes (frame decoding included), for the
         # trackers that use appearance; SORT, ByteTrack and OC-SORT need no more than their loop
@@ -297,6 +347,7 @@ def main(argv: list[str] | None = None) -> int:
                 return 1
             table[tracker], seconds[tracker] = kept["table"][tracker], kept["seconds"][tracker]
         trackers += kept_rows
+    jitter_tables = [score_table(by_tracker) for by_tracker in jitter_files]
     rows = [*dict.fromkeys(n for t in trackers for n in table[t])]
     kind = (f"private detections (MOTChallenge's term): {Path(args.detector_model).name}, every tracker the same boxes"
             if args.detector_model else "public detections (each sequence's det/det.txt)")
@@ -332,6 +383,10 @@ def main(argv: list[str] | None = None) -> int:
                             f"{table[best][group][metric]:.1f} ({'ahead' if margin > 0 else 'BEHIND'} by "
                             f"{abs(margin):.1f})")
     lines += ["", "Goal (default sotmot above every peer on HOTA and IDF1):", *goal]
+    if jitter_tables and "sotmot" in jitter_trackers:
+        paired, _ = paired_text([{t: table[t] for t in jitter_trackers}, *jitter_tables], "sotmot")
+        lines += ["", f"Run by run: the boxes themselves, then {args.jitter} copies whose every box moved by under "
+                      f"{JITTER_PIXELS:g} px (`--jitter`).", *paired.splitlines()]
     text = "\n".join(lines) + "\n"
     print(text)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -342,6 +397,8 @@ def main(argv: list[str] | None = None) -> int:
         "seconds": seconds, "reid_seconds": reid, "frames": frames,
         "preprocessing": "sotmot default: no score threshold, per-frame NMS 0.6 (IoM for DPM scores, IoU otherwise)",
         "peer_scores": "as given when all in [0, 1], else per-sequence rank / count",
+        **({"jitter": {"copies": args.jitter, "pixels": JITTER_PIXELS, "trackers": jitter_trackers,
+                       "tables": jitter_tables}} if args.jitter else {}),
         **({"kept": {"from": str(args.keep), "machine": kept["machine"], "runs": kept["runs"], "rows": kept_rows}}
            if kept is not None else {}),
     }, indent=2) + "\n")

@@ -11,7 +11,8 @@ Files it reads, each optional (a missing one leaves its section out):
   ``--detector-model``);
 * ``accuracy_public_noflip.json``, ``accuracy_private_noflip.json``: the same with ``--config
   docs/validation/noflip.toml`` (``[appearance] flip = false``);
-* ``peers_public.json``, ``peers_private.json``: ``peers.json`` of ``scripts/bench_peers.py``;
+* ``peers_public.json``, ``peers_private.json``: ``peers.json`` of ``scripts/bench_peers.py`` (with
+  ``--jitter``, also sotmot's lead over the closest peer run by run);
 * ``speed_public.json``, ``speed_public_noflip.json`` (``--no-flip``), ``speed_private.json``,
   ``speed_private_noflip.json``: ``scripts/bench_speed.py``; ``speed_public_motion.json``,
   ``speed_private_motion.json``: the same with ``--appearance none`` (the motion-only mode), beside
@@ -48,6 +49,7 @@ from collections.abc import Collection
 from pathlib import Path
 
 from sotmot.benchmarks import FULL_LENGTH
+from sotmot.inspect.compare import SPREAD_COLUMNS, paired_rows
 from sotmot.io import write_text_atomic
 from sotmot.peers import TRACKERS_ROWS
 
@@ -129,6 +131,42 @@ def accuracy_section(title: str, accuracy: dict | None, peers: dict | None, how:
             lines.append(f"The other peers' rows were measured in an earlier run (`--keep`, machine: "
                          f"{peers['kept']['machine']}); measured anew on the machine above: {', '.join(fresh)} "
                          f"(the peers do not depend on sotmot's configuration).")
+    return [*lines, "", *peers_by_run(peers)]
+
+
+def peers_by_run(peers: dict | None, first: str = "sequence") -> list[str]:
+    """sotmot against the peers that ran on ``bench_peers.py --jitter`` copies too: per row (sequence or group) and
+    metric, sotmot's score over the runs and the peer with the lowest of all run-by-run leads, with sotmot's lead
+    over it on the boxes themselves, its lowest and highest over the runs, and whether it keeps one sign in every
+    run. Nothing without such runs."""
+    jitter = (peers or {}).get("jitter")
+    if not jitter or "sotmot" not in jitter["trackers"]:
+        return []
+    tables = [{t: peers["table"][t] for t in jitter["trackers"]}, *jitter["tables"]]
+    rivals = [t for t in jitter["trackers"] if not t.startswith("sotmot")]
+    by_metric = {m: paired_rows(tables, "sotmot", m) for m in SPREAD_COLUMNS}
+    groups = [g for g in ("full-length", "MOT16 clips", "MOT17 clips") if g in tables[0]["sotmot"]]
+    keys = [k for k in tables[0]["sotmot"] if k != "ALL" or len(groups) > 1]  # "ALL" only beside two groups
+    lines = [f"Run by run (`--jitter {jitter['copies']}`): every tracker below ran again on {jitter['copies']} copies "
+             f"of the detections with every box moved by under {jitter['pixels']:g} px, a change that means "
+             f"nothing yet moves one run's score by up to about 2 HOTA on a busy sequence. Each cell: sotmot's "
+             f"score on the boxes themselves (lowest-highest over the {len(tables)} runs), then its lead over the "
+             f"peer it leads least in any run, on the boxes themselves (lowest to highest over the runs), marked "
+             f"**not one sign** where the lead changes sign between runs and **behind** where it is below zero in "
+             f"every run. Peers run on the copies: {', '.join(rivals)}.", "",
+             f"| {first} | " + " | ".join(f"sotmot {m}, lead over the closest peer" for m in SPREAD_COLUMNS) + " |",
+             "|---|" + "---|" * len(SPREAD_COLUMNS)]
+    for key in keys:
+        cells = []
+        for metric, rows in by_metric.items():
+            runs = rows["sotmot"][key]["runs"]
+            peer = min(rivals, key=lambda t: min(rows[t][key]["lead"]))
+            lead, verdict = rows[peer][key]["lead"], rows[peer][key]["verdict"]
+            mark = {"below in every run": " **behind**", "above in every run": ""}.get(verdict, " **not one sign**")
+            cells.append(f"{runs[0]:.1f} ({min(runs):.1f}-{max(runs):.1f}); {lead[0]:+.1f} ({min(lead):+.1f} to "
+                         f"{max(lead):+.1f}) over {peer}{mark}")
+        name = {"ALL": "all", "full-length": "combined"}.get(key, key)
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return [*lines, ""]
 
 
@@ -563,7 +601,8 @@ def _clips_table(peers: dict) -> list[str]:
         lines.append(f"| {name} | {trio} | {errors} | " + " | ".join(peer_cells) + " |")
     peer_names = sorted(t for t in peers["table"] if not t.startswith("sotmot"))
     return [*lines, "", f"Peers: {', '.join(peer_names)}, each fed the same boxes and re-ID embeddings; "
-                        f"**ahead** marks a peer above sotmot. Machine: {peers['machine']}; {peers['runs']} run.", ""]
+                        f"**ahead** marks a peer above sotmot. Machine: {peers['machine']}; {peers['runs']} run.", "",
+            *peers_by_run(peers, "clip")]
 
 
 def detector_section(data: dict | None) -> list[str]:

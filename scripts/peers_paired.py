@@ -16,7 +16,10 @@ the verdict of :func:`sotmot.inspect.compare.paired_verdict` (the lead keeps one
         --sequences $S --trackers "$T" --out peers_j$k; done
     .venv/bin/python scripts/peers_paired.py peers_j0/peers.json peers_j1/peers.json peers_j2/peers.json
 
-Nothing is tracked here; the reports must hold the same trackers and sequences.
+``bench_peers.py --jitter 2`` makes such copies itself (of each sequence's detections file, not of its folder)
+and keeps their runs in its one report, which this reads alone (``peers_paired.py peers/peers.json``); its
+``peers.md`` ends with the same tables. Nothing is tracked here; the reports must hold the same trackers and
+sequences.
 """
 
 from __future__ import annotations
@@ -27,66 +30,29 @@ import sys
 from pathlib import Path
 
 from sotmot.errors import InputError
-from sotmot.inspect.compare import SPREAD_COLUMNS, paired_verdict
+from sotmot.inspect.compare import SPREAD_COLUMNS, paired_rows
 from sotmot.io import refuse_overwriting, write_text_atomic
 
 
-def paired_rows(tables: list[dict], reference: str, metric: str) -> dict[str, dict[str, dict]]:
-    """``tracker -> sequence -> {"runs": [value per report], "lead": [reference minus it per report] (not for the
-    reference itself), "verdict": str}`` from ``bench_peers.py`` tables (``table[tracker][sequence][metric]``),
-    the first on the boxes themselves."""
-    first = tables[0]
-    rows: dict[str, dict[str, dict]] = {}
-    for tracker, by_sequence in first.items():
-        rows[tracker] = {}
-        for sequence in by_sequence:
-            runs = [t[tracker][sequence][metric] for t in tables]
-            row: dict = {"runs": runs}
-            if tracker != reference:
-                lead = [t[reference][sequence][metric] - t[tracker][sequence][metric] for t in tables]
-                row.update(lead=lead, verdict=paired_verdict(lead))
-            rows[tracker][sequence] = row
-    return rows
+def report_tables(report: dict) -> list[dict]:
+    """A ``bench_peers.py`` report's score tables: its own, then those of its ``--jitter`` copies (if any), each
+    restricted to the trackers that ran on the copies."""
+    jitter = report.get("jitter")
+    if not jitter:
+        return [report["table"]]
+    return [{t: report["table"][t] for t in jitter["trackers"]}, *jitter["tables"]]
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("reports", nargs="+", type=Path, metavar="PEERS.json",
-                        help="bench_peers.py reports: the boxes themselves first, then each offset copy")
-    parser.add_argument("--reference", default="sotmot", help="the tracker whose lead is read (default: %(default)s)")
-    parser.add_argument("--json", type=Path, help="also write the rows as JSON")
-    args = parser.parse_args(argv)
-    if len(args.reports) < 2:
-        parser.error("give the report on the boxes themselves and at least one on an offset copy")
-    if args.json:
-        try:
-            refuse_overwriting([args.json], args.reports, "choose another --json")
-        except InputError as exc:
-            parser.error(str(exc))
-    tables = []
-    for path in args.reports:
-        try:
-            tables.append(json.loads(path.read_text(encoding="utf-8"))["table"])
-        except (OSError, ValueError, KeyError) as exc:
-            parser.error(f"{path}: not a bench_peers.py report ({exc})")
-    first = tables[0]
-    if args.reference not in first:
-        parser.error(f"{args.reports[0]}: no tracker {args.reference!r}; there are {', '.join(first)}")
-    for path, table in zip(args.reports[1:], tables[1:]):
-        for tracker, by_sequence in first.items():
-            missing = set(by_sequence) - set(table.get(tracker, {}))
-            if missing:
-                parser.error(f"{path}: no {tracker} rows for {', '.join(sorted(missing))}, which "
-                             f"{args.reports[0]} has: the reports must hold the same trackers and sequences")
-    out = {}
-    sequences = list(first[args.reference])
+def paired_text(tables: list[dict], reference: str) -> tuple[str, dict[str, dict]]:
+    """Per metric of :data:`SPREAD_COLUMNS`, a table of each tracker on the boxes themselves (lowest - highest over
+    the runs) and ``reference``'s lead over it run by run; and those rows (:func:`paired_rows`) by metric."""
+    lines, out = [], {}
+    sequences = list(tables[0][reference])
     for metric in SPREAD_COLUMNS:
-        rows = paired_rows(tables, args.reference, metric)
-        out[metric] = rows
-        print(f"\n{metric}: on the boxes themselves (lowest - highest over {len(tables)} runs); "
-              f"{args.reference}'s lead over it, run by run")
-        print("| tracker | " + " | ".join(sequences) + " |")
-        print("|---|" + "---|" * len(sequences))
+        rows = out[metric] = paired_rows(tables, reference, metric)
+        lines += ["", f"{metric}: on the boxes themselves (lowest - highest over {len(tables)} runs); "
+                      f"{reference}'s lead over it, run by run",
+                  "| tracker | " + " | ".join(sequences) + " |", "|---|" + "---|" * len(sequences)]
         for tracker, by_sequence in rows.items():
             cells = []
             for sequence in sequences:
@@ -96,7 +62,51 @@ def main(argv: list[str] | None = None) -> int:
                     cell += (f"; {row['lead'][0]:+.2f} ({min(row['lead']):+.2f} to {max(row['lead']):+.2f}: "
                              f"{row['verdict']})")
                 cells.append(cell)
-            print(f"| {tracker} | " + " | ".join(cells) + " |")
+            lines.append(f"| {tracker} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n", out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("reports", nargs="+", type=Path, metavar="PEERS.json",
+                        help="bench_peers.py reports: the boxes themselves first, then each offset copy; or one "
+                             "report of bench_peers.py --jitter, which holds its copies' runs")
+    parser.add_argument("--reference", default="sotmot", help="the tracker whose lead is read (default: %(default)s)")
+    parser.add_argument("--json", type=Path, help="also write the rows as JSON")
+    args = parser.parse_args(argv)
+    if args.json:
+        try:
+            refuse_overwriting([args.json], args.reports, "choose another --json")
+        except InputError as exc:
+            parser.error(str(exc))
+    reports = []
+    for path in args.reports:
+        try:
+            report = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            parser.error(f"{path}: not a bench_peers.py report ({exc})")
+        if not isinstance(report, dict) or "table" not in report:
+            parser.error(f"{path}: not a bench_peers.py report (no table)")
+        reports.append(report)
+    if len(reports) == 1:
+        tables = report_tables(reports[0])
+        if len(tables) == 1:
+            parser.error(f"{args.reports[0]} holds no runs on offset copies (bench_peers.py --jitter); give the "
+                         "reports on the offset copies after it")
+    else:
+        tables = [r["table"] for r in reports]
+    first = tables[0]
+    if args.reference not in first:
+        parser.error(f"{args.reports[0]}: no tracker {args.reference!r}; there are {', '.join(first)}")
+    for k, table in enumerate(tables[1:], 1):
+        where = args.reports[k] if len(reports) > 1 else f"{args.reports[0]}'s copy {k}"
+        for tracker, by_sequence in first.items():
+            missing = set(by_sequence) - set(table.get(tracker, {}))
+            if missing:
+                parser.error(f"{where}: no {tracker} rows for {', '.join(sorted(missing))}, which "
+                             f"{args.reports[0]} has: the reports must hold the same trackers and sequences")
+    text, out = paired_text(tables, args.reference)
+    print(text, end="")
     if args.json:
         write_text_atomic(args.json, json.dumps({"reports": [str(p) for p in args.reports],
                                                  "reference": args.reference, "rows": out}, indent=2) + "\n")

@@ -216,6 +216,23 @@ def paired_verdict(differences: Sequence[float]) -> str:
     return "not told apart from chance"
 
 
+def paired_rows(tables: Sequence[dict], reference: str, metric: str) -> dict[str, dict[str, dict]]:
+    """Each tracker's ``metric`` over runs, and ``reference``'s lead over it run by run: ``tracker -> row ->
+    {"runs": [value per table], "lead": [reference minus it per table], "verdict": paired_verdict(lead)}``
+    (no lead for the reference itself), from score tables ``table[tracker][row][metric]`` of the same trackers
+    and rows (sequences, groups), the run on the boxes themselves first."""
+    rows: dict[str, dict[str, dict]] = {}
+    for tracker, by_row in tables[0].items():
+        rows[tracker] = {}
+        for name in by_row:
+            row: dict = {"runs": [t[tracker][name][metric] for t in tables]}
+            if tracker != reference:
+                lead = [t[reference][name][metric] - t[tracker][name][metric] for t in tables]
+                row.update(lead=lead, verdict=paired_verdict(lead))
+            rows[tracker][name] = row
+    return rows
+
+
 def _spread_lines(runs: dict[str, dict[str, list[float]]], jitter: int, solver_width: int) -> list[str]:
     """Each solver's lowest and highest score over the runs, then each solver against the first, run by run."""
     lines = [f"  over {1 + jitter} runs (in {jitter} of them every box moved by under {JITTER_PIXELS:g} px): "
