@@ -83,13 +83,13 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from common import DEFAULT_DATA, named_sequences
+from common import DEFAULT_DATA, named_sequences, read_report
 from peers_paired import paired_text
 from sotmot.benchmarks import JITTER_PIXELS, detector_clips, private_config, sequences
 from sotmot.config import TrackerConfig
 from sotmot.inspect.compare import jitter_runs
 from sotmot.scoring import evaluate_files
-from sotmot.io import results_path, write_results, write_text_atomic
+from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
 from sotmot.peers import BOXMOT, BOXMOT_CMC, BOXMOT_ROWS, TRACKERS_ROWS, SeqInput, load, run_boxmot, run_peer
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracks
@@ -164,6 +164,23 @@ def score_table(files: dict[str, list[tuple[Path, Path, int, str]]]) -> dict[str
                     else report.sequences[chosen[0][3]]
         table[tracker]["ALL"] = report.combined
     return table
+
+
+def same_detections(kept: dict, detector_model: str | None) -> bool:
+    """Whether an earlier report (``--keep``) was made from the detections asked for now: public, or the same
+    detector model file by name (paths may differ)."""
+    def detections(text: str) -> str:
+        return Path(text.removeprefix("private: ")).name if text.startswith("private: ") else text
+
+    return detections(kept["detections"]) == detections(f"private: {detector_model}" if detector_model else "public")
+
+
+def kept_machines(kept: dict, rows: list[str]) -> dict[str, str]:
+    """The machine each of ``rows`` of an earlier report (``--keep``) was measured on: the report's own, or,
+    for a row that report kept in turn from a still earlier one, that row's own machine."""
+    earlier = kept.get("kept", {})
+    own = earlier.get("machines") or {row: earlier.get("machine") for row in earlier.get("rows", [])}
+    return {row: own.get(row) or kept["machine"] for row in rows}
 
 
 def bar_chart(path: Path, table: dict[str, dict[str, dict[str, float]]], trackers: list[str]) -> None:
@@ -248,7 +265,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.jitter < 0:
         parser.error(f"--jitter takes a number of copies, 0 or more, not {args.jitter}")
     trackers = [t.strip() for t in args.trackers.split(",") if t.strip()]
-    kept = json.loads(args.keep.read_text(encoding="utf-8")) if args.keep else None
+    kept = None
+    if args.keep:
+        kept = read_report(parser, args.keep, f"--keep {args.keep}", ("table", "machine", "detections", "runs"))
+        if not same_detections(kept, args.detector_model):
+            parser.error(f"--keep {args.keep}: made with {kept['detections']} detections, not these")
     unknown = [t for t in trackers if t not in SOTMOT and t not in PEERS]
     if unknown:
         parser.error(f"unknown trackers {unknown}; choose from {[*SOTMOT, *PEERS]}")
@@ -266,6 +287,13 @@ def main(argv: list[str] | None = None) -> int:
     # --sequences names the data folder's sequences and, with --mot17-clips, the MOT17 clips
     seqs = named_sequences(parser, args.data, args.sequences, sequences(args.data) + (
         detector_clips(args.data, args.clip_cache) if args.mot17_clips else []))
+    if kept is not None:  # every kept row must cover every sequence run now (the groups are checked at the end)
+        names = [read_seqinfo(path).name for path in seqs]
+        for tracker, by_row in kept["table"].items():
+            missing = [n for n in names if n not in by_row]
+            if not tracker.startswith("sotmot") and tracker not in trackers and missing:
+                parser.error(f"--keep {args.keep}: {tracker} has no rows for {', '.join(missing)}; run it now "
+                             f"(--trackers) or keep a report of these sequences")
     config = TrackerConfig().replace("appearance", model=args.model)
     embedder = make_embedder(config.appearance)
     from ortools.graph.python import min_cost_flow  # noqa: F401  (imported before any clock starts)
@@ -332,13 +360,6 @@ def main(argv: list[str] | None = None) -> int:
 
     kept_rows = []
     if kept is not None:
-        def detections(text: str) -> str:  # "public", or the detector model's file name (paths may differ)
-            return Path(text.removeprefix("private: ")).name if text.startswith("private: ") else text
-
-        if detections(kept["detections"]) != detections("private: " + str(args.detector_model)
-                                                         if args.detector_model else "public"):
-            print(f"{args.keep}: made with {kept['detections']} detections, not these", file=sys.stderr)
-            return 1
         kept_rows = [t for t in kept["table"] if not t.startswith("sotmot") and t not in table]
         for tracker in kept_rows:
             missing = set(table[trackers[0]]) - set(kept["table"][tracker])
@@ -352,9 +373,11 @@ def main(argv: list[str] | None = None) -> int:
     kind = (f"private detections (MOTChallenge's term): {Path(args.detector_model).name}, every tracker the same boxes"
             if args.detector_model else "public detections (each sequence's det/det.txt)")
     lines = [f"Machine: {machine()}; median of {args.runs} runs; re-ID model {Path(args.model).name}; {kind}.", ""]
+    machines = kept_machines(kept, kept_rows) if kept_rows else {}
     if kept_rows:
-        lines[-1:-1] = [f"Rows of {', '.join(kept_rows)} kept from {args.keep} (machine: {kept['machine']}; median of "
-                        f"{kept['runs']} runs); the others run now."]
+        lines[-1:-1] = [f"Rows kept from {args.keep} (median of {kept['runs']} runs), the others run now: " + "; ".join(
+            f"{', '.join(t for t in kept_rows if machines[t] == m)} (machine: {m})" for m in dict.fromkeys(
+                machines.values())) + "."]
     for row in rows:
         lines += [f"**{row}**", "", "| tracker | " + " | ".join(COLUMNS) + " | loop fps | e2e fps |",
                   "|---|" + "---|" * (len(COLUMNS) + 2)]
@@ -399,7 +422,7 @@ def main(argv: list[str] | None = None) -> int:
         "peer_scores": "as given when all in [0, 1], else per-sequence rank / count",
         **({"jitter": {"copies": args.jitter, "pixels": JITTER_PIXELS, "trackers": jitter_trackers,
                        "tables": jitter_tables}} if args.jitter else {}),
-        **({"kept": {"from": str(args.keep), "machine": kept["machine"], "runs": kept["runs"], "rows": kept_rows}}
+        **({"kept": {"from": str(args.keep), "runs": kept["runs"], "rows": kept_rows, "machines": machines}}
            if kept is not None else {}),
     }, indent=2) + "\n")
     bar_chart(args.out / "peers.png", table, trackers)

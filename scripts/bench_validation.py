@@ -82,7 +82,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import DEFAULT_DATA, named_config, validation_groups
+from common import DEFAULT_DATA, named_config, read_report, validation_groups
 from sotmot.appearance import resolve_backend
 from sotmot.benchmarks import (GROUPS, JITTER_PIXELS, LABEL_GROUPS, for_group, group_features, jittered_detections,
                                jittered_sequence, preparation_key, private_config, validation_set)
@@ -312,10 +312,7 @@ def main(argv: list[str] | None = None) -> int:
                      "(the runs of every configuration already pair each with chance)")
     previous = None
     if args.merge:
-        try:
-            previous = json.loads(args.merge.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            parser.error(f"--merge: cannot read a report from {args.merge}: {exc}")
+        previous = read_report(parser, args.merge, f"--merge {args.merge}", ("configs", "reference", "groups"))
     if args.merge and not args.json:
         parser.error("--merge writes the merged report to --json: give both")
     if args.merge and args.json.resolve() == args.merge.resolve():

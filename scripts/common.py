@@ -10,6 +10,7 @@ is ``../shared/data`` beside the project, or the environment variable
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -78,6 +79,21 @@ def named_sequences(parser: argparse.ArgumentParser, data: Path, only: str,
         return only_named(sequences(data) if found is None else found, only, data)
     except InputError as exc:
         parser.error(f"--sequences: {exc}")
+
+
+def read_report(parser: argparse.ArgumentParser, path: Path, what: str, keys: tuple[str, ...] = ()) -> dict:
+    """The JSON report at ``path`` (a script's ``--json`` or ``peers.json``), or ``parser.error`` naming ``what``
+    (e.g. ``"--keep x.json"``) where it cannot be read or is not an object holding every one of ``keys``."""
+    try:
+        report = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        parser.error(f"{what}: cannot read a report ({exc})")
+    if not isinstance(report, dict):
+        parser.error(f"{what}: not a report (a JSON object was expected, found {type(report).__name__})")
+    missing = [k for k in keys if k not in report]
+    if missing:
+        parser.error(f"{what}: not a report of the kind asked for (no {', '.join(missing)})")
+    return report
 
 
 def run_timed(command: list[str], env: dict[str, str] | None = None) -> dict[str, float]:

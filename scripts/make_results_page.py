@@ -128,10 +128,19 @@ def accuracy_section(title: str, accuracy: dict | None, peers: dict | None, how:
                          "gap and interpolation bound do.")
         if "kept" in peers:
             fresh = sorted(t for t in peers["table"] if t not in peers["kept"]["rows"])
-            lines.append(f"The other peers' rows were measured in an earlier run (`--keep`, machine: "
-                         f"{peers['kept']['machine']}); measured anew on the machine above: {', '.join(fresh)} "
-                         f"(the peers do not depend on sotmot's configuration).")
+            lines.append(f"Measured on the machine above: {', '.join(fresh)}; the other peers' rows were measured in "
+                         f"earlier runs (`--keep`; the peers do not depend on sotmot's configuration), "
+                         f"{kept_where(peers['kept'])}.")
     return [*lines, "", *peers_by_run(peers)]
+
+
+def kept_where(kept: dict) -> str:
+    """Which machine the rows a ``bench_peers.py --keep`` report kept were measured on (its ``kept`` section)."""
+    machines = kept.get("machines") or {row: kept["machine"] for row in kept["rows"]}
+    if len(set(machines.values())) == 1:
+        return f"machine: {next(iter(machines.values()))}"
+    return "; ".join(f"{', '.join(sorted(r for r, m in machines.items() if m == machine))} on {machine}"
+                     for machine in dict.fromkeys(machines.values()))
 
 
 def peers_by_run(peers: dict | None, first: str = "sequence") -> list[str]:
@@ -150,7 +159,8 @@ def peers_by_run(peers: dict | None, first: str = "sequence") -> list[str]:
     lines = [f"Run by run (`--jitter {jitter['copies']}`): every tracker below ran again on {jitter['copies']} copies "
              f"of the detections with every box moved by under {jitter['pixels']:g} px, a change that means "
              f"nothing yet moves one run's score by up to about 2 HOTA on a busy sequence. Each cell: sotmot's "
-             f"score on the boxes themselves (lowest-highest over the {len(tables)} runs), then its lead over the "
+             f"score in these runs (made with the peers', on their machine) on the boxes themselves "
+             f"(lowest-highest over the {len(tables)} runs), then its lead over the "
              f"peer it leads least in any run, on the boxes themselves (lowest to highest over the runs), marked "
              f"**not one sign** where the lead changes sign between runs and **behind** where it is below zero in "
              f"every run. Peers run on the copies: {', '.join(rivals)}.", "",
@@ -600,8 +610,13 @@ def _clips_table(peers: dict) -> list[str]:
         errors = " / ".join(number(m, row[m]) for m in ("IDSW", "FP", "FN"))
         lines.append(f"| {name} | {trio} | {errors} | " + " | ".join(peer_cells) + " |")
     peer_names = sorted(t for t in peers["table"] if not t.startswith("sotmot"))
+    where = f"Machine: {peers['machine']}"
+    if "kept" in peers and kept_where(peers["kept"]) != f"machine: {peers['machine']}":
+        fresh = sorted(t for t in peers["table"] if t not in peers["kept"]["rows"])
+        where += (f" for {', '.join(fresh)}; the other rows kept from an earlier run (`--keep`), "
+                  f"{kept_where(peers['kept'])}")
     return [*lines, "", f"Peers: {', '.join(peer_names)}, each fed the same boxes and re-ID embeddings; "
-                        f"**ahead** marks a peer above sotmot. Machine: {peers['machine']}; {peers['runs']} run.", "",
+                        f"**ahead** marks a peer above sotmot. {where}; {peers['runs']} run.", "",
             *peers_by_run(peers, "clip")]
 
 

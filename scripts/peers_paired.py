@@ -29,6 +29,7 @@ import json
 import sys
 from pathlib import Path
 
+from common import read_report
 from sotmot.errors import InputError
 from sotmot.inspect.compare import SPREAD_COLUMNS, paired_rows
 from sotmot.io import refuse_overwriting, write_text_atomic
@@ -81,13 +82,7 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(str(exc))
     reports = []
     for path in args.reports:
-        try:
-            report = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            parser.error(f"{path}: not a bench_peers.py report ({exc})")
-        if not isinstance(report, dict) or "table" not in report:
-            parser.error(f"{path}: not a bench_peers.py report (no table)")
-        reports.append(report)
+        reports.append(read_report(parser, path, str(path), ("table",)))
     if len(reports) == 1:
         tables = report_tables(reports[0])
         if len(tables) == 1:

@@ -120,3 +120,35 @@ def test_the_results_page_names_the_peer_sotmot_leads_least_and_marks_a_lead_of_
     assert rows[1].startswith("| combined | 60.0 (59.0-60.0); +1.0 (-0.5 to +1.0) over P **not one sign** |")
     assert not any(line.startswith("| all |") for line in lines)  # "ALL" is the one group again
     assert page.peers_by_run({"table": report["table"]}) == []  # no --jitter runs, no table
+
+
+def test_a_kept_report_of_other_detections_or_sequences_is_refused_before_anything_runs(tmp_path, capsys):
+    from conftest import write_sequence
+
+    data = tmp_path / "data"
+    write_sequence(data, ["1,-1,10,10,10,20,1"], name="A")
+    script = load_script("bench_peers")
+    report = {"machine": "M", "runs": 1, "detections": "public", "table": {"sotmot": {"B": {}}, "SORT": {"B": {}}}}
+    keep = tmp_path / "keep.json"
+    for text, said in ((json.dumps(dict(report, detections="private: x/det.xml")),
+                        "made with private: x/det.xml detections"),
+                       (json.dumps(report), "SORT has no rows for A; run it now"),
+                       ("[]", "not a report (a JSON object was expected, found list)"),
+                       ("{}", "not a report of the kind asked for (no table, machine, detections, runs)")):
+        keep.write_text(text)
+        with pytest.raises(SystemExit) as stop:
+            script.main(["--model", "reid.onnx", "--out", str(tmp_path / "out"), "--data", str(data),
+                         "--trackers", "sotmot", "--keep", str(keep)])
+        assert stop.value.code == 2 and said in capsys.readouterr().err
+        assert not (tmp_path / "out").exists()
+
+
+def test_rows_kept_twice_keep_the_machine_they_were_measured_on(tmp_path):
+    script, page = load_script("bench_peers"), load_script("make_results_page")
+    earlier = {"machine": "B", "kept": {"machine": "A", "rows": ["P"]}}  # P measured on A, Q and sotmot on B
+    machines = script.kept_machines(earlier, ["P", "Q"])
+    assert machines == {"P": "A", "Q": "B"}
+    assert script.kept_machines({"machine": "C", "kept": {"machines": machines, "rows": ["P", "Q"]}}, ["P", "Q"]) \
+        == machines
+    assert page.kept_where({"rows": ["P", "Q"], "machines": machines}) == "P on A; Q on B"
+    assert page.kept_where({"rows": ["P"], "machine": "A"}) == "machine: A"
