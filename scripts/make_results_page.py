@@ -131,6 +131,11 @@ def accuracy_section(title: str, accuracy: dict | None, peers: dict | None, how:
             lines.append(f"Measured on the machine above: {', '.join(fresh)}; the other peers' rows were measured in "
                          f"earlier runs (`--keep`; the peers do not depend on sotmot's configuration), "
                          f"{kept_where(peers['kept'])}.")
+        if peers["detections"].startswith("private") and peers["machine"] != accuracy["machine"]:
+            lines.append("The built-in detector's boxes are not the same on the two machines (OpenVINO's CPU plugin "
+                         "computes differently on each; sotmot's combined HOTA from them moves by about 0.2), so the "
+                         "peers here were fed the boxes it gave on their machine, and sotmot's run on those very "
+                         "boxes is the first figure of each cell of the table below.")
     return [*lines, "", *peers_by_run(peers)]
 
 
