@@ -26,6 +26,10 @@ from sotmot.errors import ConfigError
 from sotmot.types import Detections, Tracklet
 
 _FORBIDDEN = 1e6
+#: IoU of two open tracklets' last boxes from which ``[tracklets] yield_weaker`` judges them as overlapping.
+YIELD_OVERLAP = 0.3
+#: How many of a tracklet's last detections score it for ``[tracklets] yield_weaker``.
+YIELD_TAIL = 3
 
 
 def batch_length(frame_rate: float, batch_seconds: float) -> int:
@@ -97,6 +101,8 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
                 aff = affinity(tails, features[idx])
                 allowed = (aff >= config.min_affinity) & (ious >= config.min_iou)
             cost = np.where(allowed, -aff, _FORBIDDEN)
+            if config.yield_weaker:
+                cost += config.yield_weaker * _weaker(detections, active, allowed)
             rows, cols = linear_sum_assignment(cost)
             for r, c in zip(rows, cols):
                 if allowed[r, c]:
@@ -112,6 +118,21 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
     kept = [t for t in finished if int(real[t].sum()) > config.l_min]
     kept.sort(key=lambda t: (detections.frames[t[0]], t[0]))
     return [make_tracklet(k, np.asarray(t), detections, features) for k, t in enumerate(kept, 1)]
+
+
+def _weaker(detections: Detections, active: list[list[int]], allowed: np.ndarray) -> np.ndarray:
+    """``(tracklets, detections)``: 1 where a tracklet must yield the detection (``[tracklets] yield_weaker``):
+    another open tracklet whose last box overlaps its own at IoU >= :data:`YIELD_OVERLAP`, and whose last
+    :data:`YIELD_TAIL` detections scored higher on average, may take it too; 0 elsewhere."""
+    out = np.zeros(allowed.shape)
+    if len(active) < 2:
+        return out
+    overlap = iou_matrix(detections.boxes[[t[-1] for t in active]], detections.boxes[[t[-1] for t in active]])
+    strength = np.array([detections.scores[t[-YIELD_TAIL:]].mean() for t in active])
+    stronger = (overlap >= YIELD_OVERLAP) & (strength[None, :] > strength[:, None])  # [r, s]: s overlaps r, scores more
+    for r in np.flatnonzero(stronger.any(axis=1)):
+        out[r] = allowed[r] & allowed[stronger[r]].any(axis=0)
+    return out
 
 
 def _step(detections: Detections, rows: list[int]) -> np.ndarray:

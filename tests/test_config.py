@@ -77,6 +77,9 @@ def test_replace_validates():
     assert c.association.l_max == 10
     with pytest.raises(ConfigError):
         TrackerConfig().replace("association", bogus=1)
+    assert TrackerConfig().tracklets.yield_weaker == 0.0  # off: the paper's matching
+    with pytest.raises(ConfigError, match="yield_weaker must be in"):
+        TrackerConfig().replace("tracklets", yield_weaker=1.5)
 
 
 def test_importing_the_config_imports_no_plug_in_and_no_numeric_library():

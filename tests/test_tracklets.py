@@ -6,6 +6,8 @@ from sotmot.config import TrackletConfig
 from sotmot.tracklets import batch_length, build_tracklets
 from sotmot.types import Detections
 
+from helpers import direction
+
 RED, BLUE, GREEN = (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)
 
 
@@ -93,3 +95,21 @@ def test_a_speeding_walker_stays_one_tracklet_only_when_the_box_is_predicted():
     features = np.ones((n, 2), np.float32)
     assert len(build_tracklets(dets, features, 30, TrackletConfig(l_min=0))) == 5
     assert len(build_tracklets(dets, features, 30, TrackletConfig(l_min=0, predict=True))) == 1
+
+
+def test_of_two_overlapping_tracklets_the_one_scoring_less_yields_the_detection_both_may_take():
+    # front (scores 0.9) and behind (scores 0.5) overlap; in frame 3 the detector keeps one box, which looks a
+    # little more like the one behind (affinity 0.97 against 0.95): the paper's matching gives it to the one behind
+    front, behind, box = direction(0.0), direction(9.17), direction(5.73)
+    rows = [(1, 0, 0, front), (1, 6, 0, behind), (2, 0, 0, front), (2, 6, 0, behind), (3, 3, 0, box)]
+    d, f = dets(rows)
+    d = Detections(d.frames, d.boxes, np.array([0.9, 0.5, 0.9, 0.5, 0.8]))
+    paper = build_tracklets(d, f, frame_rate=10, config=TrackletConfig(l_min=0))
+    assert groups(paper) == [[0, 2], [1, 3, 4]]
+    yielding = build_tracklets(d, f, frame_rate=10, config=TrackletConfig(l_min=0, yield_weaker=0.05))
+    assert groups(yielding) == [[0, 2, 4], [1, 3]]
+    # apart (last boxes 30 px apart, IoU 0 with each other), nobody yields: the paper's matching again
+    far = Detections(d.frames, d.boxes + np.array([[0, 0, 0, 0], [30, 0, 0, 0]] * 2 + [[0, 0, 0, 0]]), d.scores)
+    assert groups(build_tracklets(far, f, frame_rate=10, config=TrackletConfig(l_min=0, min_iou=0.0,
+                                                                                 yield_weaker=0.05))) == \
+        groups(build_tracklets(far, f, frame_rate=10, config=TrackletConfig(l_min=0, min_iou=0.0)))

@@ -51,6 +51,17 @@ class TrackletConfig:
         constant velocity (over its last ``tail`` boxes), not with the last box
         itself, in the IoU gate (and, motion only, the IoU that weights the
         match). False (default): the last box, as before.
+    yield_weaker
+        Where the last boxes of two open tracklets overlap (IoU 0.3 or more)
+        and both may take the same detection, the one whose last three
+        detections scored lower on average yields it:
+        its affinity (motion only: its IoU) with that detection counts this
+        much less. When two people overlap the detector tends to keep the one
+        in front, and the one behind scores less as it disappears; without
+        this the tracklet of the person behind can take the box of the one in
+        front. 0 (default): off, the paper's matching. 0.05 is the candidate
+        measured on the validation set (``docs/validation/yield0.05.toml``;
+        docs/benchmarks.md, "A tracklet that yields").
     """
 
     batch_seconds: float = 1.0
@@ -59,6 +70,7 @@ class TrackletConfig:
     min_iou: float = 0.2
     l_min: int = 1
     predict: bool = False
+    yield_weaker: float = 0.0
 
     def __post_init__(self) -> None:
         _check(0 < self.batch_seconds <= 60, "tracklets", "batch_seconds must be in (0, 60]")
@@ -66,6 +78,7 @@ class TrackletConfig:
         _check(0.0 <= self.min_affinity <= 1.0, "tracklets", "min_affinity must be in [0, 1]")
         _check(0.0 <= self.min_iou <= 1.0, "tracklets", "min_iou must be in [0, 1]")
         _check(0 <= self.l_min <= 1000, "tracklets", "l_min must be between 0 and 1000")
+        _check(0.0 <= self.yield_weaker <= 1.0, "tracklets", "yield_weaker must be in [0, 1]")
 
 
 @dataclass(frozen=True)
