@@ -132,10 +132,12 @@ def accuracy_section(title: str, accuracy: dict | None, peers: dict | None, how:
                          f"earlier runs (`--keep`; the peers do not depend on sotmot's configuration), "
                          f"{kept_where(peers['kept'])}.")
         if peers["detections"].startswith("private") and peers["machine"] != accuracy["machine"]:
+            where = ("the first figure of each cell of the table below" if peers.get("jitter") else
+                     "sotmot's row of the peers' own report")
             lines.append("The built-in detector's boxes are not the same on the two machines (OpenVINO's CPU plugin "
                          "computes differently on each; sotmot's combined HOTA from them moves by about 0.2), so the "
-                         "peers here were fed the boxes it gave on their machine, and sotmot's run on those very "
-                         "boxes is the first figure of each cell of the table below.")
+                         f"peers here were fed the boxes it gave on their machine, and sotmot's run on those very "
+                         f"boxes is {where}.")
     return [*lines, "", *peers_by_run(peers)]
 
 

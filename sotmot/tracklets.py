@@ -9,7 +9,9 @@ not linked. A tracklet that gets no detection in a frame is closed, so a
 tracklet covers consecutive frames. Unmatched detections start new
 tracklets. At the end of a batch every tracklet is closed; tracklets with
 ``<= l_min`` detector boxes (boxes added by the SOT step do not count) are
-dropped. Long-term association joins the rest.
+dropped. Long-term association joins the rest. With ``yield_weaker`` (off by
+default), of two open tracklets whose last boxes overlap, the one whose last
+detections scored lower yields a detection both may take.
 """
 
 from __future__ import annotations
@@ -127,7 +129,8 @@ def _weaker(detections: Detections, active: list[list[int]], allowed: np.ndarray
     out = np.zeros(allowed.shape)
     if len(active) < 2:
         return out
-    overlap = iou_matrix(detections.boxes[[t[-1] for t in active]], detections.boxes[[t[-1] for t in active]])
+    last = detections.boxes[[t[-1] for t in active]]
+    overlap = iou_matrix(last, last)
     strength = np.array([detections.scores[t[-YIELD_TAIL:]].mean() for t in active])
     stronger = (overlap >= YIELD_OVERLAP) & (strength[None, :] > strength[:, None])  # [r, s]: s overlaps r, scores more
     for r in np.flatnonzero(stronger.any(axis=1)):

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from conftest import DATA, require
+from conftest import DATA, require, write_sequence
 from helpers import load_script
 
 
@@ -123,8 +123,6 @@ def test_the_results_page_names_the_peer_sotmot_leads_least_and_marks_a_lead_of_
 
 
 def test_a_kept_report_of_other_detections_or_sequences_is_refused_before_anything_runs(tmp_path, capsys):
-    from conftest import write_sequence
-
     data = tmp_path / "data"
     write_sequence(data, ["1,-1,10,10,10,20,1"], name="A")
     script = load_script("bench_peers")
@@ -143,7 +141,7 @@ def test_a_kept_report_of_other_detections_or_sequences_is_refused_before_anythi
         assert not (tmp_path / "out").exists()
 
 
-def test_rows_kept_twice_keep_the_machine_they_were_measured_on(tmp_path):
+def test_rows_kept_twice_keep_the_machine_they_were_measured_on():
     script, page = load_script("bench_peers"), load_script("make_results_page")
     earlier = {"machine": "B", "kept": {"machine": "A", "rows": ["P"]}}  # P measured on A, Q and sotmot on B
     machines = script.kept_machines(earlier, ["P", "Q"])
