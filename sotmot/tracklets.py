@@ -92,7 +92,8 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
         matched_tracks: set[int] = set()
         matched_dets: set[int] = set()
         if active:
-            last = detections.boxes[[t[-1] for t in active]]
+            last_boxes = detections.boxes[[t[-1] for t in active]]
+            last = last_boxes
             if config.predict:  # each tracklet's last box moved on one frame at its velocity over its tail
                 last = last + np.array([_step(detections, t[-config.tail:]) for t in active])
             ious = iou_matrix(last, detections.boxes[idx])
@@ -104,7 +105,7 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
                 allowed = (aff >= config.min_affinity) & (ious >= config.min_iou)
             cost = np.where(allowed, -aff, _FORBIDDEN)
             if config.yield_weaker:
-                cost += config.yield_weaker * _weaker(detections, active, allowed)
+                cost += config.yield_weaker * _weaker(detections, active, last_boxes, allowed)
             rows, cols = linear_sum_assignment(cost)
             for r, c in zip(rows, cols):
                 if allowed[r, c]:
@@ -122,15 +123,16 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
     return [make_tracklet(k, np.asarray(t), detections, features) for k, t in enumerate(kept, 1)]
 
 
-def _weaker(detections: Detections, active: list[list[int]], allowed: np.ndarray) -> np.ndarray:
+def _weaker(detections: Detections, active: list[list[int]], last_boxes: np.ndarray, allowed: np.ndarray
+            ) -> np.ndarray:
     """``(tracklets, detections)``: 1 where a tracklet must yield the detection (``[tracklets] yield_weaker``):
-    another open tracklet whose last box overlaps its own at IoU >= :data:`YIELD_OVERLAP`, and whose last
-    :data:`YIELD_TAIL` detections scored higher on average, may take it too; 0 elsewhere."""
+    another open tracklet whose last box (``last_boxes``, as detected) overlaps its own at IoU >=
+    :data:`YIELD_OVERLAP`, and whose last :data:`YIELD_TAIL` detections scored higher on average, may take it
+    too; 0 elsewhere."""
     out = np.zeros(allowed.shape)
     if len(active) < 2:
         return out
-    last = detections.boxes[[t[-1] for t in active]]
-    overlap = iou_matrix(last, last)
+    overlap = iou_matrix(last_boxes, last_boxes)
     strength = np.array([detections.scores[t[-YIELD_TAIL:]].mean() for t in active])
     stronger = (overlap >= YIELD_OVERLAP) & (strength[None, :] > strength[:, None])  # [r, s]: s overlaps r, scores more
     for r in np.flatnonzero(stronger.any(axis=1)):
