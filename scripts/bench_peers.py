@@ -90,7 +90,8 @@ from sotmot.config import TrackerConfig
 from sotmot.inspect.compare import jitter_runs
 from sotmot.scoring import evaluate_files
 from sotmot.io import read_seqinfo, results_path, write_results, write_text_atomic
-from sotmot.peers import BOXMOT, BOXMOT_CMC, BOXMOT_ROWS, TRACKERS_ROWS, SeqInput, load, run_boxmot, run_peer
+from sotmot.peers import (BOXMOT, BOXMOT_CMC, BOXMOT_ROWS, TRACKERS_ROWS, SeqInput, load, report_tables,
+                          row_machines, run_boxmot, run_peer)
 from sotmot.pipeline import finish_sequence, prepare_sequence
 from sotmot.types import Tracks
 from sotmot.versions import machine
@@ -178,9 +179,8 @@ def same_detections(kept: dict, detector_model: str | None) -> bool:
 def kept_machines(kept: dict, rows: list[str]) -> dict[str, str]:
     """The machine each of ``rows`` of an earlier report (``--keep``) was measured on: the report's own, or,
     for a row that report kept in turn from a still earlier one, that row's own machine."""
-    earlier = kept.get("kept", {})
-    own = earlier.get("machines") or {row: earlier.get("machine") for row in earlier.get("rows", [])}
-    return {row: own.get(row) or kept["machine"] for row in rows}
+    own = row_machines(kept["kept"]) if "kept" in kept else {}
+    return {row: own.get(row, kept["machine"]) for row in rows}
 
 
 def bar_chart(path: Path, table: dict[str, dict[str, dict[str, float]]], trackers: list[str]) -> None:
@@ -406,8 +406,9 @@ def main(argv: list[str] | None = None) -> int:
                             f"{table[best][group][metric]:.1f} ({'ahead' if margin > 0 else 'BEHIND'} by "
                             f"{abs(margin):.1f})")
     lines += ["", "Goal (default sotmot above every peer on HOTA and IDF1):", *goal]
+    jitter = {"copies": args.jitter, "pixels": JITTER_PIXELS, "trackers": jitter_trackers, "tables": jitter_tables}
     if jitter_tables and "sotmot" in jitter_trackers:
-        paired, _ = paired_text([{t: table[t] for t in jitter_trackers}, *jitter_tables], "sotmot")
+        paired, _ = paired_text(report_tables({"table": table, "jitter": jitter}), "sotmot")
         lines += ["", f"Run by run: the boxes themselves, then {args.jitter} copies whose every box moved by under "
                       f"{JITTER_PIXELS:g} px (`--jitter`).", *paired.splitlines()]
     text = "\n".join(lines) + "\n"
@@ -420,8 +421,7 @@ def main(argv: list[str] | None = None) -> int:
         "seconds": seconds, "reid_seconds": reid, "frames": frames,
         "preprocessing": "sotmot default: no score threshold, per-frame NMS 0.6 (IoM for DPM scores, IoU otherwise)",
         "peer_scores": "as given when all in [0, 1], else per-sequence rank / count",
-        **({"jitter": {"copies": args.jitter, "pixels": JITTER_PIXELS, "trackers": jitter_trackers,
-                       "tables": jitter_tables}} if args.jitter else {}),
+        **({"jitter": jitter} if args.jitter else {}),
         **({"kept": {"from": str(args.keep), "runs": kept["runs"], "rows": kept_rows, "machines": machines}}
            if kept is not None else {}),
     }, indent=2) + "\n")

@@ -51,7 +51,7 @@ from pathlib import Path
 from sotmot.benchmarks import FULL_LENGTH
 from sotmot.inspect.compare import SPREAD_COLUMNS, paired_rows
 from sotmot.io import write_text_atomic
-from sotmot.peers import TRACKERS_ROWS
+from sotmot.peers import TRACKERS_ROWS, report_tables, row_machines
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "docs" / "results"
@@ -143,7 +143,7 @@ def accuracy_section(title: str, accuracy: dict | None, peers: dict | None, how:
 
 def kept_where(kept: dict) -> str:
     """Which machine the rows a ``bench_peers.py --keep`` report kept were measured on (its ``kept`` section)."""
-    machines = kept.get("machines") or {row: kept["machine"] for row in kept["rows"]}
+    machines = row_machines(kept)
     if len(set(machines.values())) == 1:
         return f"machine: {next(iter(machines.values()))}"
     return "; ".join(f"{', '.join(sorted(r for r, m in machines.items() if m == machine))} on {machine}"
@@ -158,7 +158,7 @@ def peers_by_run(peers: dict | None, first: str = "sequence") -> list[str]:
     jitter = (peers or {}).get("jitter")
     if not jitter or "sotmot" not in jitter["trackers"]:
         return []
-    tables = [{t: peers["table"][t] for t in jitter["trackers"]}, *jitter["tables"]]
+    tables = report_tables(peers)
     rivals = [t for t in jitter["trackers"] if not t.startswith("sotmot")]
     by_metric = {m: paired_rows(tables, "sotmot", m) for m in SPREAD_COLUMNS}
     groups = [g for g in ("full-length", "MOT16 clips", "MOT17 clips") if g in tables[0]["sotmot"]]

@@ -33,15 +33,7 @@ from common import read_report
 from sotmot.errors import InputError
 from sotmot.inspect.compare import SPREAD_COLUMNS, paired_rows
 from sotmot.io import refuse_overwriting, write_text_atomic
-
-
-def report_tables(report: dict) -> list[dict]:
-    """A ``bench_peers.py`` report's score tables: its own, then those of its ``--jitter`` copies (if any), each
-    restricted to the trackers that ran on the copies."""
-    jitter = report.get("jitter")
-    if not jitter:
-        return [report["table"]]
-    return [{t: report["table"][t] for t in jitter["trackers"]}, *jitter["tables"]]
+from sotmot.peers import report_tables
 
 
 def paired_text(tables: list[dict], reference: str) -> tuple[str, dict[str, dict]]:

@@ -6,7 +6,8 @@ to [0, 1] where they are not (:func:`peer_scores`). Each ``run_*`` returns the
 peer's output as :class:`~sotmot.types.Tracks` and the seconds of its
 tracking loop alone. The peers' packages (``trackers`` and ``supervision``,
 ``deep-sort-realtime``, ``boxmot``) come with ``bash scripts/bootstrap.sh
---bench`` and are imported only when their tracker runs.
+--bench`` and are imported only when their tracker runs. :func:`report_tables`
+and :func:`row_machines` read the reports ``bench_peers.py`` writes.
 """
 
 from __future__ import annotations
@@ -235,3 +236,18 @@ def run_peer(name: str, seq: SeqInput, min_affinity: float) -> tuple[Tracks, flo
     if memory is None:
         return tracks, seconds
     return gsi(tracks, interval=memory_frames(memory, seq)), seconds
+
+
+def report_tables(report: dict) -> list[dict]:
+    """A ``scripts/bench_peers.py`` report's score tables: its own, then those of its ``--jitter`` copies (if
+    any), each restricted to the trackers that ran on the copies."""
+    jitter = report.get("jitter")
+    if not jitter:
+        return [report["table"]]
+    return [{t: report["table"][t] for t in jitter["trackers"]}, *jitter["tables"]]
+
+
+def row_machines(kept: dict) -> dict[str, str]:
+    """The machine each row of a report's ``kept`` section (``bench_peers.py --keep``) was measured on; a report
+    made before the rows carried their own names one machine for them all."""
+    return kept.get("machines") or {row: kept["machine"] for row in kept["rows"]}
