@@ -23,7 +23,11 @@ and two changes, so these counts can exceed the totals above):
 * a switch (an output id's person changes between two matched frames):
   ``inside a tracklet`` (both boxes from one tracklet: the tracklet stage
   linked two people), ``a merge`` (boxes of two tracklets that association
-  joined), or ``interpolation`` (one of the two boxes is interpolated).
+  joined), or ``interpolation`` (one of the two boxes is interpolated), told
+  apart by the detected boxes on either side of the filled span: ``joins two
+  people`` (they are matched to two people: the merge across the gap was
+  wrong), ``filled off the person`` (to one: the straight line left them for
+  someone else), ``an end unmatched`` (either is matched to no one).
 
 **The ceiling of association** on the same tracklets: each sequence is also
 finished (interpolation, confirmation, end extension as configured) with the
@@ -56,6 +60,7 @@ answer is to take nothing.
 from __future__ import annotations
 
 import argparse
+import bisect
 import json
 import sys
 import tempfile
@@ -141,14 +146,36 @@ def explain(result: TrackResult, errors: FrameErrors, config: TrackerConfig) -> 
         row = int(np.searchsorted(t.frames, frame))
         return tracklet_of.get(int(t.det_index[row])) if row < len(t) and t.frames[row] == frame else None
 
+    detected: dict[int, list[int]] = {}  # output id -> the frames of its detected (not interpolated) boxes
+    for f, i, x in zip(tracks.frames, tracks.ids, tracks.interpolated):
+        if not x:
+            detected.setdefault(int(i), []).append(int(f))
+    for frames in detected.values():
+        frames.sort()
+
     for tid, life in track_lives.items():
         for fa, _, fb, _ in changes(life):
             if filled.get((fa, tid)) or filled.get((fb, tid)):
-                switch["interpolation"] += 1
+                switch[gap_kind(detected.get(tid, []), errors, tid, fa, fb)] += 1
             else:
                 a, b = source(tid, fa), source(tid, fb)
                 switch["inside a tracklet" if a is not None and a == b else "a merge"] += 1
     return {"fragmentations": frag, "switches": switch}
+
+
+def gap_kind(detected: list[int], errors: FrameErrors, tid: int, fa: int, fb: int) -> str:
+    """A switch of output id ``tid`` between matched frames ``fa`` and ``fb``, one of them interpolated: are the
+    detected boxes around the filled span (``detected``: the frames of the id's detected boxes, in order; the last
+    at or before ``fa``, the first at or after ``fb``) matched to two people, to one, or is either unmatched?"""
+    k = bisect.bisect_right(detected, fa)
+    before = detected[k - 1] if k else None
+    k = bisect.bisect_left(detected, fb)
+    after = detected[k] if k < len(detected) else None
+    pa = errors.identities.get((before, tid)) if before is not None else None
+    pb = errors.identities.get((after, tid)) if after is not None else None
+    if pa is None or pb is None:
+        return "interpolation: an end unmatched"
+    return "interpolation: joins two people" if pa != pb else "interpolation: filled off the person"
 
 
 #: What ranks the candidates of one choice (:func:`choices`), from their affinity and IoU with the detection.

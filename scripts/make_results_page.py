@@ -877,7 +877,10 @@ def identities_section(data: dict | None) -> list[str]:
              "a person matched to k output ids counts k - 1 fragmentations, an output id matched to k people "
              f"k - 1 switches; beside sotmot, {peer} on the same boxes and embeddings. sotmot's changes of id "
              "are explained by the stage that made them: a fragmentation by the rules that refuse the two "
-             "trajectories' merge (or `allowed, not chosen`), a switch by where its two boxes came from.", "",
+             "trajectories' merge (or `allowed, not chosen`), a switch by where its two boxes came from (one "
+             "tracklet, two tracklets that association joined, or an interpolated box; the latter split by the "
+             "detected boxes on either side of the filled span: matched to two people, the join across the gap "
+             "was wrong; to one, the straight line left them).", "",
              f"| sequence | sotmot fragmentations / switches | {peer} | sotmot's fragmentations by stage | "
              "sotmot's switches by stage |", "|---|---|---|---|---|"]
     for name, row in data["sequences"].items():

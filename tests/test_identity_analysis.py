@@ -33,3 +33,16 @@ def test_a_choice_is_counted_for_each_judge_and_a_detection_of_no_one_is_not():
     # appearance (0.95 against 0.60) picks person 1; the IoU (0.43 against 1) and the sum pick person 2
     assert counts == {"choices": 1, "appearance": 1, "IoU": 0, "affinity + IoU": 0}
     assert script.choices(dets, np.zeros((4, 0), np.float32), persons, TrackletConfig())["choices"] == 0
+
+
+def test_a_switch_at_a_filled_box_is_told_by_the_people_on_either_side_of_the_gap():
+    script = load_script("identity_analysis")
+    errors = FrameErrors()
+    # output id 7: detected in frames 1, 2 and 6, 7 (3-5 filled); frame 10 detected but matched to no one
+    errors.identities = {(1, 7): 0, (2, 7): 0, (4, 7): 1, (6, 7): 1, (7, 7): 1}
+    detected = [1, 2, 6, 7, 10]
+    assert script.gap_kind(detected, errors, 7, 2, 4) == "interpolation: joins two people"
+    errors.identities[(6, 7)] = 0  # the far side is person 0 again: the filled box strayed onto person 1
+    assert script.gap_kind(detected, errors, 7, 2, 4) == "interpolation: filled off the person"
+    assert script.gap_kind(detected, errors, 7, 8, 9) == "interpolation: an end unmatched"
+    assert script.gap_kind([], errors, 7, 2, 4) == "interpolation: an end unmatched"
