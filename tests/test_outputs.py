@@ -301,3 +301,20 @@ def test_graph_and_explain_speak_of_the_tracks_of_the_results_file(tmp_path, cap
     overlapping = next((u, v) for u, v, d in graph.edges(data=True) if d["overlap_frames"] > 0)
     text = explain_tracklets(graph, *overlapping, config)
     assert "share" in text and "IoU decides" in text and "REJECTED by iou" in text
+
+
+def test_render_and_eval_given_their_arguments_the_wrong_way_round_say_so(tmp_path, capsys):
+    seq = write_sequence(tmp_path, ["1,-1,10,10,20,30,0.9"], length=3, gt_lines=GT)
+    out = tmp_path / "out"
+    out.mkdir()
+    results = out / "SYN.txt"
+    results.write_text("\n".join(RESULTS) + "\n")
+    capsys.readouterr()
+    assert main(["render", str(results), str(seq), "--out", str(tmp_path / "frames"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"sotmot render {seq} {results} --out" in err, err
+    assert not (tmp_path / "frames").exists()
+    assert main(["eval", str(seq), str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"sotmot eval {out} {seq}" in err, err
+    assert main(["eval", str(out), str(seq)]) == 0  # the right way round scores

@@ -174,6 +174,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
     from sotmot.provenance import results_doubts
     from sotmot.scoring import evaluate, format_table
 
+    plain = [seq for seq in args.seq_dirs if seq.is_dir() and not (seq / "seqinfo.ini").is_file()]
+    if (args.results_dir / "seqinfo.ini").is_file() and plain:
+        raise SotmotError(f"{args.results_dir} is a sequence folder and {plain[0]} is not: eval takes the results "
+                          f"folder first, then the sequences (sotmot eval {plain[0]} {args.results_dir})")
     _check_json(args.json, args.seq_dirs, args.results_dir)
     report = evaluate(args.results_dir, args.seq_dirs)
     for seq in args.seq_dirs:
@@ -223,6 +227,10 @@ def cmd_render(args: argparse.Namespace) -> int:
     from sotmot.io.flags import flags_path
     from sotmot.runs import low_confidence_path
 
+    if args.seq_dir.is_file() and not is_video(args.seq_dir) and (args.results.is_dir() or is_video(args.results)):
+        raise SotmotError(f"{args.seq_dir} is a results file and {args.results} what was tracked: render takes the "
+                          f"sequence, video or folder of images first, then the results (sotmot render "
+                          f"{args.results} {args.seq_dir} --out ...)")
     inputs = [args.seq_dir, args.results, flags_path(args.results), low_confidence_path(args.results), args.mask]
     refuse_overwriting([args.out], inputs, "choose another --out")  # before a video is read
     if args.gt and is_video(args.seq_dir):
