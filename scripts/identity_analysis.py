@@ -2,7 +2,9 @@
 """Where identities are lost: fragmentations and switches of sotmot, by the stage that made them, beside a peer's.
 
 Tracks every full-length sequence with frames, or those ``--sequences`` names
-(public detections, the configuration given or the defaults) and matches its
+(public detections, or with ``--detector-model`` the person detector's boxes,
+as ``sotmot track --detections model`` tracks them; the configuration given or
+the defaults) and matches its
 output to the ground truth with TrackEval's own CLEAR matching
 (:func:`sotmot.scoring.frame_errors`).
 Counted, for sotmot and for a peer's results on the same boxes (``--peer``, a
@@ -72,7 +74,7 @@ import numpy as np
 from common import DEFAULT_DATA, named_sequences
 from sotmot.appearance import affinity, motion_only
 from sotmot.association.checks import check_pair
-from sotmot.benchmarks import FULL_LENGTH, cached_features, sequences
+from sotmot.benchmarks import FULL_LENGTH, cached_features, private_config, sequences
 from sotmot.association import Association
 from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig, TrackletConfig, load_config
@@ -243,12 +245,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--choices", action="store_true",
                         help="also count the tracklets' choices with a known answer and how often appearance, the "
                              "IoU and the two added pick right (see above)")
+    parser.add_argument("--detector-model", metavar="PATH.xml",
+                        help="track the person detector's boxes (private detections) instead of det/det.txt; --peer "
+                             "then names a peer's results on those boxes (bench_peers.py --detector-model)")
+    parser.add_argument("--det-cache", type=Path, default=Path(".cache/detections"),
+                        help="where the detector's boxes are kept between runs (default: %(default)s)")
     parser.add_argument("--json", type=Path, help="write the report here")
     args = parser.parse_args(argv)
+    if args.detector_model and not Path(args.detector_model).is_file():
+        parser.error(f"--detector-model: no such file: {args.detector_model}")
 
     config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
     SOLVERS["ground-truth"] = f"{__name__}:ground_truth_solve"
-    ceiling_config = config.replace("association", solver="ground-truth")
     seqs = named_sequences(parser, args.data, args.sequences) if args.sequences else \
         [p for p in sequences(args.data) if read_seqinfo(p).length > FULL_LENGTH]
     if not seqs:
@@ -257,14 +265,18 @@ def main(argv: list[str] | None = None) -> int:
     embedder: list = []
     with tempfile.TemporaryDirectory() as tmp:
         for seq in seqs:
-            prepared = prepare_sequence(seq, config, features=cached_features(seq, config, args.cache, embedder))
-            result = finish_sequence(prepared, config)
+            seq_config = (private_config(config, seq, str(Path(args.detector_model).resolve()), args.det_cache)
+                          if args.detector_model else config)
+            ceiling_config = seq_config.replace("association", solver="ground-truth")
+            prepared = prepare_sequence(seq, seq_config,
+                                        features=cached_features(seq, seq_config, args.cache, embedder))
+            result = finish_sequence(prepared, seq_config)
             info = result.info
             path = results_path(Path(tmp), info.name)
             write_results(path, result.tracks)
             errors = frame_errors(path, info.gt_path, info.length, info.name)
             row = {"sotmot": counts(errors), "sotmot_by_stage": {k: dict(v) for k, v in
-                                                                explain(result, errors, config).items()},
+                                                                explain(result, errors, seq_config).items()},
                    "sotmot_scores": scores(path, info)}
             persons = tracklet_identities(prepared.tracklets, info, Path(tmp) / "persons" / info.name,
                                           prepared.motion)
@@ -280,7 +292,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.choices:
                 row["choices"] = choices(prepared.in_ref, prepared.features,
                                          detection_persons(prepared, Path(tmp) / "detections" / info.name),
-                                         config.tracklets)
+                                         seq_config.tracklets)
             report[info.name] = row
             print(f"{info.name}: done", file=sys.stderr)
     peer = args.peer.name.replace("_", " ") if args.peer else None
@@ -304,10 +316,12 @@ def main(argv: list[str] | None = None) -> int:
         lines += [f"{name:<16}{row['choices']['choices']:>9}" + "".join(f"{row['choices'][j]:>16}" for j in JUDGES)
                   for name, row in report.items()]
     print("\n".join(lines))
-    print(f"peer: {peer or 'none'}; public detections; machine: {machine()}")
+    detections = (f"private detections: the boxes of {Path(args.detector_model).name}" if args.detector_model
+                  else "public detections")
+    print(f"peer: {peer or 'none'}; {detections}; machine: {machine()}")
     if args.json:
-        write_text_atomic(args.json, json.dumps({"machine": machine(), "peer": peer, "config": config.to_dict(),
-                                                 "sequences": report}, indent=2) + "\n")
+        write_text_atomic(args.json, json.dumps({"machine": machine(), "peer": peer, "detections": detections,
+                                                 "config": config.to_dict(), "sequences": report}, indent=2) + "\n")
     return 0
 
 

@@ -30,7 +30,8 @@ Files it reads, each optional (a missing one leaves its section out):
 * ``validation.json``: ``scripts/bench_validation.py`` (candidate defaults on the validation set);
 * ``validation_seeds.json``: ``scripts/bench_validation.py --seeds`` (the same, means over jittered copies);
 * ``validation_private.json``: ``scripts/bench_validation.py --detector-model`` (the same from the detector's boxes);
-* ``identities_public.json``: ``scripts/identity_analysis.py`` (fragmentations and switches by stage);
+* ``identities_public.json``, ``identities_private.json``: ``scripts/identity_analysis.py`` (fragmentations and
+  switches by stage; the second with ``--detector-model``);
 * ``false_boxes.json``: ``scripts/fp_analysis.py`` (every output box and its FP by the stage that wrote it);
 * ``confidence_fit.json``: ``scripts/fit_confidence.py --json`` (the packaged calibration, held out);
 * ``transfer.json``: ``scripts/transfer_confidence.py`` (a detector family held out);
@@ -867,21 +868,38 @@ def validation_peers(data: dict, ref: str, shown: tuple[str, ...]) -> list[str]:
     return lines
 
 
-def identities_section(data: dict | None) -> list[str]:
-    """Fragmentations and switches by stage (``scripts/identity_analysis.py``)."""
+def identities_section(data: dict | None, private: dict | None = None) -> list[str]:
+    """Fragmentations and switches by stage (``scripts/identity_analysis.py``), from public detections (``data``) and,
+    when measured, from the built-in detector's boxes (``private``)."""
     if data is None:
         return []
     peer = data["peer"] or "no peer"
     lines = ["## Where identities are lost", "",
-             "`scripts/identity_analysis.py` (issue #38), public detections, defaults, TrackEval's CLEAR matching: "
+             f"`scripts/identity_analysis.py` (issue #38), {data.get('detections', 'public detections')}, defaults, "
+             "TrackEval's CLEAR matching: "
              "a person matched to k output ids counts k - 1 fragmentations, an output id matched to k people "
              f"k - 1 switches; beside sotmot, {peer} on the same boxes and embeddings. sotmot's changes of id "
              "are explained by the stage that made them: a fragmentation by the rules that refuse the two "
              "trajectories' merge (or `allowed, not chosen`), a switch by where its two boxes came from (one "
              "tracklet, two tracklets that association joined, or an interpolated box; the latter split by the "
              "detected boxes on either side of the filled span: matched to two people, the join across the gap "
-             "was wrong; to one, the straight line left them).", "",
-             f"| sequence | sotmot fragmentations / switches | {peer} | sotmot's fragmentations by stage | "
+             "was wrong; to one, the straight line left them).", ""]
+    lines += identities_table(data, peer)
+    lines += ceiling_table(data, peer)
+    lines += ["", f"Machine: {data['machine']}.", ""]
+    if private is not None:
+        lines += ["### The same from the built-in detector's boxes", "",
+                  f"{private['detections'][0].upper()}{private['detections'][1:]}; beside sotmot, "
+                  f"{private['peer'] or 'no peer'} on the same boxes and embeddings.", ""]
+        lines += identities_table(private, private["peer"] or "no peer")
+        lines += ceiling_table(private, private["peer"] or "no peer", said=True)
+        lines += ["", f"Machine: {private['machine']}.", ""]
+    return lines
+
+
+def identities_table(data: dict, peer: str) -> list[str]:
+    """Per sequence: fragmentations and switches of sotmot and the peer, and sotmot's by the stage that made them."""
+    lines = [f"| sequence | sotmot fragmentations / switches | {peer} | sotmot's fragmentations by stage | "
              "sotmot's switches by stage |", "|---|---|---|---|---|"]
     for name, row in data["sequences"].items():
         p = row.get("peer")
@@ -890,8 +908,7 @@ def identities_section(data: dict | None) -> list[str]:
         lines.append(f"| {name} | {row['sotmot']['fragmentations']} / {row['sotmot']['switches']} | "
                      + (f"{p['fragmentations']} / {p['switches']}" if p else "not run")
                      + f" | {stages[0]} | {stages[1]} |")
-    lines += ceiling_table(data, peer)
-    return lines + ["", f"Machine: {data['machine']}.", ""]
+    return lines
 
 
 def false_boxes_section(data: dict | None) -> list[str]:
@@ -935,16 +952,22 @@ def false_boxes_section(data: dict | None) -> list[str]:
     return lines + ["", f"Machine: {data['machine']}.", ""]
 
 
-def ceiling_table(data: dict, peer: str) -> list[str]:
-    """sotmot, association replaced by the ground truth on the same tracklets, and the peer: HOTA / IDF1 / MOTA."""
+def ceiling_table(data: dict, peer: str, said: bool = False) -> list[str]:
+    """sotmot, association replaced by the ground truth on the same tracklets, and the peer: HOTA / IDF1 / MOTA
+    (``said``: the ceiling was explained above, a short lead only)."""
     rows = {n: r for n, r in data["sequences"].items() if "ceiling_scores" in r}
     if not rows:
         return []
-    lines = ["", "**The ceiling of association.** Each sequence finished once more from the same tracklets with the "
-             "solver replaced by the ground truth (every tracklet joined with the others that are mostly the same "
-             "person, the rules not asked; interpolation, confirmation and end extension as in sotmot): about what "
-             "association of these tracklets can still gain. Not a strict bound (on TUD-Stadtmitte it is below "
-             "sotmot): the later stages judge the joined trajectories again. HOTA / IDF1 / MOTA:", "",
+    below = [n for n, r in rows.items() if r["ceiling_scores"]["HOTA"] < r["sotmot_scores"]["HOTA"]]
+    lead = ("**The ceiling of association**, as above. HOTA / IDF1 / MOTA:" if said else
+            "**The ceiling of association.** Each sequence finished once more from the same tracklets with the "
+            "solver replaced by the ground truth (every tracklet joined with the others that are mostly the same "
+            "person, the rules not asked; interpolation, confirmation and end extension as in sotmot): about what "
+            "association of these tracklets can still gain. Not a strict bound"
+            + (f" (on {' and '.join([', '.join(below[:-1]), below[-1]] if len(below) > 1 else below)} it is below "
+               "sotmot)" if below else "")
+            + ": the later stages judge the joined trajectories again. HOTA / IDF1 / MOTA:")
+    lines = ["", lead, "",
              f"| sequence | sotmot | ground-truth association | {peer} | sotmot - peer | ceiling - peer |",
              "|---|---|---|---|---|---|"]
 
@@ -972,7 +995,7 @@ def page() -> str:
     lines += seeds_section(load("validation_seeds.json"))
     lines += validation_section(load("validation_private.json"))
     lines += choice_section(load("choice.json"))
-    lines += identities_section(load("identities_public.json"))
+    lines += identities_section(load("identities_public.json"), load("identities_private.json"))
     lines += false_boxes_section(load("false_boxes.json"))
     lines += accuracy_section("Private detections", load("accuracy_private.json"), load("peers_private.json"),
                               "The built-in person detector's boxes (`--detections model`, person-detection-0202). "

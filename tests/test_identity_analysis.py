@@ -46,3 +46,12 @@ def test_a_switch_at_a_filled_box_is_told_by_the_people_on_either_side_of_the_ga
     assert script.gap_kind(detected, errors, 7, 2, 4) == "interpolation: filled off the person"
     assert script.gap_kind(detected, errors, 7, 8, 9) == "interpolation: an end unmatched"
     assert script.gap_kind([], errors, 7, 2, 4) == "interpolation: an end unmatched"
+
+
+def test_a_missing_detector_model_is_refused_before_any_tracking(tmp_path, capsys):
+    import pytest
+
+    script = load_script("identity_analysis")
+    with pytest.raises(SystemExit) as stop:
+        script.main(["--model", "unused.onnx", "--data", str(tmp_path), "--detector-model", str(tmp_path / "no.xml")])
+    assert stop.value.code == 2 and "--detector-model: no such file" in capsys.readouterr().err
