@@ -148,12 +148,10 @@ def explain(result: TrackResult, errors: FrameErrors, config: TrackerConfig) -> 
         row = int(np.searchsorted(t.frames, frame))
         return tracklet_of.get(int(t.det_index[row])) if row < len(t) and t.frames[row] == frame else None
 
-    detected: dict[int, list[int]] = {}  # output id -> the frames of its detected (not interpolated) boxes
-    for f, i, x in zip(tracks.frames, tracks.ids, tracks.interpolated):
+    detected: dict[int, list[int]] = {}  # output id -> the frames of its detected (not interpolated) boxes, in order
+    for (f, i), x in sorted(filled.items()):
         if not x:
-            detected.setdefault(int(i), []).append(int(f))
-    for frames in detected.values():
-        frames.sort()
+            detected.setdefault(i, []).append(f)
 
     for tid, life in track_lives.items():
         for fa, _, fb, _ in changes(life):
