@@ -19,6 +19,7 @@ __version__ = "0.1.0"
 #: The public names, each from the module that defines it (imported on first use).
 _EXPORTS = {
     "track": "sotmot.api",
+    "stream": "sotmot.api",
     "evaluate": "sotmot.api",
     "Result": "sotmot.api",
     "TrackerConfig": "sotmot.config",

@@ -54,12 +54,7 @@ def plan(length: int, frame_rate: float, config: TrackerConfig) -> list[Window]:
     """
     if config.windows.seconds <= 0:
         return [(1, length)]
-    size = max(1, int(round(config.windows.seconds * frame_rate)))
-    overlap = overlap_frames(frame_rate, config)
-    if size < 2 * overlap:
-        raise ConfigError(f"[windows] seconds = {config.windows.seconds:g} is {size} frames, less than twice the "
-                          f"overlap of {overlap} frames ({overlap / frame_rate:g} s, at least the association's gap "
-                          f"limit): give windows of at least {2 * overlap / frame_rate:g} s")
+    size, overlap = window_size(frame_rate, config)
     windows, start = [], 1
     while True:
         end = min(start + size - 1, length)
@@ -67,6 +62,24 @@ def plan(length: int, frame_rate: float, config: TrackerConfig) -> list[Window]:
         if end == length:
             return windows
         start = end - overlap + 1
+
+
+def window_size(frame_rate: float, config: TrackerConfig) -> tuple[int, int]:
+    """``(size, overlap)``: a window's length and the overlap of consecutive windows, in frames, for ``[windows]
+    seconds`` (> 0) at ``frame_rate``. Window ``k + 1`` starts ``overlap`` frames before window ``k`` ends.
+
+    Raises
+    ------
+    ConfigError
+        A window shorter than twice the overlap.
+    """
+    size = max(1, int(round(config.windows.seconds * frame_rate)))
+    overlap = overlap_frames(frame_rate, config)
+    if size < 2 * overlap:
+        raise ConfigError(f"[windows] seconds = {config.windows.seconds:g} is {size} frames, less than twice the "
+                          f"overlap of {overlap} frames ({overlap / frame_rate:g} s, at least the association's gap "
+                          f"limit): give windows of at least {2 * overlap / frame_rate:g} s")
+    return size, overlap
 
 
 def cut(windows: list[Window], k: int) -> int:
@@ -187,7 +200,9 @@ class Stitcher:
     ``carry`` holds the previous window's boxes (final ids) in its overlap
     with the next; ``next_id`` the next new id. Both travel in the run record,
     so an interrupted run resumes at the next window (:meth:`state`,
-    :meth:`from_state`).
+    :meth:`from_state`). ``windows`` may grow while windows are added (a
+    stream's, :func:`sotmot.api.stream`): adding window ``k`` reads window
+    ``k + 1``'s first frame, and whether there is one.
     """
 
     windows: list[Window]
@@ -303,4 +318,4 @@ def _window_job(info: SeqInfo, windows: list[Window], k: int, config: TrackerCon
 
 
 __all__ = ["Stitcher", "WindowFrames", "WindowResult", "cut", "join", "overlap_frames", "plan",
-           "sequence_detections", "track_in_windows", "track_window", "window_sequence", "windowed"]
+           "sequence_detections", "track_in_windows", "track_window", "window_sequence", "window_size", "windowed"]

@@ -1,0 +1,105 @@
+"""``sotmot.stream``: a one-pass stream of frames tracked in committed windows gives, part by part, the tracks
+``sotmot.track`` gives with the same windows; it reads no further than a window ahead, keeps one window of
+frames on disk, and says what is wrong with its input before it reads a frame."""
+
+from __future__ import annotations
+
+import tempfile
+
+import numpy as np
+import pytest
+
+import sotmot
+from sotmot.errors import ConfigError, InputError
+from sotmot.types import Tracks
+
+from conftest import DATA, require
+
+CLIP = DATA / "MOT16-02-clip30"
+#: Windows of 15 frames overlapping by 6 at 30 fps: the 30-frame clip in three.
+SMALL = {"association": {"l_max_seconds": 0.2}, "windows": {"seconds": 0.5}}
+
+
+def _clip(n: int) -> tuple[list[np.ndarray], np.ndarray]:
+    import cv2
+
+    seq = require(CLIP)
+    frames = [cv2.imread(str(p)) for p in sorted((seq / "img1").glob("*.jpg"))[:n]]
+    det = np.loadtxt(seq / "det" / "det.txt", delimiter=",", ndmin=2)[:, [0, 2, 3, 4, 5, 6]]
+    return frames, det[det[:, 0] <= n]
+
+
+def _same(a: Tracks, b: Tracks) -> bool:
+    return all(np.array_equal(x, y) for x, y in ((a.frames, b.frames), (a.ids, b.ids), (a.boxes, b.boxes),
+                                                 (a.scores, b.scores)))
+
+
+@pytest.mark.parametrize("n, parts", [(30, [(1, 12), (13, 21), (22, 30)]), (24, [(1, 12), (13, 24)]),
+                                      (15, [(1, 15)])])
+def test_a_stream_gives_the_windowed_tracks_part_by_part(n, parts):
+    frames, det = _clip(n)
+    got = list(sotmot.stream((f for f in frames), det, frame_rate=30, config=SMALL, name="MOT16-02"))
+    assert [(p.first, p.last) for p in got] == parts  # consecutive, from frame 1 to the stream's last
+    for p in got:
+        assert ((p.tracks.frames >= p.first) & (p.tracks.frames <= p.last)).all()
+    whole = sotmot.track(frames, det, frame_rate=30, config=SMALL, name="MOT16-02")
+    assert _same(Tracks.concatenate([p.tracks for p in got]), whole.tracks)
+    assert _same(Tracks.concatenate([p.dropped for p in got]), whole.dropped)
+    assert len(whole.tracks) > 100 and len({*whole.tracks.ids}) > 5
+
+
+def test_a_stream_without_detections_runs_the_detector_on_each_window():
+    frames, _ = _clip(20)
+    got = list(sotmot.stream(iter(frames), frame_rate=30, config=SMALL))
+    assert [(p.first, p.last) for p in got] == [(1, 12), (13, 20)]
+    whole = sotmot.track(frames, frame_rate=30, config=SMALL)
+    assert len(whole.tracks) and _same(Tracks.concatenate([p.tracks for p in got]), whole.tracks)
+
+
+def test_a_stream_reads_a_window_ahead_at_most_and_keeps_one_window_on_disk(tmp_path, monkeypatch):
+    """Two walkers at 5 fps, 8-s windows (40 frames, overlapping by the 4-s gap, 20): each part comes out once
+    its window's last frame and the next have been read, and the spool never holds more than those."""
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    det = np.array([(f, x0 + dx * f, y, 30, 60, 0.9) for f in range(1, 121)
+                    for x0, dx, y in ((10, 3.0, 20), (400, -3.0, 120))])
+    read, held = [], []
+
+    def frames():
+        for f in range(1, 121):
+            held.append(len(list(tmp_path.glob("sotmot-stream-*/*.npy"))))
+            read.append(f)
+            yield np.full((240, 800, 3), 128, np.uint8)
+
+    config = {"windows": {"seconds": 8}, "appearance": {"backend": "none"}, "confirm": {"enabled": False}}
+    seen = [(p.first, p.last, len(read)) for p in sotmot.stream(frames(), det, frame_rate=5, config=config)]
+    # windows (1, 40), (21, 60), (41, 80), (61, 100), (81, 120): each part read up to its window's end + 1
+    assert seen == [(1, 30, 41), (31, 50, 61), (51, 70, 81), (71, 90, 101), (91, 120, 120)]
+    assert max(held) <= 41
+    assert not list(tmp_path.glob("sotmot-stream-*"))  # the spool is gone with the stream
+    whole = sotmot.track([np.full((240, 800, 3), 128, np.uint8)] * 120, det, frame_rate=5, config=config)
+    assert whole.tracks.n_tracks == 2
+
+
+def test_a_streams_bad_input_is_an_error_before_a_frame_is_read(tmp_path):
+    def never():
+        raise AssertionError("a frame was read")
+        yield
+
+    with pytest.raises(InputError, match="row:2: box width and height must be positive"):
+        sotmot.stream(never(), [[1, 10, 20, 30, 60, 0.9], [2, 10, 20, 0, 60, 0.8]], frame_rate=30)
+    with pytest.raises(ConfigError, match="less than twice the overlap"):
+        sotmot.stream(never(), frame_rate=30, config={"windows": {"seconds": 6}})
+    with pytest.raises(ConfigError, match="frame_rate is needed"):
+        sotmot.stream(never(), frame_rate=None)
+    with pytest.raises(InputError, match="an iterable of images"):
+        sotmot.stream(str(tmp_path / "video.mp4"), frame_rate=30)
+    with pytest.raises(InputError, match="no frames"):
+        list(sotmot.stream(iter([]), frame_rate=30))
+    with pytest.raises(InputError, match="frame 1 is a float64 array"):
+        list(sotmot.stream(iter([np.zeros((48, 64, 3))]), frame_rate=30))
+
+
+def test_detections_past_the_streams_end_are_an_error_when_it_ends():
+    frames, det = _clip(30)
+    with pytest.raises(InputError, match="frame 30 is past the stream's last frame, 20"):
+        list(sotmot.stream(iter(frames[:20]), det, frame_rate=30, config=SMALL))
