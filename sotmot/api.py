@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import tempfile
+import threading
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -103,16 +104,15 @@ class _Spool:
     def _path(self, frame: int) -> Path:
         return self.folder / f"{frame:08d}.npy"
 
-    def extend(self, frames: Iterator, upto: int | None = None) -> bool:
-        """Write the next frames of ``frames`` until :attr:`count` is ``upto`` (all of them when None); False when
-        ``frames`` ended first."""
-        while upto is None or self.count < upto:
-            image = next(frames, _END)
-            if image is _END:
-                return False
-            np.save(self._path(self.count + 1), np.asarray(image), allow_pickle=False)
+    def extend(self, frames: Iterable) -> None:
+        """Write every frame of ``frames``."""
+        for image in frames:
+            self.write(image)
             self.count += 1
-        return True
+
+    def write(self, image: Any) -> None:
+        """Write ``image`` as the next frame, ``count + 1`` (counted by the caller, once it is whole)."""
+        np.save(self._path(self.count + 1), np.asarray(image), allow_pickle=False)
 
     def release(self, before: int) -> None:
         """Delete the frames before 1-based ``before`` (this spool wrote them)."""
@@ -127,6 +127,73 @@ class _Spool:
         if not self.kept_from <= index + 1 <= self.count:
             raise IndexError(f"frame {index + 1} is not held (frames {self.kept_from}..{self.count} are)")
         return np.load(self._path(index + 1), allow_pickle=False)
+
+
+class _ReadAhead:
+    """Fills a :class:`_Spool` from a one-pass iterable in a thread of its own, holding at most ``capacity`` frames
+    on disk (beyond that it waits for :meth:`release`), so that a source with a pace of its own (a camera) is read
+    while windows are tracked. Only that thread touches the iterable; its exception is raised by :meth:`wait`."""
+
+    def __init__(self, frames: Iterator, spool: _Spool, capacity: int) -> None:
+        self.spool, self.capacity = spool, capacity
+        self.ended = False
+        self.error: BaseException | None = None
+        self._stop = False
+        self._changed = threading.Condition()
+        self._thread = threading.Thread(target=self._run, args=(frames,), name="sotmot-stream-reader", daemon=True)
+        self._thread.start()
+
+    def _run(self, frames: Iterator) -> None:
+        spool = self.spool
+        try:
+            while True:
+                with self._changed:
+                    while not self._stop and spool.count - spool.kept_from + 1 >= self.capacity:
+                        self._changed.wait()
+                    if self._stop:
+                        return
+                image = next(frames, _END)  # a camera waits here for its next frame
+                if image is _END or self._stop:
+                    return
+                spool.write(image)
+                with self._changed:
+                    spool.count += 1
+                    self._changed.notify_all()
+        except BaseException as exc:  # the consumer raises it (wait)
+            self.error = exc
+        finally:
+            with self._changed:
+                self.ended = True
+                self._changed.notify_all()
+
+    def wait(self, upto: int) -> int:
+        """Wait until ``upto`` frames have come or the stream has ended; how many have come. The iterable's
+        exception, when it raised one before ``upto``."""
+        with self._changed:
+            while self.spool.count < upto and not self.ended:
+                self._changed.wait()
+            count = self.spool.count
+        if count < upto and self.error is not None:
+            raise self.error
+        return count
+
+    def release(self, before: int) -> None:
+        """Forget the frames before 1-based ``before``: room for as many more."""
+        with self._changed:
+            self.spool.release(before)
+            self._changed.notify_all()
+
+    def close(self) -> None:
+        """Stop reading (after the frame being read, if any), before the spool's folder goes."""
+        with self._changed:
+            self._stop = True
+            self._changed.notify_all()
+        self._thread.join(timeout=READ_AHEAD_JOIN_SECONDS)
+
+
+#: How long a stream that ends waits for its reader to finish the frame it is reading: a camera blocked in its
+#: read is left behind (it writes nothing more).
+READ_AHEAD_JOIN_SECONDS = 10.0
 
 
 def _config(config: TrackerConfig | dict | str | Path | None) -> TrackerConfig:
@@ -154,7 +221,7 @@ def _in_memory(frames: Any, frame_rate: float | None, name: str, stack: contextl
             raise InputError(name, f"frames must be images (a list, an iterable or a 4-D array), a video path or a "
                                    f"folder; got {type(frames).__name__}")
         spool = _Spool(Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="sotmot-frames-"))))
-        spool.extend(iter(frames))
+        spool.extend(frames)
         frames = spool
     return _frames_info(frames, frame_rate, name)
 
@@ -300,14 +367,15 @@ def stream(frames: Iterable, detections: Any = None, *, frame_rate: float,
     """Track a stream of frames (a camera, a decoder, a generator) in committed windows, yielding the boxes of
     each stretch of frames as soon as they are final.
 
-    The frames are read as the windows need them: window ``k`` (``[windows] seconds``, or
-    :data:`STREAM_WINDOW_SECONDS` when the configuration sets none; consecutive windows overlap by the
-    association's gap, 4 s) is tracked once its last frame and the one after it have come, and its part of the
-    stream is yielded then (:mod:`sotmot.windows`: the frames up to the middle of its overlap with the next).
-    So the boxes of frame ``t`` come out at most a window and a frame after ``t`` was read, and only one window
-    of frames is kept, on disk in a temporary folder (uncompressed: a 1080p frame is 6 MB, 30 s at 25 fps
-    4.7 GB; shorter windows keep less and cost more identity switches at their joins). Nothing is read while a
-    window is tracked: a live camera should be read into a queue by a thread of its own, or it drops frames.
+    Window ``k`` (``[windows] seconds``, or :data:`STREAM_WINDOW_SECONDS` when the configuration sets none;
+    consecutive windows overlap by the association's gap, 4 s) is tracked once its last frame and the one after
+    it have come, and its part of the stream is yielded then (:mod:`sotmot.windows`: the frames up to the middle
+    of its overlap with the next). So the boxes of frame ``t`` are final once the frame a window after ``t`` has
+    come, and tracking it takes. The frames are read in a thread of their own, from the first part asked for,
+    while windows are tracked (a camera is read at its own pace), up to a window ahead of the one tracked: at
+    most two windows of frames are kept, on disk in a temporary folder (uncompressed: a 1080p frame is 6 MB,
+    30 s at 25 fps 4.7 GB; shorter windows keep less and cost more identity switches at their joins). The
+    iterable is used by that thread alone; an exception it raises is raised here.
 
     The parts put together are the tracks ``sotmot.track(frames, detections, config=...)`` gives with the same
     windows (``{"windows": {"seconds": ...}}``), box for box.
@@ -372,41 +440,50 @@ def _given(detections: Any, image_size: tuple[int, int] | None = None) -> Detect
 
 def _stream(frames: Iterator, detections: Any, rate: float, cfg: TrackerConfig, name: str, size: int, overlap: int,
             progress: bool) -> Iterator[Committed]:
-    """:func:`stream`'s windows, once its arguments are checked."""
+    """:func:`stream` once its arguments are checked: the frames spooled by a reader thread, tracked window by
+    window."""
+    with tempfile.TemporaryDirectory(prefix="sotmot-stream-") as tmp:
+        spool = _Spool(Path(tmp))
+        reader = _ReadAhead(frames, spool, 2 * size + 1)  # this window, the frame after it, and one more window
+        try:
+            yield from _windows(reader, detections, rate, cfg, name, size, overlap, progress)
+        finally:
+            reader.close()
+
+
+def _windows(reader: _ReadAhead, detections: Any, rate: float, cfg: TrackerConfig, name: str, size: int,
+             overlap: int, progress: bool) -> Iterator[Committed]:
+    """:func:`stream`'s windows over the frames ``reader`` brings."""
     import dataclasses
 
     from sotmot.appearance import embedder_for
     from sotmot.windows import Stitcher, cut, track_window
 
-    with tempfile.TemporaryDirectory(prefix="sotmot-stream-") as tmp:
-        spool = _Spool(Path(tmp))
-        windows: list[tuple[int, int]] = []  # grows as the stream does; the stitcher reads the same list
-        stitcher = Stitcher(windows, cfg.windows.join_iou)
-        embedder = embedder_for(cfg.appearance, None)  # one model for every window
-        info, given, start, k = None, None, 1, 0
-        while True:
-            spool.extend(frames, start + size)  # the window's frames and one more: is there a next window?
-            if info is None:
-                info = _frames_info(spool, rate, name)
-                given = _given(detections, (info.width, info.height))
-            end = min(start + size - 1, len(spool))
-            window = (start, end)
-            windows[k:] = [window] if len(spool) == end else [window, (end - overlap + 1, len(spool))]
-            if len(windows) == k + 1 and given is not None and len(given) and given.frames.max() > end:
-                source = detections if isinstance(detections, (str, Path)) else "detections"
-                raise InputError(source, f"frame {int(given.frames.max())} is past the stream's last frame, {end}")
-            result = track_window(dataclasses.replace(info, length=len(spool)), windows, k, cfg, given, embedder,
-                                  progress)
-            if len(windows) == 1:  # the whole stream in one window: its own ids, as sotmot.track gives them
-                yield Committed(1, end, result.tracks, result.dropped)
-                return
-            tracks, dropped, _ = stitcher.add(k, result)
-            last = cut(windows, k + 1) - 1 if len(windows) > k + 1 else end
-            yield Committed(cut(windows, k), last, tracks, dropped)
-            if len(windows) == k + 1:
-                return
-            k, start = k + 1, windows[k + 1][0]
-            spool.release(start)
+    windows: list[tuple[int, int]] = []  # grows as the stream does; the stitcher reads the same list
+    stitcher = Stitcher(windows, cfg.windows.join_iou)
+    embedder = embedder_for(cfg.appearance, None)  # one model for every window
+    info, given, start, k = None, None, 1, 0
+    while True:
+        count = reader.wait(start + size)  # the window's frames and one more: is there a next window?
+        if info is None:
+            info = _frames_info(reader.spool, rate, name)
+            given = _given(detections, (info.width, info.height))
+        end = min(start + size - 1, count)
+        windows[k:] = [(start, end)] if count == end else [(start, end), (end - overlap + 1, count)]
+        if len(windows) == k + 1 and given is not None and len(given) and given.frames.max() > end:
+            source = detections if isinstance(detections, (str, Path)) else "detections"
+            raise InputError(source, f"frame {int(given.frames.max())} is past the stream's last frame, {end}")
+        result = track_window(dataclasses.replace(info, length=count), windows, k, cfg, given, embedder, progress)
+        if len(windows) == 1:  # the whole stream in one window: its own ids, as sotmot.track gives them
+            yield Committed(1, end, result.tracks, result.dropped)
+            return
+        tracks, dropped, _ = stitcher.add(k, result)
+        last = cut(windows, k + 1) - 1 if len(windows) > k + 1 else end
+        yield Committed(cut(windows, k), last, tracks, dropped)
+        if len(windows) == k + 1:
+            return
+        k, start = k + 1, windows[k + 1][0]
+        reader.release(start)
 
 
 def evaluate(results: "Result | Tracks | str | Path", gt: str | Path, *, length: int | None = None,

@@ -5,6 +5,7 @@ frames on disk, and says what is wrong with its input before it reads a frame.""
 from __future__ import annotations
 
 import tempfile
+import time
 
 import numpy as np
 import pytest
@@ -56,13 +57,16 @@ def test_a_stream_without_detections_runs_the_detector_on_each_window():
     assert len(whole.tracks) and _same(Tracks.concatenate([p.tracks for p in got]), whole.tracks)
 
 
-def test_a_stream_reads_a_window_ahead_at_most_and_keeps_one_window_on_disk(tmp_path, monkeypatch):
-    """Two walkers at 5 fps, 8-s windows (40 frames, overlapping by the 4-s gap, 20): each part comes out once
-    its window's last frame and the next have been read, and the spool never holds more than those."""
+def test_a_stream_is_read_while_windows_are_tracked_and_keeps_two_windows_on_disk(tmp_path, monkeypatch):
+    """Two walkers at 5 fps, 8-s windows (40 frames, overlapping by the 4-s gap, 20): the frames are read in a
+    thread of their own while a window is tracked, up to a window ahead (frame start + 80), never further; each
+    part comes out once its window's last frame and the next have come."""
+    import sotmot.windows
+
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     det = np.array([(f, x0 + dx * f, y, 30, 60, 0.9) for f in range(1, 121)
                     for x0, dx, y in ((10, 3.0, 20), (400, -3.0, 120))])
-    read, held = [], []
+    read, held, ahead = [], [], []
 
     def frames():
         for f in range(1, 121):
@@ -70,14 +74,52 @@ def test_a_stream_reads_a_window_ahead_at_most_and_keeps_one_window_on_disk(tmp_
             read.append(f)
             yield np.full((240, 800, 3), 128, np.uint8)
 
+    track_window = sotmot.windows.track_window
+
+    def waiting(info, windows, k, *args, **kwargs):  # tracks once the reader has read all it may, or 20 s
+        want, deadline = min(windows[k][0] + 80, 120), time.monotonic() + 20
+        while len(read) < want and time.monotonic() < deadline:
+            time.sleep(0.005)
+        ahead.append(len(read) - windows[k][1])
+        return track_window(info, windows, k, *args, **kwargs)
+
+    monkeypatch.setattr(sotmot.windows, "track_window", waiting)
     config = {"windows": {"seconds": 8}, "appearance": {"backend": "none"}, "confirm": {"enabled": False}}
-    seen = [(p.first, p.last, len(read)) for p in sotmot.stream(frames(), det, frame_rate=5, config=config)]
-    # windows (1, 40), (21, 60), (41, 80), (61, 100), (81, 120): each part read up to its window's end + 1
-    assert seen == [(1, 30, 41), (31, 50, 61), (51, 70, 81), (71, 90, 101), (91, 120, 120)]
-    assert max(held) <= 41
+    parts = sotmot.stream(frames(), det, frame_rate=5, config=config)
+    assert not read  # nothing is read before the first part is asked for
+    seen = [(p.first, p.last, len(read)) for p in parts]
+    # windows (1, 40), (21, 60), (41, 80), (61, 100), (81, 120), each read up to 80 frames past its start
+    assert [(first, last) for first, last, _ in seen] == [(1, 30), (31, 50), (51, 70), (71, 90), (91, 120)]
+    assert [n for *_, n in seen] == [81, 101, 120, 120, 120]
+    assert ahead == [41, 41, 40, 20, 0]  # read while tracked: a window and a frame past the window's end
+    assert max(held) <= 81  # two windows and a frame on disk at most
     assert not list(tmp_path.glob("sotmot-stream-*"))  # the spool is gone with the stream
     whole = sotmot.track([np.full((240, 800, 3), 128, np.uint8)] * 120, det, frame_rate=5, config=config)
-    assert whole.tracks.n_tracks == 2
+    assert whole.tracks.n_tracks == 2 and len(whole.tracks) == 240
+
+
+def test_a_stream_raises_its_sources_error_and_stops_reading_when_left():
+    frames, det = _clip(30)
+
+    def broken():
+        yield from frames[:20]
+        raise OSError("the camera is gone")
+
+    with pytest.raises(OSError, match="the camera is gone"):
+        list(sotmot.stream(broken(), det[det[:, 0] <= 20], frame_rate=30, config=SMALL))
+    read = []
+
+    def endless():
+        while True:
+            read.append(1)
+            yield frames[0]
+
+    parts = sotmot.stream(endless(), det[det[:, 0] <= 20], frame_rate=30, config=SMALL)
+    assert next(parts).last == 12
+    parts.close()  # the caller stops: the reader stops too
+    n = len(read)
+    time.sleep(0.2)
+    assert len(read) == n <= 31
 
 
 def test_a_streams_bad_input_is_an_error_before_a_frame_is_read(tmp_path):
