@@ -96,8 +96,8 @@ class _Spool:
     back and ahead read them again without holding them all in memory. Frames come in with :meth:`extend`;
     a stream forgets those no window reads any more (:meth:`release`)."""
 
-    def __init__(self, folder: Path) -> None:
-        self.folder = folder
+    def __init__(self, folder: Path, name: str) -> None:
+        self.folder, self.name = folder, name
         self.count = 0  # frames written so far
         self.kept_from = 1  # the first frame still on disk
 
@@ -111,7 +111,16 @@ class _Spool:
             self.count += 1
 
     def write(self, image: Any) -> None:
-        """Write ``image`` as the next frame, ``count + 1`` (counted by the caller, once it is whole)."""
+        """Write ``image`` as the next frame, ``count + 1`` (counted by the caller, once it is whole).
+
+        Raises
+        ------
+        InputError
+            It is not a BGR ``uint8`` image.
+        """
+        problem = _not_an_image(image, self.count + 1)
+        if problem:
+            raise InputError(self.name, problem)
         np.save(self._path(self.count + 1), np.asarray(image), allow_pickle=False)
 
     def release(self, before: int) -> None:
@@ -220,7 +229,7 @@ def _in_memory(frames: Any, frame_rate: float | None, name: str, stack: contextl
         if not isinstance(frames, Iterable):
             raise InputError(name, f"frames must be images (a list, an iterable or a 4-D array), a video path or a "
                                    f"folder; got {type(frames).__name__}")
-        spool = _Spool(Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="sotmot-frames-"))))
+        spool = _Spool(Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="sotmot-frames-"))), name)
         spool.extend(frames)
         frames = spool
     return _frames_info(frames, frame_rate, name)
@@ -236,14 +245,30 @@ def _frame_rate(frame_rate: float | None, name: str) -> float:
     return float(TrackerConfig().replace("input", fps=frame_rate).input.fps)
 
 
+def _not_an_image(image: Any, frame: int) -> str | None:
+    """What is wrong with ``image`` as 1-based ``frame`` of frames in memory, or None for a BGR ``uint8`` image."""
+    if image is None:
+        return (f"frame {frame} is None, not an image (cv2.imread and VideoCapture.read give None for a frame they "
+                f"could not read)")
+    if isinstance(image, (str, Path)):
+        return (f"frame {frame} is a path ({str(image)!r}), not an image: read it (cv2.imread), or give sotmot.track "
+                f"a list of the paths")
+    array = np.asarray(image)
+    if array.dtype != np.uint8 or array.ndim != 3 or array.shape[2] != 3:
+        return (f"frame {frame} is a {array.dtype} array of shape {array.shape}; expected a BGR uint8 image "
+                f"(height, width, 3), as OpenCV reads one")
+    return None
+
+
 def _frames_info(frames: Any, frame_rate: float, name: str) -> SeqInfo:
     """The sequence of ``frames`` (indexable; the first tells the image size)."""
     if len(frames) == 0:
         raise InputError(name, "no frames")
-    first = np.asarray(frames[0])
-    if first.dtype != np.uint8 or first.ndim != 3 or first.shape[2] != 3:
-        raise InputError(name, f"frame 1 is a {first.dtype} array of shape {first.shape}; expected a BGR uint8 "
-                               f"image (height, width, 3), as OpenCV reads one")
+    first = frames[0]
+    problem = _not_an_image(first, 1)
+    if problem:
+        raise InputError(name, problem)
+    first = np.asarray(first)
     return SeqInfo(path=Path(f"<{name}>"), name=name, frame_rate=frame_rate, length=len(frames),
                    width=int(first.shape[1]), height=int(first.shape[0]), frames=frames)
 
@@ -443,7 +468,7 @@ def _stream(frames: Iterator, detections: Any, rate: float, cfg: TrackerConfig, 
     """:func:`stream` once its arguments are checked: the frames spooled by a reader thread, tracked window by
     window."""
     with tempfile.TemporaryDirectory(prefix="sotmot-stream-") as tmp:
-        spool = _Spool(Path(tmp))
+        spool = _Spool(Path(tmp), name)
         reader = _ReadAhead(frames, spool, 2 * size + 1)  # this window, the frame after it, and one more window
         try:
             yield from _windows(reader, detections, rate, cfg, name, size, overlap, progress)

@@ -139,6 +139,10 @@ def test_a_streams_bad_input_is_an_error_before_a_frame_is_read(tmp_path):
         list(sotmot.stream(iter([]), frame_rate=30))
     with pytest.raises(InputError, match="frame 1 is a float64 array"):
         list(sotmot.stream(iter([np.zeros((48, 64, 3))]), frame_rate=30))
+    with pytest.raises(InputError, match=r"frame 1 is a path \('a.jpg'\), not an image"):
+        list(sotmot.stream(iter(["a.jpg"]), frame_rate=30))
+    with pytest.raises(InputError, match="frame 3 is None, not an image"):  # a failed cv2.imread on the way
+        list(sotmot.stream(iter([np.zeros((48, 64, 3), np.uint8)] * 2 + [None]), frame_rate=30))
 
 
 def test_detections_past_the_streams_end_are_an_error_when_it_ends():
