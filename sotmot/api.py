@@ -38,6 +38,7 @@ from sotmot.io import (
     SeqInfo, detections_from_array, format_results, is_plain_name, read_detections, read_results, read_seqinfo,
     refuse_overwriting, write_text_atomic,
 )
+from sotmot.io.frames import not_an_image
 from sotmot.io.images import image_list_info
 from sotmot.io.sequence import takes_frame_rate
 from sotmot.types import Detections, Tracks
@@ -118,7 +119,7 @@ class _Spool:
         InputError
             It is not a BGR ``uint8`` image.
         """
-        problem = _not_an_image(image, self.count + 1)
+        problem = not_an_image(image, self.count + 1)
         if problem:
             raise InputError(self.name, problem)
         np.save(self._path(self.count + 1), np.asarray(image), allow_pickle=False)
@@ -245,27 +246,12 @@ def _frame_rate(frame_rate: float | None, name: str) -> float:
     return float(TrackerConfig().replace("input", fps=frame_rate).input.fps)
 
 
-def _not_an_image(image: Any, frame: int) -> str | None:
-    """What is wrong with ``image`` as 1-based ``frame`` of frames in memory, or None for a BGR ``uint8`` image."""
-    if image is None:
-        return (f"frame {frame} is None, not an image (cv2.imread and VideoCapture.read give None for a frame they "
-                f"could not read)")
-    if isinstance(image, (str, Path)):
-        return (f"frame {frame} is a path ({str(image)!r}), not an image: read it (cv2.imread), or give sotmot.track "
-                f"a list of the paths")
-    array = np.asarray(image)
-    if array.dtype != np.uint8 or array.ndim != 3 or array.shape[2] != 3:
-        return (f"frame {frame} is a {array.dtype} array of shape {array.shape}; expected a BGR uint8 image "
-                f"(height, width, 3), as OpenCV reads one")
-    return None
-
-
 def _frames_info(frames: Any, frame_rate: float, name: str) -> SeqInfo:
     """The sequence of ``frames`` (indexable; the first tells the image size)."""
     if len(frames) == 0:
         raise InputError(name, "no frames")
     first = frames[0]
-    problem = _not_an_image(first, 1)
+    problem = not_an_image(first, 1)
     if problem:
         raise InputError(name, problem)
     first = np.asarray(first)

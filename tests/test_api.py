@@ -141,6 +141,10 @@ def test_bad_frames_and_settings_are_clear_errors(tmp_path):
         sotmot.track([frame, np.zeros((10, 10, 3), np.uint8)], detections=np.vstack([det, det + [1, 0, 0, 0, 0, 0]]),
                      frame_rate=5,
                      config={"appearance": {"flip": False}})
+    with pytest.raises(InputError, match="frame 3 is None, not an image"):  # a list with a failed cv2.imread in it
+        sotmot.track([frame, frame, None], detections=det, frame_rate=5)
+    with pytest.raises(InputError, match="frame 2 is None, not an image"):  # the same, read once from a generator
+        sotmot.track((f for f in [frame, None]), detections=det, frame_rate=5)
     with pytest.raises(InputError, match="no frames"):
         sotmot.track([], detections=det, frame_rate=5)
     with pytest.raises(InputError, match="not found"):

@@ -20,7 +20,7 @@ from collections import OrderedDict
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -251,6 +251,22 @@ class VideoFile:
             self._capture = None
 
 
+def not_an_image(image: Any, frame: int) -> str | None:
+    """What is wrong with ``image`` as 1-based ``frame`` of frames held in memory, or None for a BGR ``uint8``
+    image (any size)."""
+    if image is None:
+        return (f"frame {frame} is None, not an image (cv2.imread and VideoCapture.read give None for a frame they "
+                f"could not read)")
+    if isinstance(image, (str, Path)):
+        return (f"frame {frame} is a path ({str(image)!r}), not an image: read it (cv2.imread), or give sotmot.track "
+                f"a list of the paths")
+    array = np.asarray(image)
+    if array.dtype != np.uint8 or array.ndim != 3 or array.shape[2] != 3:
+        return (f"frame {frame} is a {array.dtype} array of shape {array.shape}; expected a BGR uint8 image "
+                f"(height, width, 3), as OpenCV reads one")
+    return None
+
+
 class ArrayFrames:
     """Frames the caller holds (``info.frames``): a list, a 4-D array or any sequence of BGR ``uint8`` images,
     ``frames[k]`` being frame ``k + 1``, each fetched when a stage asks for it. Never changed: the reader
@@ -265,11 +281,14 @@ class ArrayFrames:
     def read(self, frame: int) -> np.ndarray:
         if not 1 <= frame <= self.info.length:
             raise InputError(self.info.path, f"frame {frame} is outside the frames 1..{self.info.length}")
-        image = np.asarray(self.info.frames[frame - 1])
+        image = self.info.frames[frame - 1]
         self.decodes += 1
-        if image.dtype != np.uint8 or image.shape != (self.info.height, self.info.width, 3):
-            raise InputError(self.info.path, f"frame {frame} is a {image.dtype} array of shape {image.shape}; "
-                             f"expected BGR uint8 ({self.info.height}, {self.info.width}, 3) as the first frame")
+        problem = not_an_image(image, frame)
+        image = np.asarray(image)
+        if problem or image.shape != (self.info.height, self.info.width, 3):
+            raise InputError(self.info.path, problem or f"frame {frame} is a {image.dtype} array of shape "
+                             f"{image.shape}; expected BGR uint8 ({self.info.height}, {self.info.width}, 3) as the "
+                             f"first frame")
         return image.view()
 
     def read_grey(self, frame: int, factor: int) -> np.ndarray:
