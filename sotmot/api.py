@@ -472,8 +472,7 @@ def _windows(reader: _ReadAhead, detections: Any, rate: float, cfg: TrackerConfi
 
     windows: list[tuple[int, int]] = []  # grows as the stream does; the stitcher reads the same list
     stitcher = Stitcher(windows, cfg.windows.join_iou)
-    embedder = embedder_for(cfg.appearance, None)  # one model for every window
-    info, given, start, k = None, None, 1, 0
+    info, given, embedder, start, k = None, None, None, 1, 0
     while True:
         count = reader.wait(start + size)  # the window's frames and one more: is there a next window?
         if info is None:
@@ -484,6 +483,7 @@ def _windows(reader: _ReadAhead, detections: Any, rate: float, cfg: TrackerConfi
         if len(windows) == k + 1 and given is not None and len(given) and given.frames.max() > end:
             source = detections if isinstance(detections, (str, Path)) else "detections"
             raise InputError(source, f"frame {int(given.frames.max())} is past the stream's last frame, {end}")
+        embedder = embedder_for(cfg.appearance, embedder)  # one model for every window
         result = track_window(dataclasses.replace(info, length=count), windows, k, cfg, given, embedder, progress)
         if len(windows) == 1:  # the whole stream in one window: its own ids, as sotmot.track gives them
             yield Committed(1, end, result.tracks, result.dropped)

@@ -228,6 +228,36 @@ def test_sigterm_cleans_the_temporary_frames_of_a_video(tmp_path, monkeypatch, c
     assert list(scratch.iterdir()) == []
 
 
+def test_ctrl_c_after_failed_runs_is_an_interrupt_not_a_crash(tmp_path):
+    """Two runs that fail mid-way (a frame that is None), their OpenVINO models held by the exceptions until a
+    garbage collection, then Ctrl-C: a KeyboardInterrupt. Before the compiled models were kept for the process
+    (sotmot.models.openvino_compiled), OpenVINO's CPU plugin left the thread's alternate signal stack on freed
+    memory and the signal crashed the process (seen on a Xeon with AMX; other CPUs passed either way)."""
+    script = textwrap.dedent("""
+        import gc, os, signal, time
+        import numpy as np
+        import sotmot
+        frames = [np.full((48, 64, 3), 128, np.uint8)] * 19 + [None]
+        det = np.array([[1, 10, 10, 10, 20, 0.9], [20, 10, 10, 10, 20, 0.9]])
+        failed = []
+        for _ in range(2):
+            try:
+                sotmot.track(frames, det, frame_rate=30, config={"appearance": {"backend": "openvino"}})
+            except sotmot.errors.InputError as exc:
+                failed.append(exc)
+        failed.clear()
+        gc.collect()
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(5)
+        except KeyboardInterrupt:
+            print("interrupted after", 2, "failed runs")
+    """)
+    (tmp_path / "interrupt.py").write_text(script)
+    run = subprocess.run([sys.executable, str(tmp_path / "interrupt.py")], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0 and "interrupted after 2 failed runs" in run.stdout, (run.returncode, run.stderr[-2000:])
+
+
 # 8. a truncated video, an absurd frame rate -------------------------------------------------------------------
 
 def test_a_truncated_video_is_tracked_with_a_warning(tmp_path, caplog):

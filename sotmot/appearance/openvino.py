@@ -16,7 +16,7 @@ import numpy as np
 from sotmot.appearance.base import CROP_HEIGHT, CROP_WIDTH, CropEmbedder, check_model_io, fixed_dim, resolve_model_path
 from sotmot.config import AppearanceConfig
 from sotmot.errors import ModelError, runtime_message
-from sotmot.models import openvino_cpu_options
+from sotmot.models import openvino_compiled, openvino_cpu_options
 
 log = logging.getLogger(__name__)
 
@@ -55,7 +55,7 @@ class OpenVinoReidEmbedder(CropEmbedder):
         self.dim = fixed_dim(self.path, dim)
         if model.inputs[0].get_partial_shape()[0].is_static:  # e.g. Intel's IR files: batch fixed at 1
             model.reshape({model.inputs[0]: ov.PartialShape([-1, 3, CROP_HEIGHT, CROP_WIDTH])})
-        compiled = core.compile_model(model, "CPU", openvino_cpu_options(config.threads))
+        compiled = openvino_compiled(core, model, self.path, openvino_cpu_options(config.threads))
         self._output = compiled.outputs[0]
         self._request = compiled.create_infer_request()
         log.info("re-ID model %s (OpenVINO %s): %d-d embedding", self.path, ov.__version__, self.dim)

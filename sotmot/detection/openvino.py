@@ -31,7 +31,7 @@ from sotmot.boxes import clip_xyxy, xyxy_to_xywh
 from sotmot.config import DetectionConfig
 from sotmot.detection import resolve_detector_path, rounded
 from sotmot.errors import ModelError, runtime_message
-from sotmot.models import openvino_cpu_options
+from sotmot.models import openvino_compiled, openvino_cpu_options
 
 log = logging.getLogger(__name__)
 
@@ -112,7 +112,7 @@ class OpenVinoDetector:
             log.info("person detector input %d x %d for %d x %d frames (%s)", size[0], size[1], frame[0], frame[1],
                      "[detection] input_height, input_width" if self._config.input_height else "automatic")
             self._model.reshape({self._model.inputs[0]: ov.PartialShape([1, 3, *size])})
-            compiled = self._core.compile_model(self._model, "CPU", self._options)
+            compiled = openvino_compiled(self._core, self._model, self.path, self._options)
             self._compiled[size] = (compiled.create_infer_request(), compiled.outputs[0])
         return self._compiled[size]
 

@@ -19,6 +19,7 @@ that silently computes something else.
 from __future__ import annotations
 
 import os
+import threading
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -183,5 +184,30 @@ def openvino_cpu_options(threads: int = 0, **extra) -> dict:
     return options
 
 
+#: Compiled OpenVINO models of this process (:func:`openvino_compiled`), by model file, input shape and options.
+_COMPILED: dict[tuple, object] = {}
+_COMPILING = threading.Lock()
+
+
+def openvino_compiled(core, model, path: Path, options: dict):
+    """``core.compile_model(model, "CPU", options)``, made once per process for each model file (its path, size
+    and modification time), input shape (as ``model`` has it now) and options, and kept for the process's life;
+    each caller makes its own infer requests on it.
+
+    Kept, not only to compile once: OpenVINO's CPU plugin (2026.4, on a Xeon with AMX) points the calling
+    thread's alternate signal stack at memory of each compiled model it makes, and when one goes it puts back the
+    stack that was there before it. Compiled models that go in another order than the last-made first (a failed
+    run's models held by its exception's traceback until a garbage collection) leave the thread's alternate stack
+    on freed memory, and the next signal Python handles there (Ctrl-C, SIGTERM) crashed the process with a
+    segmentation fault. Compiled models that never go keep it on memory that lives."""
+    stat = path.stat()
+    shape = tuple(str(port.get_partial_shape()) for port in model.inputs)
+    key = (str(path.resolve()), stat.st_size, stat.st_mtime_ns, shape, tuple(sorted(options.items())))
+    with _COMPILING:
+        if key not in _COMPILED:
+            _COMPILED[key] = core.compile_model(model, "CPU", options)
+        return _COMPILED[key]
+
+
 __all__ = ["HERE", "LICENCE_FILE", "MODELS", "BundledModel", "bundled_path", "describe", "model_given",
-           "model_in_use", "openvino_cpu_options", "resolve_model_file"]
+           "model_in_use", "openvino_compiled", "openvino_cpu_options", "resolve_model_file"]
