@@ -66,7 +66,7 @@ def plan(length: int, frame_rate: float, config: TrackerConfig) -> list[Window]:
 
 def window_size(frame_rate: float, config: TrackerConfig) -> tuple[int, int]:
     """``(size, overlap)``: a window's length and the overlap of consecutive windows, in frames, for ``[windows]
-    seconds`` (> 0) at ``frame_rate``. Window ``k + 1`` starts ``overlap`` frames before window ``k`` ends.
+    seconds`` (> 0) at ``frame_rate``. Consecutive windows share ``overlap`` frames.
 
     Raises
     ------
