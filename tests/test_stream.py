@@ -1,6 +1,7 @@
 """``sotmot.stream``: a one-pass stream of frames tracked in committed windows gives, part by part, the tracks
-``sotmot.track`` gives with the same windows; it reads no further than a window ahead, keeps one window of
-frames on disk, and says what is wrong with its input before it reads a frame."""
+``sotmot.track`` gives with the same windows; it reads its frames in a thread of its own while windows are
+tracked, never more than a window ahead (two windows of frames on disk at most), raises its source's errors, and
+says what is wrong with its input before it reads a frame."""
 
 from __future__ import annotations
 
