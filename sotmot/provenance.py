@@ -9,7 +9,9 @@ the frame folder (file names and sizes, not their bytes: hashing every frame
 would cost more than tracking small sequences), the time, and the SHA-256 of
 the results file it sits beside. ``track --resume`` skips a sequence only when
 its record matches the current run in everything but the time and the results
-file still has the recorded hash.
+file still has the recorded hash. A live run (``sotmot track --live``: a camera, a
+stream) has no input to hash and no resume: its record names the source and its
+frame rate instead, and says how far its results are final (:func:`live_record`).
 """
 
 from __future__ import annotations
@@ -57,24 +59,13 @@ def frames_fingerprint(info: SeqInfo) -> str | None:
 
 def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
     """The record of tracking ``info`` with ``config`` (its solver included), as of now."""
-    from importlib import resources
-
     from sotmot.plan import resolve
 
-    model = config.appearance.model
-    calibration = config.confirm.calibration
-    packaged = resources.files("sotmot").joinpath("data", "confidence.json")
     plan = resolve(config, info)
     source, det_file = plan.source, plan.det_file
-    detector = config.detection.model if plan.detector is not None or plan.weak_boxes else None
     return {
-        "sotmot": __version__,
-        "sequence": info.name,
-        "solver": config.association.solver,
-        "config": config.to_dict(),
-        "reid_model": {"path": model, "sha256": file_sha256(model) if model else None},
-        "confidence_calibration": {"path": calibration or "packaged",
-                                   "sha256": file_sha256(calibration or str(packaged))},
+        **_run_fields(info.name, config, config.detection.model if plan.detector is not None or plan.weak_boxes
+                      else None),
         "inputs": {"seqinfo.ini": None if info.video is not None or info.files is not None  # video, images: below
                    else file_sha256(info.source),
                    "detections": {"source": source, "path": None if det_file is None else str(det_file),
@@ -83,10 +74,47 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
                    # only where there is one, so that the records of runs without a mask still match
                    **({} if plan.mask is None else
                       {"mask": {"path": str(plan.mask.path), "sha256": file_sha256(plan.mask.path)}})},
-        "detector_model": {"path": detector, "sha256": file_sha256(detector) if detector else None},
         # every "auto" as the run decided it (sotmot.plan): whether the detector's weak boxes checked the SOT
         # boxes, where the boxes that extend trajectory ends came from, the gap limit in frames, ...
         "plan": plan.record(),
+    }
+
+
+def live_record(source: str, frame_rate: float, name: str, config: TrackerConfig) -> dict[str, Any]:
+    """The record of tracking a live source (``sotmot track --live``: a camera, a network stream, a video read as
+    it plays) with ``config``. A live source is read once and has nothing to hash, so its results cannot be
+    resumed; the record names the source and its frame rate instead of input hashes, and the runner adds how far
+    the results are final (``live``). ``results_sha256`` is filled in when the source has ended."""
+    det_file = config.detection.file
+    mask = config.preprocess.mask
+    return {
+        **_run_fields(name, config, None if det_file and config.detection.weak_boxes != "on"
+                      else config.detection.model),
+        "inputs": {"live": {"source": source, "frame_rate": frame_rate},
+                   "detections": {"source": "file" if det_file else "model", "path": det_file,
+                                  "sha256": file_sha256(det_file) if det_file else None},
+                   **({} if mask is None else {"mask": {"path": mask, "sha256": file_sha256(mask)}})},
+        "results_sha256": None,
+    }
+
+
+def _run_fields(name: str, config: TrackerConfig, detector: str | None) -> dict[str, Any]:
+    """What every run record holds: versions, the configuration, the models and calibration by SHA-256
+    (``detector``: the detector model, where the run's boxes came from it), the environment and the time."""
+    from importlib import resources
+
+    model = config.appearance.model
+    calibration = config.confirm.calibration
+    packaged = resources.files("sotmot").joinpath("data", "confidence.json")
+    return {
+        "sotmot": __version__,
+        "sequence": name,
+        "solver": config.association.solver,
+        "config": config.to_dict(),
+        "reid_model": {"path": model, "sha256": file_sha256(model) if model else None},
+        "confidence_calibration": {"path": calibration or "packaged",
+                                   "sha256": file_sha256(calibration or str(packaged))},
+        "detector_model": {"path": detector, "sha256": file_sha256(detector) if detector else None},
         # recorded, not compared: a library upgrade does not make --resume track again
         "environment": environment(),
         "time": datetime.now(timezone.utc).isoformat(timespec="seconds"),

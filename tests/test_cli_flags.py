@@ -12,8 +12,8 @@ from sotmot.cli import build_parser
 from sotmot.cli.flags import build_config
 
 #: Flags that choose how the run goes, not how it tracks: they never reach the configuration.
-RUN_OPTIONS = {"--out", "--eval", "--workers", "--cluster", "--resume", "--det", "--config", "--quiet", "--verbose",
-               "--help", "--json", "--ids", "--tracklets", "--tracks", "--frames", "--solvers", "--jitter"}
+RUN_OPTIONS = {"--out", "--live", "--eval", "--workers", "--cluster", "--resume", "--det", "--config", "--quiet",
+               "--verbose", "--help", "--json", "--ids", "--tracklets", "--tracks", "--frames", "--solvers", "--jitter"}
 #: A value for each flag that takes one and has no choices; prerequisites a flag needs to be valid.
 VALUES = {"--reid-model": "m.onnx", "--weights": "w.pt", "--detector-model": "d.xml", "--score-threshold": "0.3",
           "--confirm-threshold": "0.3", "--extend-ends": "0.5", "--fps": "12", "--window": "30", "--mask": "m.png"}

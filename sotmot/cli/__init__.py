@@ -27,6 +27,8 @@ examples:
   sotmot track street.mp4 --det street_det.txt --out results   # a video and its detections
   sotmot track frames/ --fps 25 --out results   # a folder of images (no seqinfo.ini): frames in name order
   sotmot track ../shared/data/MOT16-09 --detections model --out results   # the detector, not det/det.txt
+  sotmot track --live 0 --fps 25 --out results --window 10   # camera 0: boxes final 10 s after, Ctrl-C stops
+  sotmot track --live rtsp://10.0.0.5/stream1 --out results   # a network camera: results/10.0.0.5-stream1.txt
 
 The models are the two sotmot ships with (`sotmot models` lists them): Intel's
 person-reidentification-retail-0288 and person-detection-0202 (Apache-2.0). Another model comes
@@ -97,14 +99,24 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("track", help="track sequences and write MOTChallenge results",
-                       description="Track one or more MOTChallenge sequence folders, videos or folders of images.",
+                       description="Track one or more MOTChallenge sequence folders, videos or folders of images,\n"
+                                   "or a live source: a camera or a network stream (--live).",
                        epilog=EPILOG_TRACK, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("seq_dirs", nargs="+", type=Path, metavar="SEQ_DIR",
+    p.add_argument("seq_dirs", nargs="*", type=Path, metavar="SEQ_DIR",
                    help="folder with seqinfo.ini, img1/ and (usually) det/det.txt; a video file (.mp4, .avi, ...); "
                         "or a folder of images without seqinfo.ini (the images in it, or in its img1/, in the order "
                         "of their names, numbers compared as numbers: frame_2 before frame_10; --fps gives the rate; "
                         "det/det.txt and gt/gt.txt read as in a sequence folder)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="where <name>.txt results go")
+    p.add_argument("--live", metavar="SOURCE",
+                   help="instead of SEQ_DIR: a camera (its number, e.g. 0), a network stream (its URL: rtsp://..., "
+                        "http://...) or a video file read once as it plays, tracked as the frames come in committed "
+                        "windows (--window, default 30 s; the boxes of a frame are final a window after it): each "
+                        "window's final boxes are appended to DIR/<name>.txt (<name>: camera0, the URL's host and "
+                        "path, the file's stem) and <name>.run.json says how far they are final, until the source "
+                        "ends or Ctrl-C stops it (what is final stays). The detector finds the people unless --det "
+                        "gives boxes (frames counted from the first frame read); --fps where the source gives no "
+                        "rate. Not with --eval, --resume, --workers or --cluster")
     add_tracker_flags(p, "track")
     p.add_argument("--det", type=Path, metavar="DET.txt",
                    help="the detections of the one video or sequence tracked (MOTChallenge layout: frame, id, x, y, "

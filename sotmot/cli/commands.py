@@ -52,8 +52,17 @@ def _progress(args: argparse.Namespace) -> bool:
 
 
 def cmd_track(args: argparse.Namespace) -> int:
-    from sotmot.io.video import is_video
+    from sotmot.io.video import URL, is_video
 
+    if args.live is not None:
+        return _track_live(args)
+    if not args.seq_dirs:
+        raise SotmotError("nothing to track: give SEQ_DIR (a sequence folder, a video, a folder of images) or "
+                          "--live SOURCE (a camera, a stream)")
+    for seq in args.seq_dirs:  # a URL given as a path has lost a slash: rtsp://host -> rtsp:/host
+        url = str(seq).replace(":/", "://", 1)
+        if URL.match(url) and not seq.exists():
+            raise SotmotError(f"{url}: a stream is tracked with --live URL (a camera with --live 0)")
     videos = [p for p in args.seq_dirs if is_video(p)]
     if args.det is not None and len(args.seq_dirs) > 1:
         raise SotmotError("--det belongs to one video or sequence; track several in separate runs")
@@ -71,6 +80,35 @@ def cmd_track(args: argparse.Namespace) -> int:
         raise SotmotError(f"{videos[0]}: a video has no det.txt: give its detections with --det FILE, or let the "
                           f"detector find the people (--detections auto or model)")
     return _track(args, config, args.seq_dirs)  # a video's frames are read from the file itself
+
+
+def _track_live(args: argparse.Namespace) -> int:
+    """``sotmot track --live SOURCE``: :func:`sotmot.runs.track_live`."""
+    from sotmot.runs import track_live
+
+    asked = [flag for flag, given in (("SEQ_DIR", args.seq_dirs), ("--eval", args.eval), ("--resume", args.resume),
+                                      ("--workers", args.workers > 1), ("--cluster", args.cluster)) if given]
+    if asked:
+        raise SotmotError(f"--live reads one source once, as it comes: not with {', '.join(asked)}")
+    config = build_config(args)
+    if args.det is not None:
+        if not args.det.is_file():
+            raise SotmotError(f"{args.det}: detections file not found (--det)")
+        config = config.replace("detection", file=str(args.det))
+    elif config.detection.source == "file" and config.detection.file is None:
+        raise SotmotError(f"{args.live}: a live source has no det.txt: give its detections with --det FILE, or let "
+                          f"the detector find the people (--detections auto or model)")
+    made = not args.out.exists()
+    try:
+        outcome = track_live(args.live, args.out, config, progress=_progress(args))
+    finally:
+        if made and args.out.is_dir() and not any(args.out.iterdir()):
+            args.out.rmdir()  # this run made the folder and wrote nothing into it
+    if outcome.status == "failed":
+        print(f"sotmot: error: {outcome.message}", file=sys.stderr)
+        return 2
+    print(outcome.message)
+    return 0
 
 
 def _track(args: argparse.Namespace, config, seq_dirs: list[Path]) -> int:

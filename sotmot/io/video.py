@@ -12,6 +12,8 @@ frame is frame 1.
 from __future__ import annotations
 
 import logging
+import re
+from collections.abc import Iterator
 from functools import lru_cache
 from pathlib import Path
 
@@ -64,13 +66,7 @@ def _video_info(resolved: Path, given: Path, size: int, mtime_ns: int, fps: floa
     try:
         if not capture.isOpened():
             raise InputError(given, "OpenCV cannot open this video")
-        rate = fps if fps is not None else float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
-        if not rate or rate <= 0 or rate != rate:
-            raise InputError(given, "the container gives no frame rate; pass --fps")
-        if rate > MAX_FRAME_RATE:
-            raise InputError(given, f"frame rate {rate:g} is above {MAX_FRAME_RATE:g} per second "
-                             f"({'--fps' if fps is not None else 'the container says so'}); pass the real rate "
-                             f"with --fps")
+        rate = _frame_rate(capture, fps, given, "the container")
         ok, first = capture.read()
         if not ok or first is None:
             raise InputError(given, "the video has no frame OpenCV can decode")
@@ -84,6 +80,26 @@ def _video_info(resolved: Path, given: Path, size: int, mtime_ns: int, fps: floa
         capture.release()
     return SeqInfo(path=given, name=name, frame_rate=float(rate), length=length, width=first.shape[1],
                    height=first.shape[0], im_dir="", im_ext=given.suffix, video=given)
+
+
+def _frame_rate(capture, fps: float | None, where: str | Path, what: str) -> float:
+    """``fps``, else the rate an open ``cv2.VideoCapture`` gives (``what``: "the container", "the source").
+
+    Raises
+    ------
+    InputError
+        No rate (pass ``--fps``), or one above :data:`~sotmot.io.mot.MAX_FRAME_RATE`.
+    """
+    import cv2
+
+    rate = fps if fps is not None else float(capture.get(cv2.CAP_PROP_FPS) or 0.0)
+    if not rate or rate <= 0 or rate != rate:
+        raise InputError(where, f"{what} gives no frame rate; pass --fps")
+    if rate > MAX_FRAME_RATE:
+        raise InputError(where, f"frame rate {rate:g} is above {MAX_FRAME_RATE:g} per second "
+                                f"({'--fps' if fps is not None else f'{what} says so'}); pass the real rate with "
+                                f"--fps")
+    return float(rate)
 
 
 def _decodes(capture, frame: int) -> bool:
@@ -106,3 +122,64 @@ def _count(video: Path) -> int:
         count += 1
     capture.release()
     return count
+
+
+#: A live source named by a URL: ``scheme://...`` (rtsp, http, udp, ...; a scheme of two letters or more, so
+#: that ``C://`` is a drive), as OpenCV's FFmpeg back end opens them.
+URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]+://")
+
+
+def live_name(source: str) -> str:
+    """The name a live source's results get (``<name>.txt``): ``camera0`` for camera 0, a URL's host and path
+    with every run of other characters than letters, digits, ``.``, ``_`` and ``-`` made one ``-``
+    (``rtsp://10.0.0.5:554/live`` -> ``10.0.0.5-554-live``), a video file's stem."""
+    if source.isdigit():
+        return f"camera{int(source)}"
+    if URL.match(source):
+        return re.sub(r"[^A-Za-z0-9._-]+", "-", source.split("://", 1)[1].split("?", 1)[0]).strip("-.") or "stream"
+    return Path(source).stem
+
+
+def open_live(source: str, fps: float | None = None) -> tuple[Iterator, float, str]:
+    """Open a live source for :func:`sotmot.stream`: a camera (its number, ``"0"``), a network stream (a URL:
+    ``rtsp://``, ``http://``, ...) or a video file read as it plays, once and from its start.
+
+    Returns its frames (a generator of BGR images that releases the source when it ends or is closed; a read
+    that fails ends it, as OpenCV cannot tell a dropped connection from the end of a stream), its frame rate
+    (``fps``, else the source's) and its name (:func:`live_name`).
+
+    Raises
+    ------
+    InputError
+        OpenCV cannot open the source, the source gives no frame rate (pass ``fps``) or one above
+        :data:`~sotmot.io.mot.MAX_FRAME_RATE`, or the name is not a plain file name.
+    """
+    import cv2
+
+    name = live_name(source)
+    if not is_plain_name(name):
+        raise InputError(source, f"the name {name!r} it would give its results cannot name a file")
+    if not source.isdigit() and not URL.match(source) and not Path(source).is_file():
+        raise InputError(source, "not found: a live source is a camera's number (0), a stream's URL "
+                                 "(rtsp://..., http://...) or a video file")
+    capture = cv2.VideoCapture(int(source) if source.isdigit() else source)
+    try:
+        if not capture.isOpened():
+            raise InputError(source, "OpenCV cannot open this source (a camera's number, a stream's URL or a "
+                                     "video file)")
+        rate = _frame_rate(capture, fps, source, "the source")
+    except BaseException:
+        capture.release()
+        raise
+
+    def frames() -> Iterator:
+        try:
+            while True:
+                ok, image = capture.read()
+                if not ok or image is None:
+                    return
+                yield image
+        finally:
+            capture.release()
+
+    return frames(), float(rate), name

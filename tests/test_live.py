@@ -1,0 +1,136 @@
+"""``sotmot track --live``: a camera, a stream or a video read once as it plays, tracked in committed windows,
+its final boxes appended as they come. A video read live gives the results file of ``sotmot track VIDEO
+--window`` byte for byte; a run stopped keeps what was final and its record says how far; a run stopped before
+anything was final leaves nothing; flags that cannot go with a live source are refused before anything opens."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from sotmot.cli import main
+from sotmot.io.video import live_name
+
+from conftest import DATA, require, write_video
+
+#: Windows of 15 frames overlapping by 6 at 30 fps (as tests/test_stream.py): the 30-frame clip in three.
+SMALL = '[association]\nl_max_seconds = 0.2\n[windows]\nseconds = 0.5\n'
+
+
+def _clip_video(path):
+    import cv2
+
+    frames = sorted((require(DATA / "MOT16-02-clip30") / "img1").glob("*.jpg"))
+    first = cv2.imread(str(frames[0]))
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30, (first.shape[1], first.shape[0]))
+    for f in frames:
+        writer.write(cv2.imread(str(f)))
+    writer.release()
+    return path
+
+
+def test_a_video_read_live_gives_the_windowed_results_and_a_record_that_repeats_it(tmp_path, capsys):
+    video = _clip_video(tmp_path / "street.avi")
+    (tmp_path / "small.toml").write_text(SMALL)
+    config = str(tmp_path / "small.toml")
+    assert main(["track", "--live", str(video), "--out", str(tmp_path / "live"), "--config", config, "-q"]) == 0
+    assert "street: 30 frames (1 s at 30 frames/s) in windows of 0.5 s" in capsys.readouterr().out
+    assert main(["track", str(video), "--out", str(tmp_path / "file"), "--config", config, "-q"]) == 0
+    for name in ("street.txt", "street.flags.csv"):
+        assert (tmp_path / "live" / name).read_bytes() == (tmp_path / "file" / name).read_bytes()
+    assert len((tmp_path / "live" / "street.txt").read_text().splitlines()) > 100
+    record = json.loads((tmp_path / "live" / "street.run.json").read_text())
+    assert record["live"] == {"frames_final": 30, "complete": True,
+                              "bytes": {n: (tmp_path / "live" / n).stat().st_size
+                                        for n in ("street.txt", "street.flags.csv")}}
+    assert record["inputs"]["live"] == {"source": str(video), "frame_rate": 30.0}
+    assert record["inputs"]["detections"]["source"] == "model" and record["detector_model"]["sha256"]
+    from sotmot.hashing import file_sha256
+
+    assert record["results_sha256"] == file_sha256(tmp_path / "live" / "street.txt")
+    # the record is a configuration: the same run again
+    assert main(["track", "--live", str(video), "--out", str(tmp_path / "again"), "-q",
+                 "--config", str(tmp_path / "live" / "street.run.json")]) == 0
+    assert (tmp_path / "again" / "street.txt").read_bytes() == (tmp_path / "live" / "street.txt").read_bytes()
+
+
+def _parts(n_parts: int, then: BaseException):
+    """A stand-in for sotmot.stream: ``n_parts`` parts of 10 frames (two boxes a frame), then ``then``."""
+    from sotmot.api import Committed
+    from sotmot.types import Tracks
+
+    def stream(frames, detections=None, **kwargs):
+        for k in range(n_parts):
+            f = np.repeat(np.arange(10 * k + 1, 10 * k + 11), 2)
+            tracks = Tracks(frames=f, ids=np.tile([1, 2], 10), boxes=np.tile([[10.0, 20, 30, 60]], (20, 1)),
+                            scores=np.full(20, 0.9), interpolated=np.zeros(20, bool), from_sot=np.zeros(20, bool),
+                            confidence=np.full(20, 0.9))
+            yield Committed(10 * k + 1, 10 * k + 10, tracks, Tracks.empty())
+        raise then
+
+    return stream
+
+
+def test_a_live_run_stopped_keeps_what_is_final_and_says_how_far(tmp_path, monkeypatch, capsys):
+    import sotmot.api
+
+    video = write_video(tmp_path / "cam.avi", n=5)
+    monkeypatch.setattr(sotmot.api, "stream", _parts(2, KeyboardInterrupt()))
+    out = tmp_path / "out"
+    assert main(["track", "--live", str(video), "--out", str(out), "-q"]) == 130
+    assert "frames 1-20 are final" in capsys.readouterr().err
+    lines = (out / "cam.txt").read_text().splitlines()
+    assert len(lines) == 40 and lines[-1].startswith("20,2,")
+    record = json.loads((out / "cam.run.json").read_text())
+    assert record["live"]["frames_final"] == 20 and record["live"]["complete"] is False
+    assert record["live"]["stopped"] == "interrupted" and record["results_sha256"] is None
+    assert record["live"]["bytes"]["cam.txt"] == (out / "cam.txt").stat().st_size
+
+    from sotmot.errors import InputError
+
+    monkeypatch.setattr(sotmot.api, "stream", _parts(1, InputError("cam", "frame 11 is 640 x 480, not 120 x 80")))
+    assert main(["track", "--live", str(video), "--out", str(tmp_path / "failed"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "frame 11 is 640 x 480" in err and "frames 1-10 are final" in err
+    assert json.loads((tmp_path / "failed" / "cam.run.json").read_text())["live"]["stopped"].startswith("failed")
+
+
+@pytest.mark.parametrize("then, code", [(KeyboardInterrupt(), 130), (None, 2)])
+def test_a_live_run_stopped_before_anything_is_final_leaves_nothing(tmp_path, monkeypatch, then, code):
+    import sotmot.api
+    from sotmot.errors import InputError
+
+    video = write_video(tmp_path / "cam.avi", n=5)
+    monkeypatch.setattr(sotmot.api, "stream", _parts(0, then or InputError("cam", "no frames")))
+    assert main(["track", "--live", str(video), "--out", str(tmp_path / "out"), "-q"]) == code
+    assert not (tmp_path / "out").exists()  # made by this run, nothing written: gone again
+    (tmp_path / "kept").mkdir()
+    assert main(["track", "--live", str(video), "--out", str(tmp_path / "kept"), "-q"]) == code
+    assert (tmp_path / "kept").is_dir() and not any((tmp_path / "kept").iterdir())  # not made here: kept
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--live", "VIDEO", "SEQ"], "not with SEQ_DIR"),
+    (["--live", "VIDEO", "--eval"], "not with --eval"),
+    (["--live", "VIDEO", "--resume", "--workers", "2"], "not with --resume, --workers"),
+    (["--live", "VIDEO", "--detections", "file"], "a live source has no det.txt"),
+    (["--live", "missing.avi"], "missing.avi: not found: a live source is a camera's number"),
+    (["rtsp://10.0.0.5/live"], "rtsp://10.0.0.5/live: a stream is tracked with --live URL"),
+    ([], "nothing to track"),
+])
+def test_what_cannot_be_tracked_live_is_said_before_anything_opens(tmp_path, capsys, argv, message):
+    video = write_video(tmp_path / "cam.avi", n=5)
+    argv = [str(video) if a == "VIDEO" else str(tmp_path / a) if a in ("SEQ", "missing.avi") else a for a in argv]
+    assert main(["track", *argv, "--out", str(tmp_path / "out"), "-q"]) == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("source, name", [("0", "camera0"), ("12", "camera12"),
+                                          ("rtsp://10.0.0.5:554/live/ch1?tcp", "10.0.0.5-554-live-ch1"),
+                                          ("http://cam.local/video.mjpg", "cam.local-video.mjpg"),
+                                          ("/videos/street.mp4", "street")])
+def test_a_live_source_names_its_results(source, name):
+    assert live_name(source) == name
