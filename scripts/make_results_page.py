@@ -23,6 +23,8 @@ Files it reads, each optional (a missing one leaves its section out):
   ``video_moving.json``: the same of a moving camera (``--note``: how it was made);
 * ``windows.json``: ``scripts/bench_long.py --windows`` (committed windows on long videos) merged with its
   ``--full-length`` run (the accuracy cost on each full-length sequence);
+* ``live.json``: ``scripts/bench_live.py`` (frames played at a camera's pace: how long until a frame's boxes are
+  final);
 * ``motion.json``: ``scripts/bench_motion.py`` (a moving camera, synthetic and real);
 * ``peers_clips.json``: ``scripts/bench_peers.py --mot17-clips`` on the 30-frame clips (the MOT16 clips and the
   MOT17 label sets' boxes on their frames); ``peers_private_clips.json``: ``--detector-model`` on the MOT16 clips;
@@ -369,6 +371,35 @@ def windows_section(data: dict | None) -> list[str]:
                          f"{r['HOTA'] - w['HOTA']:+.2f} | {r['IDF1'] - w['IDF1']:+.2f} | "
                          f"{w['IDSW']:.0f} -> {r['IDSW']:.0f} ({r.get('IDSW_joins', '–')}) |")
     return [*lines, "", f"Machine: {data['machine']}.", ""]
+
+
+def live_table(rows: list[dict]) -> list[str]:
+    """The rows of ``scripts/bench_live.py`` as a table (printed by it, and on the results page)."""
+    lines = ["| sequence | fps | size | window s | stream s | wall s | lag median s | lag max s | last frame's lag s "
+             "| behind s | HOTA | MOTA | IDF1 |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        late = "–" if r["behind_s"] is None else f"{r['behind_s']:+.1f}"
+        lines.append(f"| {r['sequence']} | {r['frame_rate']:g} | {r['size']} | {r['window_s']:g} | {r['stream_s']} | "
+                     f"{r['wall_s']} | {r['lag_median_s']} | {r['lag_max_s']} | {r['lag_last_frame_s']} | {late} | "
+                     f"{r['HOTA']:.1f} | {r['MOTA']:.1f} | {r['IDF1']:.1f} |")
+    return lines
+
+
+def live_section(data: dict | None) -> list[str]:
+    if data is None:
+        return []
+    lines = ["## Live sources", "", "`sotmot track --live SOURCE` (`sotmot.stream`): each sequence's JPEGs played at "
+             "its own frame rate, as a camera gives them, tracked in committed windows from "
+             f"{data['detections']} (`scripts/bench_live.py`, one run each, models loaded first). A frame's lag: "
+             "the seconds from the moment it came to the moment its boxes were final (its part of the stream "
+             "yielded). A tracker that keeps up lags about a window plus the time to track one, however long the "
+             "stream; `behind`: how much later the last frame of the last part a window cut was final than the "
+             "first part's last frame (the stream's own last part waits for no window): about 0 where tracking "
+             "keeps up, growing with the stream where a window takes longer to track than it lasts (–: fewer "
+             "than two such parts). Scores: the parts put together (the tracks "
+             "`sotmot track --window` writes).", "", *live_table(data["rows"]), "",
+             f"Machine: {data['machine']}.", ""]
+    return lines
 
 
 ENDS = (("sot", "SOT, re-ID gated (public default)"),
@@ -1020,6 +1051,7 @@ def page() -> str:
     lines += long_section(load("long.json"))
     lines += video_section(load("video.json"), load("video_moving.json"))
     lines += windows_section(load("windows.json"))
+    lines += live_section(load("live.json"))
     lines += confidence_section(load("confidence_fit.json"), load("transfer.json"))
     lines += motion_section(load("motion.json"))
     lines += clips_section(load("peers_clips.json"), load("peers_private_clips.json"))

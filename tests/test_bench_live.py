@@ -1,0 +1,28 @@
+"""scripts/bench_live.py: frames handed over no sooner than a camera at the sequence's rate gives them, each
+frame's lag from its coming to its boxes being final, and how far a run fell behind."""
+
+from __future__ import annotations
+
+import json
+
+from conftest import DATA, require
+from helpers import load_script
+
+
+def test_a_clip_played_at_its_rate_lags_by_the_stream_and_the_tracking(tmp_path):
+    script = load_script("bench_live")
+    require(DATA / "MOT16-02-clip30")
+    assert script.main(["--data", str(DATA), "--sequences", "MOT16-02-clip30", "--windows", "10",
+                        "--json", str(tmp_path / "live.json")]) == 0
+    row, = json.loads((tmp_path / "live.json").read_text())["rows"]
+    assert row["parts"] == [{**row["parts"][0], "first": 1, "last": 30}]  # 1 s of stream, one 10-s window
+    # the first frame waited for the whole stream (30 frames at 30 fps come over 29/30 s), the last for none of it
+    assert row["lag_max_s"] >= 0.9 and row["lag_max_s"] - row["lag_last_frame_s"] >= 0.9
+    assert row["wall_s"] >= row["lag_max_s"] and row["behind_s"] is None and row["HOTA"] > 20
+
+
+def test_behind_compares_the_parts_a_window_cut():
+    script = load_script("bench_live")
+    parts = [{"lag_last_s": 4.0}, {"lag_last_s": 4.2}, {"lag_last_s": 9.5}, {"lag_last_s": 1.0}]
+    assert script.behind(parts) == 5.5  # the stream's own last part (1.0) waits for no window: left out
+    assert script.behind(parts[:2]) is None
