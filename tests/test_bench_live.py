@@ -17,7 +17,7 @@ def test_a_clip_played_at_its_rate_lags_by_the_stream_and_the_tracking(tmp_path)
     row, = json.loads((tmp_path / "live.json").read_text())["rows"]
     assert row["parts"] == [{**row["parts"][0], "first": 1, "last": 30}]  # 1 s of stream, one 10-s window
     # the first frame waited for the whole stream (30 frames at 30 fps come over 29/30 s), the last for none of it
-    assert row["lag_max_s"] >= 0.9 and row["lag_max_s"] - row["lag_last_frame_s"] >= 0.9
+    assert row["lag_max_s"] >= 0.9 and row["lag_max_s"] - row["lag_last_frame_s"] >= 0.85  # each rounded to 0.1
     assert row["wall_s"] >= row["lag_max_s"] and row["behind_s"] is None and row["HOTA"] > 20
 
 

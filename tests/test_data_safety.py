@@ -237,6 +237,7 @@ def test_ctrl_c_after_failed_runs_is_an_interrupt_not_a_crash(tmp_path):
         import gc, os, signal, time
         import numpy as np
         import sotmot
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # also where SIGINT came ignored (a background job)
         frames = [np.full((48, 64, 3), 128, np.uint8)] * 19 + [None]
         det = np.array([[1, 10, 10, 10, 20, 0.9], [20, 10, 10, 10, 20, 0.9]])
         failed = []

@@ -83,8 +83,8 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 
 def _track_live(args: argparse.Namespace) -> int:
-    """``sotmot track --live SOURCE``: :func:`sotmot.runs.track_live`."""
-    from sotmot.runs import track_live
+    """``sotmot track --live SOURCE``: :func:`sotmot.live.track_live`."""
+    from sotmot.live import track_live
 
     asked = [flag for flag, given in (("SEQ_DIR", args.seq_dirs), ("--eval", args.eval), ("--resume", args.resume),
                                       ("--workers", args.workers > 1), ("--cluster", args.cluster)) if given]

@@ -1,0 +1,100 @@
+"""A live source tracked into files (``sotmot track --live``): a camera, a network stream or a video read once as
+it plays, in committed windows (:func:`sotmot.stream`), each window's final boxes appended to the results as they
+come. The files are those ``sotmot track --window`` writes (:mod:`sotmot.runs`), beside a run record that names the
+source instead of hashing inputs (:func:`sotmot.provenance.live_record`)."""
+
+from __future__ import annotations
+
+import logging
+import sys
+import time
+from contextlib import closing
+from pathlib import Path
+
+from sotmot.api import STREAM_WINDOW_SECONDS
+from sotmot.appearance import resolve_backend
+from sotmot.config import TrackerConfig
+from sotmot.errors import SotmotError
+from sotmot.hashing import file_sha256
+from sotmot.io import check_output_dir, format_results, refuse_overwriting, results_path, write_text_atomic
+from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
+from sotmot.io.video import open_live
+from sotmot.provenance import live_record, record_path, write_record
+from sotmot.runs import Outcome, append_lines, low_confidence_path, output_paths, resolve_paths
+
+log = logging.getLogger(__name__)
+
+
+def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress: bool = False) -> Outcome:
+    """Track a live source (``sotmot track --live``: a camera's number, a stream's URL, a video file read as it
+    plays; :func:`sotmot.io.video.open_live`) in committed windows (:func:`sotmot.stream`; ``[windows] seconds``,
+    30 s when unset), appending each window's final boxes to ``<name>.txt``, its flags (and unconfirmed boxes,
+    ``--unconfirmed file``) as soon as they are final, and saying in the run record how far they are (``live``).
+
+    The files are made when the first part is final, so a run that fails or is stopped before leaves none. A
+    failure after keeps what is final (the outcome and the record say how far); Ctrl-C or SIGTERM too, the
+    record saying where it stopped, then the interrupt goes on to the caller. A live source is read once:
+    there is no ``--resume``.
+    """
+    from sotmot.api import stream  # read at each call: tests stand in for it
+
+    config = resolve_paths(config)
+    config = config.replace("appearance", backend=resolve_backend(config.appearance).backend)
+    if config.windows.seconds <= 0:
+        config = config.replace("windows", seconds=STREAM_WINDOW_SECONDS)
+    frames, rate, name = open_live(source, config.input.fps)
+    out = results_path(check_output_dir(out_dir), name)
+    outputs = output_paths(out_dir, name, config)
+    refuse_overwriting(outputs, [config.detection.file, config.preprocess.mask, source], "choose another --out")
+    record = live_record(source, rate, name, config)
+    files = {out: "", flags_path(out): FLAGS_HEADER}
+    if low_confidence_path(out) in outputs:
+        files[low_confidence_path(out)] = ""
+    state = {"frames_final": 0, "complete": False}
+
+    def progress_record() -> None:
+        record["live"] = {**state, "bytes": {path.name: path.stat().st_size for path in files}}
+        write_record(out, record)
+
+    start = time.perf_counter()
+    ids: set[int] = set()
+    made: list[Path] = []
+    try:
+        with closing(stream(frames, frame_rate=rate, config=config, name=name, progress=progress)) as parts:
+            for part in parts:
+                if not state["frames_final"]:  # the first part: the files are made now, empty
+                    for path, text in files.items():
+                        write_text_atomic(path, text)
+                        made.append(path)
+                append_lines(out, format_results(part.tracks))
+                append_lines(flags_path(out), format_flags(part.tracks))
+                if low_confidence_path(out) in files:
+                    append_lines(low_confidence_path(out), format_results(part.dropped))
+                state["frames_final"] = part.last
+                progress_record()
+                ids.update(int(i) for i in part.tracks.ids)
+                log.info("%s: frames 1-%d final (%.0f s of the stream)", name, part.last, part.last / rate)
+                if progress:
+                    print(f"{name}: frames 1-{part.last} final ({part.last / rate:.0f} s of the stream; "
+                          f"{time.perf_counter() - start:.0f} s)", file=sys.stderr)
+    except BaseException as exc:
+        if not state["frames_final"]:
+            for path in made:  # stopped while the first part was being written: nothing is final
+                path.unlink(missing_ok=True)
+            raise
+        state["stopped"] = "interrupted" if isinstance(exc, KeyboardInterrupt) else f"failed: {exc}"
+        progress_record()
+        kept = f"frames 1-{state['frames_final']} are final in {out} ({record_path(out).name} says so)"
+        if isinstance(exc, SotmotError):
+            return Outcome(source, "failed", str(out), f"{source}: {exc}; {kept}")
+        print(f"sotmot: {name}: stopped; {kept}", file=sys.stderr)
+        raise
+    state["complete"] = True
+    record["results_sha256"] = file_sha256(out)
+    record["side_files"] = {path.name: file_sha256(path) for path in files if path != out}
+    progress_record()
+    seconds = time.perf_counter() - start
+    return Outcome(source, "done", str(out),
+                   f"{name}: {state['frames_final']} frames ({state['frames_final'] / rate:.0f} s at {rate:g} "
+                   f"frames/s) in windows of {config.windows.seconds:g} s, {len(ids)} tracks, "
+                   f"{state['frames_final'] / seconds:.1f} frames/s -> {out}")
