@@ -18,7 +18,7 @@ from sotmot.errors import SotmotError
 from sotmot.hashing import file_sha256
 from sotmot.io import check_output_dir, format_results, refuse_overwriting, results_path, write_text_atomic
 from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
-from sotmot.io.video import open_live
+from sotmot.io.video import open_live, shown
 from sotmot.provenance import live_record, record_path, write_record
 from sotmot.runs import Outcome, append_lines, low_confidence_path, output_paths, resolve_paths
 
@@ -46,7 +46,7 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     out = results_path(check_output_dir(out_dir), name)
     outputs = output_paths(out_dir, name, config)
     refuse_overwriting(outputs, [config.detection.file, config.preprocess.mask, source], "choose another --out")
-    record = live_record(source, rate, name, config)
+    record = live_record(shown(source), rate, name, config)
     files = {out: "", flags_path(out): FLAGS_HEADER}
     if low_confidence_path(out) in outputs:
         files[low_confidence_path(out)] = ""
@@ -86,7 +86,7 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
         progress_record()
         kept = f"frames 1-{state['frames_final']} are final in {out} ({record_path(out).name} says so)"
         if isinstance(exc, SotmotError):
-            return Outcome(source, "failed", str(out), f"{source}: {exc}; {kept}")
+            return Outcome(shown(source), "failed", str(out), f"{shown(source)}: {exc}; {kept}")
         print(f"sotmot: {name}: stopped; {kept}", file=sys.stderr)
         raise
     state["complete"] = True
@@ -94,7 +94,7 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     record["side_files"] = {path.name: file_sha256(path) for path in files if path != out}
     progress_record()
     seconds = time.perf_counter() - start
-    return Outcome(source, "done", str(out),
+    return Outcome(shown(source), "done", str(out),
                    f"{name}: {state['frames_final']} frames ({state['frames_final'] / rate:.0f} s at {rate:g} "
                    f"frames/s) in windows of {config.windows.seconds:g} s, {len(ids)} tracks, "
                    f"{state['frames_final'] / seconds:.1f} frames/s -> {out}")

@@ -83,8 +83,9 @@ def run_record(info: SeqInfo, config: TrackerConfig) -> dict[str, Any]:
 def live_record(source: str, frame_rate: float, name: str, config: TrackerConfig) -> dict[str, Any]:
     """The record of tracking a live source (``sotmot track --live``: a camera, a network stream, a video read as
     it plays) with ``config``. A live source is read once and has nothing to hash, so its results cannot be
-    resumed; the record names the source and its frame rate instead of input hashes, and the runner adds how far
-    the results are final (``live``). ``results_sha256`` is filled in when the source has ended."""
+    resumed; the record names the source (as :func:`sotmot.io.video.shown` does: no password) and its frame rate
+    instead of input hashes, and the runner adds how far the results are final (``live``). ``results_sha256`` is
+    filled in when the source has ended."""
     det_file = config.detection.file
     mask = config.preprocess.mask
     return {

@@ -128,9 +128,15 @@ def test_what_cannot_be_tracked_live_is_said_before_anything_opens(tmp_path, cap
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("source, name", [("0", "camera0"), ("12", "camera12"),
-                                          ("rtsp://10.0.0.5:554/live/ch1?tcp", "10.0.0.5-554-live-ch1"),
-                                          ("http://cam.local/video.mjpg", "cam.local-video.mjpg"),
-                                          ("/videos/street.mp4", "street")])
-def test_a_live_source_names_its_results(source, name):
-    assert live_name(source) == name
+@pytest.mark.parametrize("source, name, said", [
+    ("0", "camera0", "0"), ("12", "camera12", "12"),
+    ("rtsp://10.0.0.5:554/live/ch1?tcp", "10.0.0.5-554-live-ch1", "rtsp://10.0.0.5:554/live/ch1?tcp"),
+    ("rtsp://admin:s3cret@10.0.0.5/live", "10.0.0.5-live", "rtsp://admin:***@10.0.0.5/live"),
+    ("http://viewer@cam.local/video.mjpg", "cam.local-video.mjpg", "http://viewer@cam.local/video.mjpg"),
+    ("http://cam.local/a@b", "cam.local-a-b", "http://cam.local/a@b"),
+    ("/videos/street.mp4", "street", "/videos/street.mp4"),
+])
+def test_a_live_source_names_its_results_and_never_says_its_password(source, name, said):
+    from sotmot.io.video import shown
+
+    assert live_name(source) == name and shown(source) == said

@@ -84,6 +84,7 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 def _track_live(args: argparse.Namespace) -> int:
     """``sotmot track --live SOURCE``: :func:`sotmot.live.track_live`."""
+    from sotmot.io.video import shown
     from sotmot.live import track_live
 
     asked = [flag for flag, given in (("SEQ_DIR", args.seq_dirs), ("--eval", args.eval), ("--resume", args.resume),
@@ -96,8 +97,8 @@ def _track_live(args: argparse.Namespace) -> int:
             raise SotmotError(f"{args.det}: detections file not found (--det)")
         config = config.replace("detection", file=str(args.det))
     elif config.detection.source == "file" and config.detection.file is None:
-        raise SotmotError(f"{args.live}: a live source has no det.txt: give its detections with --det FILE, or let "
-                          f"the detector find the people (--detections auto or model)")
+        raise SotmotError(f"{shown(args.live)}: a live source has no det.txt: give its detections with --det FILE, "
+                          f"or let the detector find the people (--detections auto or model)")
     made = not args.out.exists()
     try:
         outcome = track_live(args.live, args.out, config, progress=_progress(args))

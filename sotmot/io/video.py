@@ -129,14 +129,29 @@ def _count(video: Path) -> int:
 URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]+://")
 
 
+def shown(source: str) -> str:
+    """A live source as messages and run records name it: a URL's password replaced by ``***``
+    (``rtsp://admin:secret@cam/live`` -> ``rtsp://admin:***@cam/live``; cameras are often opened so)."""
+    if not URL.match(source):
+        return source
+    scheme, rest = source.split("://", 1)
+    userinfo, at, host = rest.partition("@") if "@" in rest.split("/", 1)[0] else ("", "", rest)
+    if ":" in userinfo:
+        userinfo = userinfo.split(":", 1)[0] + ":***"
+    return f"{scheme}://{userinfo}{at}{host}"
+
+
 def live_name(source: str) -> str:
     """The name a live source's results get (``<name>.txt``): ``camera0`` for camera 0, a URL's host and path
-    with every run of other characters than letters, digits, ``.``, ``_`` and ``-`` made one ``-``
-    (``rtsp://10.0.0.5:554/live`` -> ``10.0.0.5-554-live``), a video file's stem."""
+    (no user or password) with every run of other characters than letters, digits, ``.``, ``_`` and ``-`` made
+    one ``-`` (``rtsp://admin:pw@10.0.0.5:554/live`` -> ``10.0.0.5-554-live``), a video file's stem."""
     if source.isdigit():
         return f"camera{int(source)}"
     if URL.match(source):
-        return re.sub(r"[^A-Za-z0-9._-]+", "-", source.split("://", 1)[1].split("?", 1)[0]).strip("-.") or "stream"
+        rest = source.split("://", 1)[1].split("?", 1)[0]
+        host, slash, path = rest.partition("/")
+        where = host.rpartition("@")[2] + slash + path
+        return re.sub(r"[^A-Za-z0-9._-]+", "-", where).strip("-.") or "stream"
     return Path(source).stem
 
 
@@ -152,22 +167,23 @@ def open_live(source: str, fps: float | None = None) -> tuple[Iterator, float, s
     ------
     InputError
         OpenCV cannot open the source, the source gives no frame rate (pass ``fps``) or one above
-        :data:`~sotmot.io.mot.MAX_FRAME_RATE`, or the name is not a plain file name.
+        :data:`~sotmot.io.mot.MAX_FRAME_RATE`, or the name is not a plain file name (the source named as
+        :func:`shown` names it).
     """
     import cv2
 
-    name = live_name(source)
+    name, where = live_name(source), shown(source)
     if not is_plain_name(name):
-        raise InputError(source, f"the name {name!r} it would give its results cannot name a file")
+        raise InputError(where, f"the name {name!r} it would give its results cannot name a file")
     if not source.isdigit() and not URL.match(source) and not Path(source).is_file():
-        raise InputError(source, "not found: a live source is a camera's number (0), a stream's URL "
-                                 "(rtsp://..., http://...) or a video file")
+        raise InputError(where, "not found: a live source is a camera's number (0), a stream's URL "
+                                "(rtsp://..., http://...) or a video file")
     capture = cv2.VideoCapture(int(source) if source.isdigit() else source)
     try:
         if not capture.isOpened():
-            raise InputError(source, "OpenCV cannot open this source (a camera's number, a stream's URL or a "
-                                     "video file)")
-        rate = _frame_rate(capture, fps, source, "the source")
+            raise InputError(where, "OpenCV cannot open this source (a camera's number, a stream's URL or a "
+                                    "video file)")
+        rate = _frame_rate(capture, fps, where, "the source")
     except BaseException:
         capture.release()
         raise
