@@ -94,7 +94,9 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     record["side_files"] = {path.name: file_sha256(path) for path in files if path != out}
     progress_record()
     seconds = time.perf_counter() - start
+    # a camera or a stream has no end of its own: OpenCV's read failed (unplugged, the connection dropped)
+    ended = "" if Path(source).is_file() else "; the source stopped giving frames"
     return Outcome(shown(source), "done", str(out),
                    f"{name}: {state['frames_final']} frames ({state['frames_final'] / rate:.0f} s at {rate:g} "
                    f"frames/s) in windows of {config.windows.seconds:g} s, {len(ids)} tracks, "
-                   f"{state['frames_final'] / seconds:.1f} frames/s -> {out}")
+                   f"{state['frames_final'] / seconds:.1f} frames/s -> {out}{ended}")
