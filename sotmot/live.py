@@ -18,7 +18,7 @@ from sotmot.errors import SotmotError
 from sotmot.hashing import file_sha256
 from sotmot.io import check_output_dir, format_results, refuse_overwriting, results_path, write_text_atomic
 from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
-from sotmot.io.video import open_live, shown
+from sotmot.io.video import URL, open_live, shown
 from sotmot.provenance import live_record, record_path, write_record
 from sotmot.runs import Outcome, append_lines, low_confidence_path, output_paths, resolve_paths
 
@@ -95,7 +95,7 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     progress_record()
     seconds = time.perf_counter() - start
     # a camera or a stream has no end of its own: OpenCV's read failed (unplugged, the connection dropped)
-    ended = "" if Path(source).is_file() else "; the source stopped giving frames"
+    ended = "; the source stopped giving frames" if source.isdigit() or URL.match(source) else ""
     return Outcome(shown(source), "done", str(out),
                    f"{name}: {state['frames_final']} frames ({state['frames_final'] / rate:.0f} s at {rate:g} "
                    f"frames/s) in windows of {config.windows.seconds:g} s, {len(ids)} tracks, "
