@@ -29,6 +29,7 @@ examples:
   sotmot track ../shared/data/MOT16-09 --detections model --out results   # the detector, not det/det.txt
   sotmot track --live 0 --fps 25 --out results --window 10   # camera 0: boxes final 10 s after, Ctrl-C stops
   sotmot track --live rtsp://10.0.0.5/stream1 --out results   # a network camera: results/10.0.0.5-stream1.txt
+  timeout 600 sotmot track --live 0 --fps 25 --out results   # ten minutes of camera 0; what is final stays
 
 The models are the two sotmot ships with (`sotmot models` lists them): Intel's
 person-reidentification-retail-0288 and person-detection-0202 (Apache-2.0). Another model comes
