@@ -140,3 +140,34 @@ def test_a_live_source_names_its_results_and_never_says_its_password(source, nam
     from sotmot.io.video import shown
 
     assert live_name(source) == name and shown(source) == said
+
+
+def test_a_stream_over_http_is_tracked_as_the_file_it_serves(tmp_path, capsys):
+    """A URL goes to OpenCV as it is (its FFmpeg reads http://, rtsp://, ...): a local web server's copy of a
+    video gives the file's results, under a name made of the host and path."""
+    import functools
+    import http.server
+    import threading
+
+    video = write_video(tmp_path / "cam.avi", n=40)
+    det = tmp_path / "det.txt"  # the dark block write_video draws
+    det.write_text("".join(f"{f},-1,{10 + 3 * f},20,20,40,0.9\n" for f in range(1, 41)))
+    flags = ["--appearance", "none", "--det", str(det), "-q"]
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(tmp_path))
+    handler.log_message = lambda *args: None
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        url = f"http://127.0.0.1:{server.server_address[1]}/cam.avi"
+        code = main(["track", "--live", url, "--out", str(tmp_path / "net"), *flags])
+    finally:
+        server.shutdown()
+    if code == 2 and "OpenCV cannot open" in capsys.readouterr().err:
+        pytest.skip("this OpenCV build reads no http:// stream")
+    assert code == 0
+    assert main(["track", "--live", str(video), "--out", str(tmp_path / "file"), *flags]) == 0
+    name = f"127.0.0.1-{server.server_address[1]}-cam.avi"
+    got = (tmp_path / "net" / f"{name}.txt").read_text()
+    assert len(got.splitlines()) >= 30 and got == (tmp_path / "file" / "cam.txt").read_text()
+    record = json.loads((tmp_path / "net" / f"{name}.run.json").read_text())
+    assert record["inputs"]["live"]["source"] == url and record["live"]["complete"]
