@@ -23,13 +23,19 @@ from sotmot.provenance import live_record, record_path, write_record
 from sotmot.runs import Outcome, append_lines, low_confidence_path, output_paths, resolve_paths
 
 log = logging.getLogger(__name__)
+#: A camera's frame final this many windows after it came means the tracker fell behind the camera: the reader
+#: holds two windows of frames at most (:func:`sotmot.stream`), so the camera's later frames waited in its own
+#: buffer (which may drop them).
+BEHIND_WINDOWS = 2.0
 
 
 def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress: bool = False) -> Outcome:
     """Track a live source (``sotmot track --live``: a camera's number, a stream's URL, a video file read as it
     plays; :func:`sotmot.io.video.open_live`) in committed windows (:func:`sotmot.stream`; ``[windows] seconds``,
     30 s when unset), appending each window's final boxes to ``<name>.txt``, its flags (and unconfirmed boxes,
-    ``--unconfirmed file``) as soon as they are final, and saying in the run record how far they are (``live``).
+    ``--unconfirmed file``) as soon as they are final, and saying in the run record how far they are (``live``:
+    ``frames_final``; for a camera or a stream also ``late_s``, how long after it came the newest final frame was
+    final, and ``behind`` once that exceeds :data:`BEHIND_WINDOWS` windows, with a warning).
 
     The files are made when the first part is final, so a run that fails or is stopped before leaves none. A
     failure after keeps what is final (the outcome and the record say how far); Ctrl-C or SIGTERM too, the
@@ -56,6 +62,7 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
         record["live"] = {**state, "bytes": {path.name: path.stat().st_size for path in files}}
         write_record(out, record)
 
+    camera = source.isdigit() or bool(URL.match(source))  # it gives frames at its own pace, whoever reads them
     start = time.perf_counter()
     ids: set[int] = set()
     made: list[Path] = []
@@ -71,6 +78,15 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
                 if low_confidence_path(out) in files:
                     append_lines(low_confidence_path(out), format_results(part.dropped))
                 state["frames_final"] = part.last
+                if camera:  # how long after its coming the newest final frame was final
+                    state["late_s"] = round(time.perf_counter() - start - part.last / rate, 1)
+                    if state["late_s"] > BEHIND_WINDOWS * config.windows.seconds and not state.get("behind"):
+                        state["behind"] = True
+                        log.warning("%s: frame %d was final %.0f s after it came: tracking is slower than the "
+                                    "source, whose frames now wait in its own buffer, which may drop some (the "
+                                    "tracker counts time by frames); track fewer pixels ([detection] "
+                                    "input_height), without re-ID (--appearance none) or on a faster machine",
+                                    name, part.last, state["late_s"])
                 progress_record()
                 ids.update(int(i) for i in part.tracks.ids)
                 log.info("%s: frames 1-%d final (%.0f s of the stream)", name, part.last, part.last / rate)
@@ -95,7 +111,7 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     progress_record()
     seconds = time.perf_counter() - start
     # a camera or a stream has no end of its own: OpenCV's read failed (unplugged, the connection dropped)
-    ended = "; the source stopped giving frames" if source.isdigit() or URL.match(source) else ""
+    ended = "; the source stopped giving frames" if camera else ""
     return Outcome(shown(source), "done", str(out),
                    f"{name}: {state['frames_final']} frames ({state['frames_final'] / rate:.0f} s at {rate:g} "
                    f"frames/s) in windows of {config.windows.seconds:g} s, {len(ids)} tracks, "

@@ -6,6 +6,7 @@ anything was final leaves nothing; flags that cannot go with a live source are r
 from __future__ import annotations
 
 import json
+import time
 
 import numpy as np
 import pytest
@@ -56,8 +57,9 @@ def test_a_video_read_live_gives_the_windowed_results_and_a_record_that_repeats_
     assert (tmp_path / "again" / "street.txt").read_bytes() == (tmp_path / "live" / "street.txt").read_bytes()
 
 
-def _parts(n_parts: int, then: BaseException):
-    """A stand-in for sotmot.stream: ``n_parts`` parts of 10 frames (two boxes a frame), then ``then``."""
+def _parts(n_parts: int, then: BaseException | None, pause: float = 0.0):
+    """A stand-in for sotmot.stream: ``n_parts`` parts of 10 frames (two boxes a frame), each ``pause`` seconds
+    after the one before, then ``then`` raised (None: the stream ends)."""
     from sotmot.api import Committed
     from sotmot.types import Tracks
 
@@ -67,8 +69,10 @@ def _parts(n_parts: int, then: BaseException):
             tracks = Tracks(frames=f, ids=np.tile([1, 2], 10), boxes=np.tile([[10.0, 20, 30, 60]], (20, 1)),
                             scores=np.full(20, 0.9), interpolated=np.zeros(20, bool), from_sot=np.zeros(20, bool),
                             confidence=np.full(20, 0.9))
+            time.sleep(pause)
             yield Committed(10 * k + 1, 10 * k + 10, tracks, Tracks.empty())
-        raise then
+        if then is not None:
+            raise then
 
     return stream
 
@@ -171,3 +175,18 @@ def test_a_stream_over_http_is_tracked_as_the_file_it_serves(tmp_path, capsys):
     assert len(got.splitlines()) >= 30 and got == (tmp_path / "file" / "cam.txt").read_text()
     record = json.loads((tmp_path / "net" / f"{name}.run.json").read_text())
     assert record["inputs"]["live"]["source"] == url and record["live"]["complete"]
+
+
+def test_a_camera_the_tracker_cannot_keep_up_with_is_said_and_recorded(tmp_path, monkeypatch, caplog):
+    """Frames final more than two windows after they came: a warning, and ``behind`` in the run record (a
+    camera's frames at 1,000 a second, parts of 10 frames each 0.05 s apart, windows of 0.01 s)."""
+    import sotmot.api
+    import sotmot.live
+
+    monkeypatch.setattr(sotmot.api, "stream", _parts(3, None, pause=0.05))
+    monkeypatch.setattr(sotmot.live, "open_live", lambda source, fps: (iter([]), 1000.0, "camera0"))
+    with caplog.at_level("WARNING"):
+        assert main(["track", "--live", "0", "--out", str(tmp_path), "--window", "0.01", "-q"]) == 0
+    live = json.loads((tmp_path / "camera0.run.json").read_text())["live"]
+    assert live["behind"] is True and live["late_s"] > 0.02 and live["complete"]
+    assert "tracking is slower than the source" in caplog.text
