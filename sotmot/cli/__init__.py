@@ -115,9 +115,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "windows (--window, default 30 s; the boxes of a frame are final a window after it): each "
                         "window's final boxes are appended to DIR/<name>.txt (<name>: camera0, the URL's host and "
                         "path, the file's stem; a password in the URL is never written or shown) and <name>.run.json "
-                        "says how far they are final, until the source ends or Ctrl-C stops it (what is final stays). The detector finds the people unless --det "
-                        "gives boxes (frames counted from the first frame read); --fps where the source gives no "
-                        "rate. Not with --eval, --resume, --workers or --cluster")
+                        "says how far they are final, until the source ends or Ctrl-C stops it (what is final "
+                        "stays). The detector finds the people unless --det gives boxes (frames counted from the "
+                        "first frame read); --fps where the source gives no rate. Not with --eval, --resume, "
+                        "--workers or --cluster")
     add_tracker_flags(p, "track")
     p.add_argument("--det", type=Path, metavar="DET.txt",
                    help="the detections of the one video or sequence tracked (MOTChallenge layout: frame, id, x, y, "
