@@ -29,7 +29,8 @@ log = logging.getLogger(__name__)
 BEHIND_WINDOWS = 2.0
 
 
-def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress: bool = False) -> Outcome:
+def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress: bool = False,
+               reads: tuple[str | Path | None, ...] = ()) -> Outcome:
     """Track a live source (``sotmot track --live``: a camera's number, a stream's URL, a video file read as it
     plays; :func:`sotmot.io.video.open_live`) in committed windows (:func:`sotmot.stream`; ``[windows] seconds``,
     30 s when unset), appending each window's final boxes to ``<name>.txt``, its flags (and unconfirmed boxes,
@@ -40,7 +41,7 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     The files are made when the first part is final, so a run that fails or is stopped before leaves none. A
     failure after keeps what is final (the outcome and the record say how far); Ctrl-C or SIGTERM too, the
     record saying where it stopped, then the interrupt goes on to the caller. A live source is read once:
-    there is no ``--resume``.
+    there is no ``--resume``. ``reads``: other files the run reads (``--config``), never written over.
     """
     from sotmot.api import stream  # read at each call: tests stand in for it
 
@@ -51,7 +52,8 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     frames, rate, name = open_live(source, config.input.fps)
     out = results_path(check_output_dir(out_dir), name)
     outputs = output_paths(out_dir, name, config)
-    refuse_overwriting(outputs, [config.detection.file, config.preprocess.mask, source], "choose another --out")
+    refuse_overwriting(outputs, [config.detection.file, config.preprocess.mask, source, *reads],
+                       "choose another --out")
     record = live_record(shown(source), rate, name, config)
     files = {out: "", flags_path(out): FLAGS_HEADER}
     if low_confidence_path(out) in outputs:

@@ -55,6 +55,12 @@ def test_a_video_read_live_gives_the_windowed_results_and_a_record_that_repeats_
     assert main(["track", "--live", str(video), "--out", str(tmp_path / "again"), "-q",
                  "--config", str(tmp_path / "live" / "street.run.json")]) == 0
     assert (tmp_path / "again" / "street.txt").read_bytes() == (tmp_path / "live" / "street.txt").read_bytes()
+    # but never into the folder of the record it reads, over it
+    before = (tmp_path / "live" / "street.run.json").read_bytes()
+    assert main(["track", "--live", str(video), "--out", str(tmp_path / "live"), "-q",
+                 "--config", str(tmp_path / "live" / "street.run.json")]) == 2
+    assert "would write over" in capsys.readouterr().err
+    assert (tmp_path / "live" / "street.run.json").read_bytes() == before
 
 
 def _parts(n_parts: int, then: BaseException | None, pause: float = 0.0):

@@ -101,7 +101,7 @@ def _track_live(args: argparse.Namespace) -> int:
                           f"or let the detector find the people (--detections auto or model)")
     made = not args.out.exists()
     try:
-        outcome = track_live(args.live, args.out, config, progress=_progress(args))
+        outcome = track_live(args.live, args.out, config, progress=_progress(args), reads=(args.config,))
     finally:
         if made and args.out.is_dir() and not any(args.out.iterdir()):
             args.out.rmdir()  # this run made the folder and wrote nothing into it
