@@ -355,12 +355,16 @@ class Committed:
         next for one person (joined across windows, as ``sotmot track --window`` joins them).
     dropped
         The boxes of those frames confirmation judged more likely false than true (not in ``tracks``).
+    detected
+        The built-in detector's boxes of those frames, every one it found (its weak ones too), as ``sotmot
+        track`` writes them to ``<name>.det.txt``; None when the detections were given.
     """
 
     first: int
     last: int
     tracks: Tracks
     dropped: Tracks
+    detected: Detections | None = None
 
     def __repr__(self) -> str:
         return f"Committed(frames {self.first}-{self.last}: {self.tracks.n_tracks} tracks, {len(self.tracks)} boxes)"
@@ -486,11 +490,11 @@ def _windows(reader: _ReadAhead, detections: Any, rate: float, cfg: TrackerConfi
         embedder = embedder_for(cfg.appearance, embedder)  # one model for every window
         result = track_window(dataclasses.replace(info, length=count), windows, k, cfg, given, embedder, progress)
         if len(windows) == 1:  # the whole stream in one window: its own ids, as sotmot.track gives them
-            yield Committed(1, end, result.tracks, result.dropped)
+            yield Committed(1, end, result.tracks, result.dropped, result.detected)
             return
-        tracks, dropped, _ = stitcher.add(k, result)
+        tracks, dropped, detected = stitcher.add(k, result)
         last = cut(windows, k + 1) - 1 if len(windows) > k + 1 else end
-        yield Committed(cut(windows, k), last, tracks, dropped)
+        yield Committed(cut(windows, k), last, tracks, dropped, detected)
         if len(windows) == k + 1:
             return
         k, start = k + 1, windows[k + 1][0]

@@ -14,11 +14,13 @@ from pathlib import Path
 from sotmot.api import STREAM_WINDOW_SECONDS
 from sotmot.appearance import resolve_backend
 from sotmot.config import TrackerConfig
+from sotmot.detection import detections_header, detections_path, format_detections
 from sotmot.errors import SotmotError
 from sotmot.hashing import file_sha256
 from sotmot.io import check_output_dir, format_results, refuse_overwriting, results_path, write_text_atomic
 from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
 from sotmot.io.video import URL, open_live, shown
+from sotmot.models import model_in_use
 from sotmot.provenance import live_record, record_path, write_record
 from sotmot.runs import Outcome, append_lines, low_confidence_path, output_paths, resolve_paths
 
@@ -34,7 +36,7 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     """Track a live source (``sotmot track --live``: a camera's number, a stream's URL, a video file read as it
     plays; :func:`sotmot.io.video.open_live`) in committed windows (:func:`sotmot.stream`; ``[windows] seconds``,
     30 s when unset), appending each window's final boxes to ``<name>.txt``, its flags (and unconfirmed boxes,
-    ``--unconfirmed file``) as soon as they are final, and saying in the run record how far they are (``live``:
+    ``--unconfirmed file``; the detector's boxes, ``<name>.det.txt``, when it runs) as soon as they are final, and saying in the run record how far they are (``live``:
     ``frames_final``; for a camera or a stream also ``late_s``, how long after it came the newest final frame was
     final, and ``behind`` once that exceeds :data:`BEHIND_WINDOWS` windows, with a warning).
 
@@ -51,13 +53,16 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
         config = config.replace("windows", seconds=STREAM_WINDOW_SECONDS)
     frames, rate, name = open_live(source, config.input.fps)
     out = results_path(check_output_dir(out_dir), name)
-    outputs = output_paths(out_dir, name, config)
+    detected = config.detection.file is None  # the detector runs: its boxes are written beside the results
+    outputs = output_paths(out_dir, name, config, detected=detected)
     refuse_overwriting(outputs, [config.detection.file, config.preprocess.mask, source, *reads],
                        "choose another --out")
     record = live_record(shown(source), rate, name, config)
     files = {out: "", flags_path(out): FLAGS_HEADER}
     if low_confidence_path(out) in outputs:
         files[low_confidence_path(out)] = ""
+    if detected:
+        files[detections_path(out)] = detections_header(model_in_use(config.detection.model, "detector"))
     state = {"frames_final": 0, "complete": False}
 
     def progress_record() -> None:
@@ -79,6 +84,9 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
                 append_lines(flags_path(out), format_flags(part.tracks))
                 if low_confidence_path(out) in files:
                     append_lines(low_confidence_path(out), format_results(part.dropped))
+                if part.detected is not None and detections_path(out) in files:
+                    d = part.detected
+                    append_lines(detections_path(out), format_detections(d.frames, d.boxes, d.scores))
                 state["frames_final"] = part.last
                 if camera:  # how long after its coming the newest final frame was final
                     state["late_s"] = round(time.perf_counter() - start - part.last / rate, 1)

@@ -39,13 +39,13 @@ def test_a_video_read_live_gives_the_windowed_results_and_a_record_that_repeats_
     assert main(["track", "--live", str(video), "--out", str(tmp_path / "live"), "--config", config, "-q"]) == 0
     assert "street: 30 frames (1 s at 30 frames/s) in windows of 0.5 s" in capsys.readouterr().out
     assert main(["track", str(video), "--out", str(tmp_path / "file"), "--config", config, "-q"]) == 0
-    for name in ("street.txt", "street.flags.csv"):
+    for name in ("street.txt", "street.flags.csv", "street.det.txt"):  # det.txt: the detector's boxes
         assert (tmp_path / "live" / name).read_bytes() == (tmp_path / "file" / name).read_bytes()
     assert len((tmp_path / "live" / "street.txt").read_text().splitlines()) > 100
     record = json.loads((tmp_path / "live" / "street.run.json").read_text())
     assert record["live"] == {"frames_final": 30, "complete": True,
                               "bytes": {n: (tmp_path / "live" / n).stat().st_size
-                                        for n in ("street.txt", "street.flags.csv")}}
+                                        for n in ("street.txt", "street.flags.csv", "street.det.txt")}}
     assert record["inputs"]["live"] == {"source": str(video), "frame_rate": 30.0}
     assert record["inputs"]["detections"]["source"] == "model" and record["detector_model"]["sha256"]
     from sotmot.hashing import file_sha256
