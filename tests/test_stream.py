@@ -43,7 +43,7 @@ def test_a_stream_gives_the_windowed_tracks_part_by_part(n, parts):
     got = list(sotmot.stream((f for f in frames), det, frame_rate=30, config=SMALL, name="MOT16-02"))
     assert [(p.first, p.last) for p in got] == parts  # consecutive, from frame 1 to the stream's last
     for p in got:
-        assert ((p.tracks.frames >= p.first) & (p.tracks.frames <= p.last)).all()
+        assert ((p.tracks.frames >= p.first) & (p.tracks.frames <= p.last)).all() and p.detected is None
     whole = sotmot.track(frames, det, frame_rate=30, config=SMALL, name="MOT16-02")
     assert _same(Tracks.concatenate([p.tracks for p in got]), whole.tracks)
     assert _same(Tracks.concatenate([p.dropped for p in got]), whole.dropped)
@@ -56,6 +56,8 @@ def test_a_stream_without_detections_runs_the_detector_on_each_window():
     assert [(p.first, p.last) for p in got] == [(1, 12), (13, 20)]
     whole = sotmot.track(frames, frame_rate=30, config=SMALL)
     assert len(whole.tracks) and _same(Tracks.concatenate([p.tracks for p in got]), whole.tracks)
+    for p in got:  # the detector's boxes of each part's own frames (sotmot track --live writes them)
+        assert len(p.detected) and p.first <= p.detected.frames.min() and p.detected.frames.max() <= p.last
 
 
 def test_a_stream_is_read_while_windows_are_tracked_and_keeps_two_windows_on_disk(tmp_path, monkeypatch):
