@@ -36,9 +36,10 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     """Track a live source (``sotmot track --live``: a camera's number, a stream's URL, a video file read as it
     plays; :func:`sotmot.io.video.open_live`) in committed windows (:func:`sotmot.stream`; ``[windows] seconds``,
     30 s when unset), appending each window's final boxes to ``<name>.txt``, its flags (and unconfirmed boxes,
-    ``--unconfirmed file``; the detector's boxes, ``<name>.det.txt``, when it runs) as soon as they are final, and saying in the run record how far they are (``live``:
-    ``frames_final``; for a camera or a stream also ``late_s``, how long after it came the newest final frame was
-    final, and ``behind`` once that exceeds :data:`BEHIND_WINDOWS` windows, with a warning).
+    ``--unconfirmed file``; the detector's boxes, ``<name>.det.txt``, when it runs) as soon as they are final,
+    and saying in the run record how far they are (``live``: ``frames_final``; for a camera or a stream also
+    ``late_s``, how long after it came the newest final frame was final, and ``behind`` once that exceeds
+    :data:`BEHIND_WINDOWS` windows, with a warning).
 
     The files are made when the first part is final, so a run that fails or is stopped before leaves none. A
     failure after keeps what is final (the outcome and the record say how far); Ctrl-C or SIGTERM too, the
