@@ -126,6 +126,7 @@ def test_a_live_run_stopped_before_anything_is_final_leaves_nothing(tmp_path, mo
     (["--live", "VIDEO", "--eval"], "not with --eval"),
     (["--live", "VIDEO", "--resume", "--workers", "2"], "not with --resume, --workers"),
     (["--live", "VIDEO", "--detections", "file"], "a live source has no det.txt"),
+    (["--live", "VIDEO", "--det", "d.txt", "--detections", "model"], "choose one"),
     (["--live", "missing.avi"], "missing.avi: not found: a live source is a camera's number"),
     (["rtsp://10.0.0.5/live"], "rtsp://10.0.0.5/live: a stream is tracked with --live URL"),
     ([], "nothing to track"),

@@ -66,20 +66,28 @@ def cmd_track(args: argparse.Namespace) -> int:
     videos = [p for p in args.seq_dirs if is_video(p)]
     if args.det is not None and len(args.seq_dirs) > 1:
         raise SotmotError("--det belongs to one video or sequence; track several in separate runs")
-    if args.det is not None and args.detections == "model":
-        raise SotmotError("--det gives the detections, --detections model asks the detector for them: choose one")
     if videos and args.eval:
         raise SotmotError(f"{videos[0]}: --eval needs ground truth (a sequence folder with gt/gt.txt); a video has "
                           f"none")
+    config = _track_config(args, f"{videos[0]}: a video" if videos else None)
+    return _track(args, config, args.seq_dirs)  # a video's frames are read from the file itself
+
+
+def _track_config(args: argparse.Namespace, without_det: str | None):
+    """The configuration of a ``track`` run: its flags (:func:`build_config`) and ``--det`` (which must exist and
+    not come with ``--detections model``). ``without_det``: the input that has no det.txt of its own ("VIDEO: a
+    video"), named when the configuration asks for a detections file and ``--det`` gives none."""
+    if args.det is not None and args.detections == "model":
+        raise SotmotError("--det gives the detections, --detections model asks the detector for them: choose one")
     config = build_config(args)
     if args.det is not None:  # read where it lies: its errors name it, its run record (if any) says its detector
         if not args.det.is_file():
             raise SotmotError(f"{args.det}: detections file not found (--det)")
         config = config.replace("detection", file=str(args.det))
-    if videos and config.detection.source == "file" and config.detection.file is None:
-        raise SotmotError(f"{videos[0]}: a video has no det.txt: give its detections with --det FILE, or let the "
-                          f"detector find the people (--detections auto or model)")
-    return _track(args, config, args.seq_dirs)  # a video's frames are read from the file itself
+    if without_det and config.detection.source == "file" and config.detection.file is None:
+        raise SotmotError(f"{without_det} has no det.txt: give its detections with --det FILE, or let the detector "
+                          f"find the people (--detections auto or model)")
+    return config
 
 
 def _track_live(args: argparse.Namespace) -> int:
@@ -91,14 +99,7 @@ def _track_live(args: argparse.Namespace) -> int:
                                       ("--workers", args.workers > 1), ("--cluster", args.cluster)) if given]
     if asked:
         raise SotmotError(f"--live reads one source once, as it comes: not with {', '.join(asked)}")
-    config = build_config(args)
-    if args.det is not None:
-        if not args.det.is_file():
-            raise SotmotError(f"{args.det}: detections file not found (--det)")
-        config = config.replace("detection", file=str(args.det))
-    elif config.detection.source == "file" and config.detection.file is None:
-        raise SotmotError(f"{shown(args.live)}: a live source has no det.txt: give its detections with --det FILE, "
-                          f"or let the detector find the people (--detections auto or model)")
+    config = _track_config(args, f"{shown(args.live)}: a live source")
     made = not args.out.exists()
     try:
         outcome = track_live(args.live, args.out, config, progress=_progress(args), reads=(args.config,))
