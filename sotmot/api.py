@@ -376,6 +376,12 @@ class Committed:
 STREAM_WINDOW_SECONDS = 30.0
 
 
+def stream_config(config: TrackerConfig) -> TrackerConfig:
+    """``config`` as :func:`stream` tracks with it: its ``[windows] seconds``, or :data:`STREAM_WINDOW_SECONDS`
+    where it sets none."""
+    return config if config.windows.seconds > 0 else config.replace("windows", seconds=STREAM_WINDOW_SECONDS)
+
+
 def stream(frames: Iterable, detections: Any = None, *, frame_rate: float,
            config: TrackerConfig | dict | str | Path | None = None, name: str = "stream",
            progress: bool = False) -> Iterator[Committed]:
@@ -413,8 +419,8 @@ def stream(frames: Iterable, detections: Any = None, *, frame_rate: float,
     Yields
     ------
     Committed
-        ``first``, ``last``, ``tracks``, ``dropped``: consecutive stretches of frames, from frame 1 to the
-        stream's last.
+        ``first``, ``last``, ``tracks``, ``dropped``, ``detected``: consecutive stretches of frames, from frame 1
+        to the stream's last.
 
     Raises
     ------
@@ -425,9 +431,7 @@ def stream(frames: Iterable, detections: Any = None, *, frame_rate: float,
     from sotmot.windows import window_size
 
     rate = _frame_rate(frame_rate, name)
-    cfg = _config(config)
-    if cfg.windows.seconds <= 0:
-        cfg = cfg.replace("windows", seconds=STREAM_WINDOW_SECONDS)
+    cfg = stream_config(_config(config))
     size, overlap = window_size(rate, cfg)
     if isinstance(frames, (str, Path)) or not isinstance(frames, Iterable):
         raise InputError(name, f"frames must be an iterable of images; got {type(frames).__name__} (a video file "

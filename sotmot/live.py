@@ -11,7 +11,7 @@ import time
 from contextlib import closing
 from pathlib import Path
 
-from sotmot.api import STREAM_WINDOW_SECONDS
+from sotmot.api import stream_config
 from sotmot.appearance import resolve_backend
 from sotmot.config import TrackerConfig
 from sotmot.detection import detections_header, detections_path, format_detections
@@ -19,7 +19,7 @@ from sotmot.errors import SotmotError
 from sotmot.hashing import file_sha256
 from sotmot.io import check_output_dir, format_results, refuse_overwriting, results_path, write_text_atomic
 from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
-from sotmot.io.video import URL, open_live, shown
+from sotmot.io.video import open_live, paced, shown
 from sotmot.models import model_in_use
 from sotmot.provenance import live_record, record_path, write_record
 from sotmot.runs import Outcome, append_lines, low_confidence_path, output_paths, resolve_paths
@@ -49,9 +49,7 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     from sotmot.api import stream  # read at each call: tests stand in for it
 
     config = resolve_paths(config)
-    config = config.replace("appearance", backend=resolve_backend(config.appearance).backend)
-    if config.windows.seconds <= 0:
-        config = config.replace("windows", seconds=STREAM_WINDOW_SECONDS)
+    config = stream_config(config.replace("appearance", backend=resolve_backend(config.appearance).backend))
     frames, rate, name = open_live(source, config.input.fps)
     out = results_path(check_output_dir(out_dir), name)
     detected = config.detection.file is None  # the detector runs: its boxes are written beside the results
@@ -70,7 +68,7 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
         record["live"] = {**state, "bytes": {path.name: path.stat().st_size for path in files}}
         write_record(out, record)
 
-    camera = source.isdigit() or bool(URL.match(source))  # it gives frames at its own pace, whoever reads them
+    camera = paced(source)
     start = time.perf_counter()
     ids: set[int] = set()
     made: list[Path] = []

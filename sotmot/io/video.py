@@ -129,6 +129,12 @@ def _count(video: Path) -> int:
 URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]+://")
 
 
+def paced(source: str) -> bool:
+    """Whether a live source is a camera (its number) or a stream (a URL): it gives frames at its own pace,
+    whoever reads them, and has no end of its own; else it is a video file."""
+    return source.isdigit() or bool(URL.match(source))
+
+
 def shown(source: str) -> str:
     """A live source as messages and run records name it: a URL's password replaced by ``***``
     (``rtsp://admin:secret@cam/live`` -> ``rtsp://admin:***@cam/live``; cameras are often opened so)."""
@@ -175,7 +181,7 @@ def open_live(source: str, fps: float | None = None) -> tuple[Iterator, float, s
     name, where = live_name(source), shown(source)
     if not is_plain_name(name):
         raise InputError(where, f"the name {name!r} it would give its results cannot name a file")
-    if not source.isdigit() and not URL.match(source) and not Path(source).is_file():
+    if not paced(source) and not Path(source).is_file():
         raise InputError(where, "not found: a live source is a camera's number (0), a stream's URL "
                                 "(rtsp://..., http://...) or a video file")
     capture = cv2.VideoCapture(int(source) if source.isdigit() else source)
