@@ -289,6 +289,8 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         A :class:`~sotmot.config.TrackerConfig`, a dict of sections as a config
         file holds them (e.g. ``{"association": {"l_max_seconds": 3}}``), or the
         path of a ``.toml``/``.json`` file; ``None`` for the defaults.
+        ``{"input": {"step": 2}}`` tracks every 2nd frame and fills the
+        frames between (:mod:`sotmot.stepping`; not with ``[windows]``).
     name
         The sequence's name for frames in memory (folders and videos have one).
     progress
@@ -337,7 +339,12 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
                 given = sequence_detections(info, cfg)
             tracks, dropped = track_in_windows(info, windows, cfg, given, progress=progress)
             return Result(tracks, dropped, info, cfg)
-        result = track_sequence(info, cfg, progress=progress, detections=given)
+        if cfg.input.step > 1:  # every k-th frame tracked, the boxes put back on every frame
+            from sotmot.stepping import track_stepped
+
+            result = track_stepped(info, cfg, progress=progress, detections=given)
+        else:
+            result = track_sequence(info, cfg, progress=progress, detections=given)
     return Result(result.tracks, result.dropped, info, cfg)
 
 
@@ -401,6 +408,11 @@ def stream(frames: Iterable, detections: Any = None, *, frame_rate: float,
     The parts put together are the tracks ``sotmot.track(frames, detections, config=...)`` gives with the same
     windows (``{"windows": {"seconds": ...}}``), box for box.
 
+    With ``[input] step`` k above 1 (a camera faster than the tracker), frames 1, 1 + k, ... are tracked as a
+    stream of their own at the frame rate divided by k, and each part holds every frame it covers, those
+    between tracked frames on the line between their tracks' boxes (:mod:`sotmot.stepping`); the frames after
+    the last tracked one come as a last part without boxes. Detections' rows of the frames between are not used.
+
     Parameters
     ----------
     frames
@@ -432,7 +444,8 @@ def stream(frames: Iterable, detections: Any = None, *, frame_rate: float,
 
     rate = _frame_rate(frame_rate, name)
     cfg = stream_config(_config(config))
-    size, overlap = window_size(rate, cfg)
+    step = cfg.input.step
+    size, overlap = window_size(rate / step, cfg)
     if isinstance(frames, (str, Path)) or not isinstance(frames, Iterable):
         raise InputError(name, f"frames must be an iterable of images; got {type(frames).__name__} (a video file "
                                f"or a folder: sotmot.track, or sotmot track --window)")
@@ -445,7 +458,39 @@ def stream(frames: Iterable, detections: Any = None, *, frame_rate: float,
     else:
         cfg = cfg.replace("detection", source="model")
     _given(detections)  # bad rows are errors now; boxes against the image size once the first frame has come
-    return _stream(iter(frames), detections, rate, cfg, name, size, overlap, progress)
+    if step == 1:
+        return _stream(iter(frames), detections, rate, cfg, name, size, overlap, progress)
+    return _stepped_stream(iter(frames), detections, rate, cfg, name, size, overlap, progress)
+
+
+def _stepped_stream(frames: Iterator, detections: Any, rate: float, cfg: TrackerConfig, name: str, size: int,
+                    overlap: int, progress: bool) -> Iterator[Committed]:
+    """:func:`stream` of every ``[input] step``-th frame (:mod:`sotmot.stepping`): the tracked frames streamed
+    as a stream of their own, each part's boxes put back on every frame and numbered as the stream counts them;
+    a last part holds the frames after the last tracked one (no boxes)."""
+    import itertools
+
+    from sotmot.stepping import (
+        Densifier, at_full_frames, counted, detections_at_full_frames, full_frames, inner_config, stepped_detections,
+    )
+
+    step = cfg.input.step
+    frames, count = counted(frames)
+    if detections is not None:  # the tracked frames' rows, numbered as the tracked stream counts them
+        kept = stepped_detections(_given(detections), step)
+        detections = np.column_stack([kept.frames, kept.boxes, kept.scores])
+    densifier, done = Densifier(step), 0
+    parts = _stream(itertools.islice(frames, 0, None, step), detections, rate / step, inner_config(cfg), name, size,
+                    overlap, progress)
+    with contextlib.closing(parts):
+        for part in parts:
+            last = int(full_frames(np.array([part.last]), step)[0])
+            yield Committed(done + 1, last, densifier.add(part.tracks, part.last), at_full_frames(part.dropped, step),
+                            detections_at_full_frames(part.detected, step))
+            done = last
+    if count() > done:  # the frames after the last tracked one
+        none = None if detections is not None else Detections(np.zeros(0, np.int64), np.zeros((0, 4)), np.zeros(0))
+        yield Committed(done + 1, count(), Tracks.empty(), Tracks.empty(), none)
 
 
 def _given(detections: Any, image_size: tuple[int, int] | None = None) -> Detections | None:

@@ -93,8 +93,9 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
                         state["behind"] = True
                         log.warning("%s: frame %d was final %.0f s after it came: tracking is slower than the "
                                     "source, whose frames now wait in its own buffer, which may drop some (the "
-                                    "tracker counts time by frames); track fewer pixels ([detection] "
-                                    "input_height), without re-ID (--appearance none) or on a faster machine",
+                                    "tracker counts time by frames); track every k-th frame (--step K), "
+                                    "fewer pixels ([detection] input_height), without re-ID (--appearance "
+                                    "none) or on a faster machine",
                                     name, part.last, state["late_s"])
                 progress_record()
                 ids.update(int(i) for i in part.tracks.ids)

@@ -34,6 +34,7 @@ from sotmot.confidence.maps import confidence_knots, detection_confidence, self_
 from sotmot.config import PostprocessConfig, TrackerConfig
 from sotmot.confirm import box_scorer, confirm
 from sotmot.detection import Detector, make_detector
+from sotmot.errors import ConfigError
 from sotmot.io import FrameReader, SeqInfo, read_detections, read_seqinfo
 from sotmot.motion import CameraMotion, PassMotion, estimate_motion
 from sotmot.passes import detect_sequence, embed_detections
@@ -277,7 +278,18 @@ def plan_for(seq_dir: "str | Path | SeqInfo", config: TrackerConfig, detections:
 def prepare(plan: Plan, embedder: Embedder | None = None, progress: "bool | Progress" = False,
             features: np.ndarray | None = None, detector: Detector | None = None,
             detections: Detections | None = None) -> Prepared:
-    """:func:`prepare_sequence` of a plan already made."""
+    """:func:`prepare_sequence` of a plan already made.
+
+    Raises
+    ------
+    ConfigError
+        ``[input] step`` above 1: the stages track every frame of the sequence they are given, and only ``sotmot
+        track`` (:mod:`sotmot.stepping`) gives them every k-th.
+    """
+    if plan.config.input.step != 1:
+        raise ConfigError(f"[input] step = {plan.config.input.step} is for sotmot track, sotmot.track and "
+                          f"sotmot.stream (they track every k-th frame and fill the frames between); this run "
+                          f"tracks every frame of {plan.info.name}: set step = 1")
     timings: dict[str, float] = {}
     clock = _Clock(timings)
     info, config, sot = plan.info, plan.config, plan.sot

@@ -58,7 +58,8 @@ class Plan:
         ``[appearance]`` with its backend decided (``"auto"``: OpenVINO where
         installed on the CPU) and its threads no more than the machine's CPUs.
     association
-        ``[association]`` with its gap limit in frames at the sequence's rate.
+        ``[association]`` with its gap limit in frames at the rate tracked (the
+        sequence's, divided by ``[input] step``).
     motion_in_pass
         Whether the pass over the frames measures the camera's motion too
         (a video whose camera ``[motion]`` looks at:
@@ -98,7 +99,7 @@ class Plan:
         weak = {"on": True, "off": False}.get(config.detection.weak_boxes, self.weak_boxes)
         return dataclasses.replace(self, config=config, weak_boxes=weak, weak_detector=_weak(config.detection, weak),
                                    appearance=resolve_backend(config.appearance),
-                                   association=config.association.at(self.info.frame_rate))
+                                   association=config.association.at(self.info.frame_rate / config.input.step))
 
     def record(self) -> dict[str, Any]:
         """The decisions, for the run record."""
@@ -125,7 +126,8 @@ def resolve(config: TrackerConfig, info: SeqInfo, given: bool = False) -> Plan:
                                                                   info.name)
     return Plan(info, config, source, det_file, weak, detector, _weak(detection, weak),
                 known_family(detection, info), resolve_backend(config.appearance),
-                config.association.at(info.frame_rate), in_pass(info, config.motion), mask)
+                config.association.at(info.frame_rate / config.input.step), in_pass(info, config.motion),
+                mask)
 
 
 def _weak(detection: DetectionConfig, needed: bool) -> DetectionConfig | None:

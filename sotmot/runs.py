@@ -217,7 +217,12 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
             return track_windowed(seq_dir, info, windows, outputs, config, record, resume, progress, embedder,
                                   window_workers, rerun, window_submit)
         start = time.perf_counter()
-        result = track_sequence(seq_dir, config, embedder=embedder, progress=progress)
+        if config.input.step > 1:  # every k-th frame tracked, the boxes put back on every frame
+            from sotmot.stepping import track_stepped
+
+            result = track_stepped(info, config, embedder=embedder, progress=progress)
+        else:
+            result = track_sequence(seq_dir, config, embedder=embedder, progress=progress)
         text = format_results(result.tracks)
         record["results_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()  # --resume checks it
         if result.motion is not None and result.motion.moving:

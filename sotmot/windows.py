@@ -50,7 +50,8 @@ def plan(length: int, frame_rate: float, config: TrackerConfig) -> list[Window]:
     Raises
     ------
     ConfigError
-        A window shorter than twice the overlap.
+        A window shorter than twice the overlap; several windows with ``[input] step`` above 1 (a file tracked
+        window by window is tracked at every frame).
     """
     if config.windows.seconds <= 0:
         return [(1, length)]
@@ -60,8 +61,13 @@ def plan(length: int, frame_rate: float, config: TrackerConfig) -> list[Window]:
         end = min(start + size - 1, length)
         windows.append((start, end))
         if end == length:
-            return windows
+            break
         start = end - overlap + 1
+    if len(windows) > 1 and config.input.step > 1:
+        raise ConfigError(f"[input] step = {config.input.step} with [windows] seconds = {config.windows.seconds:g}: "
+                          f"a file tracked window by window is tracked at every frame; track it whole (no "
+                          f"--window), or a video as a live source (--live VIDEO), whose windows take the step")
+    return windows
 
 
 def window_size(frame_rate: float, config: TrackerConfig) -> tuple[int, int]:

@@ -16,7 +16,8 @@ RUN_OPTIONS = {"--out", "--live", "--eval", "--workers", "--cluster", "--resume"
                "--verbose", "--help", "--json", "--ids", "--tracklets", "--tracks", "--frames", "--solvers", "--jitter"}
 #: A value for each flag that takes one and has no choices; prerequisites a flag needs to be valid.
 VALUES = {"--reid-model": "m.onnx", "--weights": "w.pt", "--detector-model": "d.xml", "--score-threshold": "0.3",
-          "--confirm-threshold": "0.3", "--extend-ends": "0.5", "--fps": "12", "--window": "30", "--mask": "m.png"}
+          "--confirm-threshold": "0.3", "--extend-ends": "0.5", "--fps": "12", "--window": "30", "--mask": "m.png",
+          "--step": "2"}
 NEEDS = {"--weights": ["--appearance", "torch"]}
 
 

@@ -63,6 +63,18 @@ def test_a_video_read_live_gives_the_windowed_results_and_a_record_that_repeats_
     assert (tmp_path / "live" / "street.run.json").read_bytes() == before
 
 
+def test_a_video_read_live_at_every_2nd_frame_gives_what_the_file_gives_and_every_frame(tmp_path, capsys):
+    video = _clip_video(tmp_path / "street.avi")
+    assert main(["track", "--live", str(video), "--out", str(tmp_path / "live"), "--step", "2", "-q"]) == 0
+    assert main(["track", str(video), "--out", str(tmp_path / "file"), "--step", "2", "-q"]) == 0
+    for name in ("street.txt", "street.flags.csv", "street.det.txt"):
+        assert (tmp_path / "live" / name).read_bytes() == (tmp_path / "file" / name).read_bytes()
+    frames = {int(line.split(",")[0]) for line in (tmp_path / "live" / "street.txt").read_text().splitlines()}
+    assert {2, 14, 28} <= frames and 30 not in frames  # frame 30 comes after the last tracked one, 29
+    record = json.loads((tmp_path / "live" / "street.run.json").read_text())
+    assert record["live"]["frames_final"] == 30 and record["config"]["input"]["step"] == 2
+
+
 def _parts(n_parts: int, then: BaseException | None, pause: float = 0.0):
     """A stand-in for sotmot.stream: ``n_parts`` parts of 10 frames (two boxes a frame), each ``pause`` seconds
     after the one before, then ``then`` raised (None: the stream ends)."""

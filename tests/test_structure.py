@@ -23,7 +23,8 @@ FLOORS = {
     "sotmot.preprocess": 5, "sotmot.confirm": 5, "sotmot.association": 5,
     "sotmot.solvers": 6,  # the solvers/ folder of the source tree, installed as sotmot.solvers
     "sotmot.pipeline": 7,
-    "sotmot.runs": 8, "sotmot.windows": 8, "sotmot.peers": 8, "sotmot.train": 8, "sotmot.benchmarks": 8,
+    "sotmot.runs": 8, "sotmot.windows": 8, "sotmot.stepping": 8, "sotmot.peers": 8, "sotmot.train": 8,
+    "sotmot.benchmarks": 8,
     "sotmot.inspect": 9, "sotmot.fitting": 9, "sotmot.api": 9, "sotmot.live": 9,
     "sotmot.cli": 10, "sotmot.__main__": 10,
 }

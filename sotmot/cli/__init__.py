@@ -30,6 +30,7 @@ examples:
   sotmot track --live 0 --fps 25 --out results --window 10   # camera 0: boxes final 10 s after, Ctrl-C stops
   sotmot track --live rtsp://10.0.0.5/stream1 --out results   # a network camera: results/10.0.0.5-stream1.txt
   timeout 600 sotmot track --live 0 --fps 25 --out results   # ten minutes of camera 0; what is final stays
+  sotmot track --live 0 --fps 30 --step 2 --out results   # every 2nd frame tracked, those between filled
 
 The models are the two sotmot ships with (`sotmot models` lists them): Intel's
 person-reidentification-retail-0288 and person-detection-0202 (Apache-2.0). Another model comes
@@ -117,8 +118,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "path, the file's stem; a password in the URL is never written or shown) and <name>.run.json "
                         "says how far they are final, until the source ends or Ctrl-C stops it (what is final "
                         "stays). The detector finds the people unless --det gives boxes (frames counted from the "
-                        "first frame read); --fps where the source gives no rate. Not with --eval, --resume, "
-                        "--workers or --cluster")
+                        "first frame read); --fps where the source gives no rate; --step K where the camera is "
+                        "faster than the tracker. Not with --eval, --resume, --workers or --cluster")
     add_tracker_flags(p, "track")
     p.add_argument("--det", type=Path, metavar="DET.txt",
                    help="the detections of the one video or sequence tracked (MOTChallenge layout: frame, id, x, y, "

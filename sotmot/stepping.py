@@ -1,0 +1,175 @@
+"""Tracking every k-th frame (``[input] step``, ``--step``): frames 1, 1 + k, 1 + 2k, ... tracked as a sequence
+of their own at the frame rate divided by k, and the tracks' boxes put back on every frame.
+
+Every stage sees only the tracked frames, so a run costs about a k-th of the time: re-ID and the detector take
+nearly all of it (docs/benchmarks.md, "Speed"), and a camera faster than the tracker can be kept up with
+(``sotmot track --live``). A frame between two tracked ones gets each track's box on the straight line between
+that track's boxes in the tracked frames around it (:func:`sotmot.postprocess.interpolate`, flagged
+``interpolated``, its score and confidence the lower of the two); a track absent from either of them gets none
+there, and the frames after the last tracked one get none. A detections file's rows of the frames between are
+not used. Frames are 1-based and boxes ``x, y, w, h`` pixels, as everywhere.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+
+from sotmot.config import TrackerConfig
+from sotmot.io import SeqInfo
+from sotmot.postprocess import interpolate
+from sotmot.types import Detections, Tracks
+
+
+def tracked_count(length: int, step: int) -> int:
+    """How many of frames ``1..length`` are tracked at every ``step``-th frame (frames 1, 1 + step, ...)."""
+    return (length - 1) // step + 1 if length > 0 else 0
+
+
+def full_frames(frames: np.ndarray, step: int) -> np.ndarray:
+    """The sequence's frame numbers of the tracked frames ``frames`` (numbered 1, 2, ... as the stepped run
+    counts them): ``1 + (f - 1) * step``."""
+    return 1 + (np.asarray(frames, dtype=np.int64) - 1) * step
+
+
+class SteppedFrames:
+    """Frames ``1, 1 + step, ...`` of a sequence as a sequence of their own (``frames[k]`` is frame ``1 + k *
+    step``), each read by ``read`` (1-based frame of the sequence -> BGR image) when a stage asks for it."""
+
+    def __init__(self, read: Callable[[int], Any], step: int, length: int) -> None:
+        self.read, self.step, self.length = read, step, length
+
+    def __len__(self) -> int:
+        return self.length
+
+    def __getitem__(self, index: int) -> Any:
+        if not 0 <= index < self.length:
+            raise IndexError(f"tracked frame {index + 1} of {self.length}")
+        return self.read(1 + index * self.step)
+
+
+def stepped_sequence(info: SeqInfo, step: int, read: Callable[[int], Any] | None = None) -> SeqInfo:
+    """``info``'s every ``step``-th frame as a sequence of its own: ``length`` the tracked frames, ``frame_rate``
+    divided by ``step``, everything else kept. A folder's frames are its own image files (decoded as the folder's
+    are); a video's or frames held in memory are read by ``read`` (a :class:`sotmot.io.frames.FrameReader` of
+    ``info``, which the caller closes); a sequence without frames (labels only) has none to read."""
+    length = tracked_count(info.length, step)
+    stepped = dataclasses.replace(info, length=length, frame_rate=info.frame_rate / step)
+    if info.frames is None and info.video is None:
+        if info.files is None and not info.frames_dir.is_dir():
+            return stepped  # no frames at all (labels only, the motion-only mode)
+        return dataclasses.replace(stepped, files=tuple(info.frame_path(1 + k * step) for k in range(length)))
+    if read is None:
+        raise ValueError(f"{info.name}: a video's frames or frames in memory are read by a reader")
+    return dataclasses.replace(stepped, frames=SteppedFrames(read, step, length))
+
+
+def stepped_detections(detections: Detections, step: int) -> Detections:
+    """The rows of the tracked frames, renumbered as the stepped run counts them; the others are left out."""
+    keep = (detections.frames - 1) % step == 0
+    part = detections.subset(np.flatnonzero(keep))
+    return dataclasses.replace(part, frames=(part.frames - 1) // step + 1)
+
+
+def at_full_frames(tracks: Tracks, step: int) -> Tracks:
+    """``tracks`` of the tracked frames with the sequence's frame numbers (no box added)."""
+    return dataclasses.replace(tracks, frames=full_frames(tracks.frames, step))
+
+
+def detections_at_full_frames(detections: Detections | None, step: int) -> Detections | None:
+    """:func:`at_full_frames` of detections (None stays None)."""
+    if detections is None:
+        return None
+    return dataclasses.replace(detections, frames=full_frames(detections.frames, step))
+
+
+class Densifier:
+    """Puts a stepped run's boxes back on every frame, part after part (a whole run is one part; a stream's
+    committed windows are several): each part's tracks at the sequence's frame numbers with the frames between
+    filled, those between the part's first tracked frame and the tracked frame before it too, from the boxes
+    that frame had (kept from the part before; ids are the same across parts)."""
+
+    def __init__(self, step: int) -> None:
+        self.step = step
+        self._before = Tracks.empty()  # the last part's boxes of its last tracked frame, at full frame numbers
+
+    def add(self, tracks: Tracks, last: int) -> Tracks:
+        """``tracks`` of tracked frames up to ``last`` (numbered as the stepped run counts them) on every frame:
+        the frames from the one after the last part's last tracked frame to this part's last tracked frame."""
+        full = at_full_frames(tracks, self.step)
+        both = Tracks.concatenate([self._before, full])
+        out = []
+        for track in np.unique(both.ids):
+            rows = np.flatnonzero(both.ids == track)
+            rows = rows[np.argsort(both.frames[rows], kind="stable")]
+            frames = both.frames[rows]
+            if len(rows) == 1:  # one box: nothing to fill
+                out.append(both.subset(rows))
+                continue
+            filled_frames, boxes, scores, filled = interpolate(frames, both.boxes[rows], both.scores[rows],
+                                                               max_gap=self.step)
+            confidence = interpolate(frames, both.boxes[rows], both.confidence[rows], max_gap=self.step)[2]
+            at = np.searchsorted(frames, filled_frames, side="right") - 1  # the box before (or at) each frame
+            out.append(Tracks(filled_frames, np.full(len(filled_frames), track), boxes, scores,
+                              both.interpolated[rows][at] | filled, both.from_sot[rows][at] & ~filled,
+                              confidence))
+        dense = Tracks.concatenate(out) if out else Tracks.empty()
+        dense = dense.subset(dense.frames > (self._before.frames.max() if len(self._before) else 0))
+        end = int(full_frames(np.array([last]), self.step)[0])
+        self._before = full.subset(full.frames == end)
+        return dense.subset(np.lexsort((dense.frames, dense.ids)))  # by track, then frame, as a run's are
+
+
+def counted(frames: Iterator) -> tuple[Iterator, Callable[[], int]]:
+    """``frames`` passed on, and a function that says how many have passed."""
+    seen = [0]
+
+    def passing() -> Iterator:
+        for frame in frames:
+            seen[0] += 1
+            yield frame
+
+    return passing(), lambda: seen[0]
+
+
+def track_stepped(info: SeqInfo, config: TrackerConfig, embedder=None, progress=False,
+                  detections: Detections | None = None):
+    """:func:`sotmot.pipeline.track_sequence` of ``info`` at every ``[input] step``-th frame: the
+    :class:`~sotmot.pipeline.TrackResult` of the tracked frames (``info`` the stepped sequence, its stages'
+    detections and tracklets numbered as it counts them) whose ``tracks`` are on every frame (:class:`Densifier`)
+    and whose ``dropped`` and ``detected`` boxes have the sequence's frame numbers. ``detections``: handed over
+    (the sequence's frame numbers), else read from the detections file as the run would, else the detector's."""
+    from sotmot.detection import detection_source
+    from sotmot.io import read_detections
+    from sotmot.io.frames import FrameReader
+    from sotmot.pipeline import track_sequence
+
+    step = config.input.step
+    if detections is None:
+        source, path = detection_source(config.detection, info)
+        if source == "file":
+            detections = read_detections(path, info.length, (info.width, info.height))
+    given = None if detections is None else stepped_detections(detections, step)
+    reader = FrameReader(info, cache_size=8) if info.frames is not None or info.video is not None else None
+    try:
+        result = track_sequence(stepped_sequence(info, step, reader), inner_config(config), embedder=embedder,
+                                progress=progress, detections=given)
+    finally:
+        if reader is not None:
+            reader.close()
+    return dataclasses.replace(result, tracks=Densifier(step).add(result.tracks, result.info.length),
+                               dropped=at_full_frames(result.dropped, step),
+                               detected=detections_at_full_frames(result.detected, step))
+
+
+def inner_config(config: TrackerConfig) -> TrackerConfig:
+    """``config`` as the stepped run's stages take it: their sequence is the tracked frames, every one of them
+    tracked."""
+    return config.replace("input", step=1)
+
+
+__all__ = ["Densifier", "SteppedFrames", "at_full_frames", "counted", "detections_at_full_frames", "full_frames",
+           "inner_config", "stepped_detections", "stepped_sequence", "track_stepped", "tracked_count"]
