@@ -19,7 +19,6 @@ last frame's, the wall time against the stream's length, and HOTA / MOTA / IDF1 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -27,11 +26,10 @@ from pathlib import Path
 import numpy as np
 
 import sotmot
-from common import DEFAULT_DATA, named_sequences
+from common import DEFAULT_DATA, comma_numbers, named_sequences, write_report
 from make_results_page import live_table
-from sotmot.io import read_seqinfo, write_text_atomic
+from sotmot.io import read_seqinfo
 from sotmot.types import Tracks
-from sotmot.versions import machine
 
 
 def paced(files: list[Path], rate: float, came: dict[int, float]):
@@ -49,12 +47,12 @@ def paced(files: list[Path], rate: float, came: dict[int, float]):
         yield image
 
 
-def live_run(seq: Path, seconds: float) -> dict:
-    """One sequence played at its rate through :func:`sotmot.stream` with windows of ``seconds``: each frame's
-    lag, the parts, the scores."""
+def live_run(seq: Path, seconds: float, step: int = 1) -> dict:
+    """One sequence played at its rate through :func:`sotmot.stream` with windows of ``seconds``, tracking every
+    ``step``-th frame (``[input] step``): each frame's lag, the parts, the scores."""
     info = read_seqinfo(seq)
     files = [info.frame_path(k) for k in range(1, info.length + 1)]
-    config = {"windows": {"seconds": seconds}}
+    config = {"windows": {"seconds": seconds}, "input": {"step": step}}
     came: dict[int, float] = {}
     lag = np.zeros(info.length)
     parts, tracks = [], []
@@ -67,13 +65,13 @@ def live_run(seq: Path, seconds: float) -> dict:
                       "lag_first_s": round(float(lag[part.first - 1]), 2),
                       "lag_last_s": round(float(lag[part.last - 1]), 2)})
         tracks.append(part.tracks)
-        print(f"  {info.name}, {seconds:g}-s windows: frames {part.first}-{part.last} final "
+        print(f"  {info.name}, {seconds:g}-s windows, step {step}: frames {part.first}-{part.last} final "
               f"{final - start:.1f} s after the start (their lag {lag[part.first - 1]:.1f}-{lag[part.last - 1]:.1f} "
               f"s)", flush=True)
     wall = time.perf_counter() - start
     scores = sotmot.evaluate(Tracks.concatenate(tracks), seq)
     return {"sequence": info.name, "frame_rate": info.frame_rate, "frames": info.length,
-            "size": f"{info.width} x {info.height}", "window_s": seconds,
+            "size": f"{info.width} x {info.height}", "window_s": seconds, "step": step,
             "stream_s": round(info.length / info.frame_rate, 1), "wall_s": round(wall, 1),
             "lag_median_s": round(float(np.median(lag)), 1), "lag_max_s": round(float(lag.max()), 1),
             "lag_last_frame_s": round(float(lag[-1]), 1),
@@ -96,23 +94,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sequences", default="PETS09-S2L1,MOT16-09",
                         help="comma-separated sequences with frames (default: %(default)s)")
     parser.add_argument("--windows", default="10,30", help="window lengths in seconds (default: %(default)s)")
+    parser.add_argument("--steps", default="1", help="track every k-th frame, for each k of this comma-separated "
+                        "list ([input] step; default: %(default)s)")
     parser.add_argument("--json", type=Path, help="write every number here")
     args = parser.parse_args(argv)
     seqs = named_sequences(parser, args.data, args.sequences)
-    try:
-        windows = [float(w) for w in args.windows.split(",")]
-    except ValueError:
-        parser.error(f"--windows: {args.windows!r} is not a comma-separated list of seconds")
+    windows = comma_numbers(parser, "--windows", args.windows)
+    steps = comma_numbers(parser, "--steps", args.steps, int)
     warm = read_seqinfo(seqs[0])  # models loaded and compiled before any clock starts
     list(sotmot.stream(paced([warm.frame_path(1), warm.frame_path(2)], warm.frame_rate, {}),
                        frame_rate=warm.frame_rate))
-    rows = [live_run(seq, seconds) for seq in seqs for seconds in windows]
+    rows = [live_run(seq, seconds, step) for seq in seqs for seconds in windows for step in steps]
     print("\n".join(live_table(rows)))
-    report = {"machine": machine(), "detections": "the built-in detector (person-detection-0202)",
-              "command": " ".join(["scripts/bench_live.py", *(argv if argv is not None else sys.argv[1:])]),
-              "rows": rows}
-    if args.json:
-        write_text_atomic(args.json, json.dumps(report, indent=2) + "\n")
+    write_report(args.json, "bench_live.py", argv, detections="the built-in detector (person-detection-0202)",
+                 rows=rows)
     return 0
 
 

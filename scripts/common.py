@@ -96,6 +96,28 @@ def read_report(parser: argparse.ArgumentParser, path: Path, what: str, keys: tu
     return report
 
 
+def comma_numbers(parser: argparse.ArgumentParser, flag: str, text: str, kind: type = float) -> list:
+    """``text``, a comma-separated list of numbers of ``kind`` (a script's ``flag``), or ``parser.error``."""
+    try:
+        return [kind(v) for v in text.split(",")]
+    except ValueError:
+        what = "whole numbers" if kind is int else "numbers"
+        parser.error(f"{flag}: {text!r} is not a comma-separated list of {what}")
+
+
+def write_report(path: Path | None, script: str, argv: list[str] | None, **fields) -> dict:
+    """The report of a benchmark run: this machine, the command that ran (``script`` with ``argv``, else the
+    process's arguments) and ``fields``; written to ``path`` (a script's ``--json``, atomically) when given."""
+    from sotmot.io import write_text_atomic
+    from sotmot.versions import machine
+
+    report = {"machine": machine(), "command": " ".join([f"scripts/{script}",
+                                                         *(argv if argv is not None else sys.argv[1:])]), **fields}
+    if path:
+        write_text_atomic(path, json.dumps(report, indent=2) + "\n")
+    return report
+
+
 def run_timed(command: list[str], env: dict[str, str] | None = None) -> dict[str, float]:
     """Run ``command`` in a child process under ``/usr/bin/time`` (its own small parent, so the peak memory is the
     command's alone, not this process's pages shared at fork): wall seconds, CPU seconds (user + system) and peak

@@ -25,6 +25,7 @@ Files it reads, each optional (a missing one leaves its section out):
   ``--full-length`` run (the accuracy cost on each full-length sequence);
 * ``live.json``: ``scripts/bench_live.py`` (frames played at a camera's pace: how long until a frame's boxes are
   final);
+* ``step.json``: ``scripts/bench_step.py`` (tracking every k-th frame: accuracy on every frame, time);
 * ``motion.json``: ``scripts/bench_motion.py`` (a moving camera, synthetic and real);
 * ``peers_clips.json``: ``scripts/bench_peers.py --mot17-clips`` on the 30-frame clips (the MOT16 clips and the
   MOT17 label sets' boxes on their frames); ``peers_private_clips.json``: ``--detector-model`` on the MOT16 clips;
@@ -375,11 +376,12 @@ def windows_section(data: dict | None) -> list[str]:
 
 def live_table(rows: list[dict]) -> list[str]:
     """The rows of ``scripts/bench_live.py`` as a table (printed by it, and on the results page)."""
-    lines = ["| sequence | fps | size | window s | stream s | wall s | lag median s | lag max s | last frame's lag s "
-             "| behind s | HOTA | MOTA | IDF1 |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| sequence | fps | size | window s | step | stream s | wall s | lag median s | lag max s | last frame's "
+             "lag s | behind s | HOTA | MOTA | IDF1 |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         late = "–" if r["behind_s"] is None else f"{r['behind_s']:+.1f}"
-        lines.append(f"| {r['sequence']} | {r['frame_rate']:g} | {r['size']} | {r['window_s']:g} | {r['stream_s']} | "
+        lines.append(f"| {r['sequence']} | {r['frame_rate']:g} | {r['size']} | {r['window_s']:g} | "
+                     f"{r.get('step', 1)} | {r['stream_s']} | "
                      f"{r['wall_s']} | {r['lag_median_s']} | {r['lag_max_s']} | {r['lag_last_frame_s']} | {late} | "
                      f"{r['HOTA']:.1f} | {r['MOTA']:.1f} | {r['IDF1']:.1f} |")
     return lines
@@ -396,10 +398,45 @@ def live_section(data: dict | None) -> list[str]:
              "stream; `behind`: how much later the last frame of the last part a window cut was final than the "
              "first part's last frame (the stream's own last part waits for no window): about 0 where tracking "
              "keeps up, growing with the stream where a window takes longer to track than it lasts (–: fewer "
-             "than two such parts). Scores: the parts put together (the tracks "
-             "`sotmot track --window` writes).", "", *live_table(data["rows"]), "",
+             "than two such parts). Step: every k-th frame tracked (`--step`; the frames between filled). Scores: "
+             "the parts put together (the tracks `sotmot track --window` writes).", "", *live_table(data["rows"]), "",
              f"Machine: {data['machine']}.", ""]
     return lines
+
+
+def step_table(rows: list[dict]) -> list[str]:
+    """The rows of ``scripts/bench_step.py`` of one kind of detections as a table (printed by it, and on the
+    results page): each step beside the same sequence's step 1."""
+    lines = ["| sequence | fps | step | tracked fps | HOTA | MOTA | IDF1 | FP | FN | IDSW | boxes filled | seconds | "
+             "faster |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    first = {r["sequence"]: r for r in rows if r["step"] == 1}
+    for r in rows:
+        base = first.get(r["sequence"])
+        delta = "" if base is None or r["step"] == 1 else f" ({r['HOTA'] - base['HOTA']:+.1f})"
+        mota = "" if base is None or r["step"] == 1 else f" ({r['MOTA'] - base['MOTA']:+.1f})"
+        faster = "–" if base is None or r["step"] == 1 else f"{base['seconds'] / r['seconds']:.1f}x"
+        lines.append(f"| {r['sequence']} | {r['frame_rate']:g} | {r['step']} | {r['tracked_fps']:g} | "
+                     f"{r['HOTA']:.1f}{delta} | {r['MOTA']:.1f}{mota} | {r['IDF1']:.1f} | {r['FP']:.0f} | "
+                     f"{r['FN']:.0f} | {r['IDSW']:.0f} | {r['filled']} | {r['seconds']} | {faster} |")
+    return lines
+
+
+def step_section(data: dict | None) -> list[str]:
+    if data is None:
+        return []
+    lines = ["## Tracking every k-th frame", "", "`sotmot track --step K` (`[input] step`): frames 1, 1 + k, ... "
+             "tracked at the frame rate divided by k, the frames between given each track's box on the line between "
+             "the tracked frames around it (`scripts/bench_step.py`: each sequence tracked whole, scored on every "
+             "frame against its full ground truth; seconds of the run with models loaded; one run each). In "
+             "brackets, the change from step 1. Boxes filled: the interpolated ones, post-processing's and those "
+             "between tracked frames. MOT17-09-FRCNN and -SDP are one video under two public detectors: from the "
+             "built-in detector their runs are one run, and MOT16-09 is the same frames with an older ground "
+             "truth.", ""]
+    for kind, title in (("public", "Public detections"), ("model", "The built-in detector's boxes")):
+        rows = [r for r in data["rows"] if r["detections"] == kind]
+        if rows:
+            lines += [f"{title}:", "", *step_table(rows), ""]
+    return lines + [f"Machine: {data['machine']}.", ""]
 
 
 ENDS = (("sot", "SOT, re-ID gated (public default)"),
@@ -1052,6 +1089,7 @@ def page() -> str:
     lines += video_section(load("video.json"), load("video_moving.json"))
     lines += windows_section(load("windows.json"))
     lines += live_section(load("live.json"))
+    lines += step_section(load("step.json"))
     lines += confidence_section(load("confidence_fit.json"), load("transfer.json"))
     lines += motion_section(load("motion.json"))
     lines += clips_section(load("peers_clips.json"), load("peers_private_clips.json"))
