@@ -357,8 +357,8 @@ def seen_share(trajectory: Tracklet) -> float:
 
 
 def too_sparse(trajectory: Tracklet, config: PostprocessConfig) -> bool:
-    """Whether ``trajectory`` has boxes in fewer than ``[postprocess] min_seen_share`` of its frames (then its long
-    gaps stay empty: :func:`unhidden`)."""
+    """Whether ``trajectory`` has boxes in fewer than ``[postprocess] min_seen_share`` of its frames (then its gaps
+    stay empty: :func:`unhidden`)."""
     return config.min_seen_share is not None and seen_share(trajectory) < config.min_seen_share
 
 
@@ -367,16 +367,18 @@ def unhidden(trajectory: Tracklet, frames: np.ndarray, boxes: np.ndarray, filled
     """``(L,)`` True for each interpolated box of ``trajectory`` (expanded to ``frames``, ``boxes``, ``filled``) that
     ``[postprocess] occlusion_seconds`` takes out: in a gap longer than it whose straight line the walk around it
     does not lead along, or across which the box stood still (:func:`off_the_line`), with nothing in front that
-    could hide the person (:meth:`Occluders.hide`); in every gap longer than it when the trajectory is too sparse
+    could hide the person (:meth:`Occluders.hide`); in every gap, short or long, when the trajectory is too sparse
     (:func:`too_sparse`). All False when there is no check, no frame rate or no ``occluders``."""
     out = np.zeros(len(frames), dtype=bool)
+    if config.occlusion_seconds is None or frame_rate is None or occluders is None:
+        return out
+    if too_sparse(trajectory, config):
+        return filled.copy()
     long = judged_gaps(trajectory, config, frame_rate, occluders) if filled.any() else _NONE
     if not len(long):
         return out
     t = trajectory
     gap = np.searchsorted(t.frames, frames) - 1  # the gap each interpolated box lies in (after box ``gap``)
-    if too_sparse(t, config):
-        return filled & np.isin(gap, long)
     off_line = long[off_the_line(t.frames, t.boxes, long, config, frame_rate)]
     candidates = np.flatnonzero(filled & np.isin(gap, off_line))
     out[candidates] = ~occluders.hide(frames[candidates], boxes[candidates])
@@ -388,8 +390,8 @@ def expand(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig()
     """The boxes of ``trajectory`` as post-processing writes them, interpolated if enabled (not smoothed).
 
     Gaps longer than ``interpolate_max_seconds`` at ``frame_rate`` stay gaps; in gaps longer than
-    ``occlusion_seconds`` off the walk's line, boxes nothing in ``occluders`` could hide are left out, and such
-    gaps of a trajectory seen too little stay empty (:func:`unhidden`).
+    ``occlusion_seconds`` off the walk's line, boxes nothing in ``occluders`` could hide are left out, and every
+    gap of a trajectory seen too little stays empty (:func:`unhidden`).
     """
     t = trajectory
     if not (config.interpolate and len(t) > 1):
@@ -447,7 +449,8 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
         a, v, o = judge_gaps(t.frames, t.boxes, judged, config, frame_rate)
         agreement, off = dict(zip(judged.tolist(), a.tolist())), dict(zip(judged.tolist(), o.tolist()))
         speed = {} if v is None else dict(zip(judged.tolist(), v.tolist()))
-    report, sparse = [], too_sparse(t, config)
+    checked = config.occlusion_seconds is not None and frame_rate is not None and occluders is not None
+    report, sparse = [], checked and too_sparse(t, config)
     for k in gaps.tolist():
         length, n = int(t.frames[k + 1] - t.frames[k]) - 1, int(written[k])
         a = agreement.get(k)
@@ -457,11 +460,11 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
         elif not filled:
             why = (f"left empty: longer than [postprocess] interpolate_max_seconds = "
                    f"{config.interpolate_max_seconds:g} s ({limit} frames)")
-        elif a is None:
-            why = "interpolated"
         elif sparse:
             why = (f"left empty: the trajectory has boxes in {seen_share(t):.0%} of its frames, fewer than "
-                   f"min_seen_share {config.min_seen_share:g} (a long gap of a sparse trajectory is not filled)")
+                   f"min_seen_share {config.min_seen_share:g} (no gap of a sparse trajectory is filled)")
+        elif a is None:
+            why = "interpolated"
         elif not off[k]:
             why = (f"interpolated on trust: the walk on both sides leads along the line (motion agreement {a:.3f} "
                    f">= min_agreement {config.min_agreement:g})")
