@@ -430,8 +430,8 @@ def step_section(data: dict | None) -> list[str]:
              "frame against its full ground truth; seconds of the run with models loaded; one run each). In "
              "brackets, the change from step 1. Boxes filled: the interpolated ones, post-processing's and those "
              "between tracked frames. MOT17-09-FRCNN and -SDP are one video under two public detectors: from the "
-             "built-in detector their runs are one run, and MOT16-09 is the same frames with an older ground "
-             "truth.", ""]
+             "built-in detector both runs give the same boxes, and MOT16-09 is the same frames with an older "
+             "ground truth.", ""]
     for kind, title in (("public", "Public detections"), ("model", "The built-in detector's boxes")):
         rows = [r for r in data["rows"] if r["detections"] == kind]
         if rows:
