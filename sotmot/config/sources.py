@@ -28,8 +28,9 @@ class InputConfig:
         are tracked as a sequence of their own at the frame rate divided by
         ``step``, and the frames between get their tracks' boxes by a straight
         line between the tracked frames around them (flagged interpolated).
-        About ``step`` times faster: at 2 a 30-fps 1080p camera stayed about
-        live on two cores. At 2 the 30-fps video loses 1.4-1.9 HOTA from its public
+        About ``step`` times faster: on two cores a 30-fps 1080p camera stays
+        live at 2 with 30-s windows, at 3 with 10-s ones (docs/benchmarks.md,
+        "A live source"). At 2 the 30-fps video loses 1.4-1.9 HOTA from its public
         detections and gains 0.7 from the built-in detector's
         (docs/results.md, "Tracking every k-th frame"). A detections file's
         rows of the frames between are not used; the frames after the last
