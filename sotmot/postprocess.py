@@ -336,11 +336,17 @@ class Occluders:
         return np.bincount(owner[hit], minlength=len(near)) > 0
 
 
+def occlusion_checked(config: PostprocessConfig, frame_rate: float | None, occluders: Occluders | None) -> bool:
+    """Whether ``[postprocess] occlusion_seconds`` judges gaps: it is set, and there are a frame rate and
+    ``occluders``."""
+    return config.occlusion_seconds is not None and frame_rate is not None and occluders is not None
+
+
 def judged_gaps(trajectory: Tracklet, config: PostprocessConfig, frame_rate: float | None,
                 occluders: Occluders | None) -> np.ndarray:
     """Indices ``k`` of the gaps (after box ``k``) of ``trajectory`` that ``[postprocess] occlusion_seconds`` judges:
     those longer than it; none when there is no check, no frame rate or no ``occluders``."""
-    if config.occlusion_seconds is None or frame_rate is None or occluders is None:
+    if not occlusion_checked(config, frame_rate, occluders):
         return _NONE
     return np.flatnonzero(np.diff(trajectory.frames) > long_gap_frames(config.occlusion_seconds, frame_rate))
 
@@ -370,7 +376,7 @@ def unhidden(trajectory: Tracklet, frames: np.ndarray, boxes: np.ndarray, filled
     could hide the person (:meth:`Occluders.hide`); in every gap, short or long, when the trajectory is too sparse
     (:func:`too_sparse`). All False when there is no check, no frame rate or no ``occluders``."""
     out = np.zeros(len(frames), dtype=bool)
-    if config.occlusion_seconds is None or frame_rate is None or occluders is None:
+    if not occlusion_checked(config, frame_rate, occluders):
         return out
     if too_sparse(trajectory, config):
         return filled.copy()
@@ -449,8 +455,7 @@ def gaps_of(trajectory: Tracklet, config: PostprocessConfig = PostprocessConfig(
         a, v, o = judge_gaps(t.frames, t.boxes, judged, config, frame_rate)
         agreement, off = dict(zip(judged.tolist(), a.tolist())), dict(zip(judged.tolist(), o.tolist()))
         speed = {} if v is None else dict(zip(judged.tolist(), v.tolist()))
-    checked = config.occlusion_seconds is not None and frame_rate is not None and occluders is not None
-    report, sparse = [], checked and too_sparse(t, config)
+    report, sparse = [], occlusion_checked(config, frame_rate, occluders) and too_sparse(t, config)
     for k in gaps.tolist():
         length, n = int(t.frames[k + 1] - t.frames[k]) - 1, int(written[k])
         a = agreement.get(k)
