@@ -307,7 +307,7 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         What the command line prints for the same input, e.g. a bad detection
         row named by its number.
     """
-    from sotmot.pipeline import track_sequence
+    from sotmot.stepping import track_whole
     from sotmot.windows import plan, sequence_detections, track_in_windows
 
     cfg = _config(config)
@@ -339,12 +339,7 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
                 given = sequence_detections(info, cfg)
             tracks, dropped = track_in_windows(info, windows, cfg, given, progress=progress)
             return Result(tracks, dropped, info, cfg)
-        if cfg.input.step > 1:  # every k-th frame tracked, the boxes put back on every frame
-            from sotmot.stepping import track_stepped
-
-            result = track_stepped(info, cfg, progress=progress, detections=given)
-        else:
-            result = track_sequence(info, cfg, progress=progress, detections=given)
+        result = track_whole(info, cfg, progress=progress, detections=given)  # every k-th frame with [input] step
     return Result(result.tracks, result.dropped, info, cfg)
 
 
@@ -484,7 +479,7 @@ def _stepped_stream(frames: Iterator, detections: Any, rate: float, cfg: Tracker
                     overlap, progress)
     with contextlib.closing(parts):
         for part in parts:
-            last = int(full_frames(np.array([part.last]), step)[0])
+            last = int(full_frames(part.last, step))
             yield Committed(done + 1, last, densifier.add(part.tracks, part.last), at_full_frames(part.dropped, step),
                             detections_at_full_frames(part.detected, step))
             done = last

@@ -193,8 +193,8 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
     from sotmot.detection import detections_path, detector_file_text
     from sotmot.hashing import file_sha256
     from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
-    from sotmot.pipeline import track_sequence
     from sotmot.provenance import record_path, run_record, why_rerun, write_record
+    from sotmot.stepping import track_whole
     from sotmot.io.flags import flags_path, write_flags
 
     try:
@@ -217,12 +217,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
             return track_windowed(seq_dir, info, windows, outputs, config, record, resume, progress, embedder,
                                   window_workers, rerun, window_submit)
         start = time.perf_counter()
-        if config.input.step > 1:  # every k-th frame tracked, the boxes put back on every frame
-            from sotmot.stepping import track_stepped
-
-            result = track_stepped(info, config, embedder=embedder, progress=progress)
-        else:
-            result = track_sequence(seq_dir, config, embedder=embedder, progress=progress)
+        result = track_whole(info, config, embedder=embedder, progress=progress)  # every k-th frame with a step
         text = format_results(result.tracks)
         record["results_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()  # --resume checks it
         if result.motion is not None and result.motion.moving:

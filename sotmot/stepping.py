@@ -29,9 +29,9 @@ def tracked_count(length: int, step: int) -> int:
     return (length - 1) // step + 1 if length > 0 else 0
 
 
-def full_frames(frames: np.ndarray, step: int) -> np.ndarray:
-    """The sequence's frame numbers of the tracked frames ``frames`` (numbered 1, 2, ... as the stepped run
-    counts them): ``1 + (f - 1) * step``."""
+def full_frames(frames: np.ndarray | int, step: int) -> np.ndarray:
+    """The sequence's frame numbers of the tracked frames ``frames`` (an array, or one frame; numbered 1, 2, ... as
+    the stepped run counts them): ``1 + (f - 1) * step``."""
     return 1 + (np.asarray(frames, dtype=np.int64) - 1) * step
 
 
@@ -118,7 +118,7 @@ class Densifier:
                               confidence))
         dense = Tracks.concatenate(out) if out else Tracks.empty()
         dense = dense.subset(dense.frames > (self._before.frames.max() if len(self._before) else 0))
-        end = int(full_frames(np.array([last]), self.step)[0])
+        end = int(full_frames(last, self.step))
         self._before = full.subset(full.frames == end)
         return dense.subset(np.lexsort((dense.frames, dense.ids)))  # by track, then frame, as a run's are
 
@@ -135,6 +135,18 @@ def counted(frames: Iterator) -> tuple[Iterator, Callable[[], int]]:
     return passing(), lambda: seen[0]
 
 
+def track_whole(info: SeqInfo, config: TrackerConfig, embedder=None, progress=False,
+                detections: Detections | None = None):
+    """A whole sequence tracked (no windows): :func:`sotmot.pipeline.track_sequence` of ``info``, or with
+    ``[input] step`` above 1 :func:`track_stepped`. ``detections``: handed over (the sequence's frame numbers),
+    else the run's detections file or the detector."""
+    from sotmot.pipeline import track_sequence
+
+    if config.input.step == 1:
+        return track_sequence(info, config, embedder=embedder, progress=progress, detections=detections)
+    return track_stepped(info, config, embedder, progress, detections)
+
+
 def track_stepped(info: SeqInfo, config: TrackerConfig, embedder=None, progress=False,
                   detections: Detections | None = None):
     """:func:`sotmot.pipeline.track_sequence` of ``info`` at every ``[input] step``-th frame: the
@@ -142,16 +154,13 @@ def track_stepped(info: SeqInfo, config: TrackerConfig, embedder=None, progress=
     detections and tracklets numbered as it counts them) whose ``tracks`` are on every frame (:class:`Densifier`)
     and whose ``dropped`` and ``detected`` boxes have the sequence's frame numbers. ``detections``: handed over
     (the sequence's frame numbers), else read from the detections file as the run would, else the detector's."""
-    from sotmot.detection import detection_source
-    from sotmot.io import read_detections
     from sotmot.io.frames import FrameReader
     from sotmot.pipeline import track_sequence
+    from sotmot.windows import sequence_detections
 
     step = config.input.step
     if detections is None:
-        source, path = detection_source(config.detection, info)
-        if source == "file":
-            detections = read_detections(path, info.length, (info.width, info.height))
+        detections = sequence_detections(info, config)
     given = None if detections is None else stepped_detections(detections, step)
     reader = FrameReader(info, cache_size=8) if info.frames is not None or info.video is not None else None
     try:
@@ -172,4 +181,5 @@ def inner_config(config: TrackerConfig) -> TrackerConfig:
 
 
 __all__ = ["Densifier", "SteppedFrames", "at_full_frames", "counted", "detections_at_full_frames", "full_frames",
-           "inner_config", "stepped_detections", "stepped_sequence", "track_stepped", "tracked_count"]
+           "inner_config", "stepped_detections", "stepped_sequence", "track_stepped", "track_whole",
+           "tracked_count"]
