@@ -307,8 +307,9 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         What the command line prints for the same input, e.g. a bad detection
         row named by its number.
     """
+    from sotmot.detection import file_detections
     from sotmot.stepping import track_whole
-    from sotmot.windows import plan, sequence_detections, track_in_windows
+    from sotmot.windows import plan, track_in_windows
 
     cfg = _config(config)
     given = None
@@ -336,7 +337,7 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         windows = plan(info.length, info.frame_rate, cfg)
         if len(windows) > 1:  # [windows] on: tracked window by window, joined (sotmot.windows)
             if given is None:
-                given = sequence_detections(info, cfg)
+                given = file_detections(cfg.detection, info)
             tracks, dropped = track_in_windows(info, windows, cfg, given, progress=progress)
             return Result(tracks, dropped, info, cfg)
         result = track_whole(info, cfg, progress=progress, detections=given)  # every k-th frame with [input] step

@@ -99,7 +99,7 @@ class Plan:
         weak = {"on": True, "off": False}.get(config.detection.weak_boxes, self.weak_boxes)
         return dataclasses.replace(self, config=config, weak_boxes=weak, weak_detector=_weak(config.detection, weak),
                                    appearance=resolve_backend(config.appearance),
-                                   association=config.association.at(self.info.frame_rate / config.input.step))
+                                   association=_association(config, self.info))
 
     def record(self) -> dict[str, Any]:
         """The decisions, for the run record."""
@@ -126,8 +126,13 @@ def resolve(config: TrackerConfig, info: SeqInfo, given: bool = False) -> Plan:
                                                                   info.name)
     return Plan(info, config, source, det_file, weak, detector, _weak(detection, weak),
                 known_family(detection, info), resolve_backend(config.appearance),
-                config.association.at(info.frame_rate / config.input.step), in_pass(info, config.motion),
+                _association(config, info), in_pass(info, config.motion),
                 mask)
+
+
+def _association(config: TrackerConfig, info: SeqInfo) -> AssociationConfig:
+    """``[association]`` at the frame rate tracked: the sequence's, divided by ``[input] step``."""
+    return config.association.at(info.frame_rate / config.input.step)
 
 
 def _weak(detection: DetectionConfig, needed: bool) -> DetectionConfig | None:

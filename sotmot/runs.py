@@ -306,17 +306,19 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
     detector's boxes grow by whole lines, and the run record says after each window how far they are final. An
     interrupted run of the same settings resumes (``--resume``) after its last committed window, with the same
     results as an uninterrupted one."""
-    from sotmot.detection import detections_header, detections_path, format_detections
+    from sotmot.detection import detections_header, detections_path, file_detections, format_detections
     from sotmot.hashing import file_sha256
     from sotmot.io import format_results, write_text_atomic
     from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
     from sotmot.models import model_in_use
     from sotmot.provenance import write_record
-    from sotmot.windows import Stitcher, cut, sequence_detections, windowed
+    from sotmot.stepping import full_frames
+    from sotmot.windows import Stitcher, cut, windowed
 
     start = time.perf_counter()
     out = outputs[-1]
-    detections = sequence_detections(info, config)
+    step = config.input.step
+    detections = file_detections(config.detection, info)
     files = {out: "", flags_path(out): FLAGS_HEADER}
     if low_confidence_path(out) in outputs:
         files[low_confidence_path(out)] = ""
@@ -324,12 +326,12 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
         files[detections_path(out)] = detections_header(model_in_use(config.detection.model, "detector"))
     state = _resumable_windows(out, record, [list(w) for w in windows], list(files)) if resume else None
     if state is not None:
-        stitcher = Stitcher.from_state(windows, config.windows.join_iou, state)
+        stitcher = Stitcher.from_state(windows, config.windows.join_iou, state, step)
         for name, size in state["bytes"].items():
             os.truncate(out.with_name(name), size)  # lines appended after the last record are made again
         rerun = f" (resumed after window {stitcher.done} of {len(windows)})"
     else:
-        stitcher = Stitcher(windows, config.windows.join_iou)
+        stitcher = Stitcher(windows, config.windows.join_iou, step=step)
         for path, text in files.items():
             write_text_atomic(path, text)
 
@@ -359,7 +361,7 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
             append_lines(detections_path(out), format_detections(detected.frames, detected.boxes, detected.scores))
         progress_record(False)
         ids.update(int(i) for i in tracks.ids)
-        last = cut(windows, k + 1) - 1 if k + 1 < len(windows) else windows[k][1]
+        last = int(full_frames(cut(windows, k + 1) - 1, step)) if k + 1 < len(windows) else info.length
         log.info("%s: frames 1-%d of %d final (window %d of %d)", info.name, last, info.length, k + 1, len(windows))
         if progress:
             print(f"{info.name}: frames 1-{last} of {info.length} final (window {k + 1} of {len(windows)}; "

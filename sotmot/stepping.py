@@ -36,11 +36,13 @@ def full_frames(frames: np.ndarray | int, step: int) -> np.ndarray:
 
 
 class SteppedFrames:
-    """Frames ``1, 1 + step, ...`` of a sequence as a sequence of their own (``frames[k]`` is frame ``1 + k *
-    step``), each read by ``read`` (1-based frame of the sequence -> BGR image) when a stage asks for it."""
+    """Tracked frames ``start, start + 1, ...`` of a sequence tracked at every ``step``-th frame, as a sequence of
+    their own (``frames[k]`` is tracked frame ``start + k``, the sequence's frame ``1 + (start - 1 + k) * step``),
+    each read by ``read`` (1-based frame of the sequence -> BGR image) when a stage asks for it. A window of the
+    sequence (:func:`sotmot.windows.window_sequence`) is one at step 1."""
 
-    def __init__(self, read: Callable[[int], Any], step: int, length: int) -> None:
-        self.read, self.step, self.length = read, step, length
+    def __init__(self, read: Callable[[int], Any], step: int, length: int, start: int = 1) -> None:
+        self.read, self.step, self.length, self.start = read, step, length, start
 
     def __len__(self) -> int:
         return self.length
@@ -48,7 +50,7 @@ class SteppedFrames:
     def __getitem__(self, index: int) -> Any:
         if not 0 <= index < self.length:
             raise IndexError(f"tracked frame {index + 1} of {self.length}")
-        return self.read(1 + index * self.step)
+        return self.read(int(full_frames(self.start + index, self.step)))
 
 
 def stepped_sequence(info: SeqInfo, step: int, read: Callable[[int], Any] | None = None) -> SeqInfo:
@@ -95,6 +97,17 @@ class Densifier:
     def __init__(self, step: int) -> None:
         self.step = step
         self._before = Tracks.empty()  # the last part's boxes of its last tracked frame, at full frame numbers
+
+    def state(self) -> list[list]:
+        """What putting back the next part needs, as JSON (a resumed run's :meth:`from_state`)."""
+        return self._before.to_lists()
+
+    @classmethod
+    def from_state(cls, step: int, state: list[list]) -> "Densifier":
+        """The densifier :meth:`state` describes."""
+        densifier = cls(step)
+        densifier._before = Tracks.from_lists(state)
+        return densifier
 
     def add(self, tracks: Tracks, last: int) -> Tracks:
         """``tracks`` of tracked frames up to ``last`` (numbered as the stepped run counts them) on every frame:
@@ -154,13 +167,13 @@ def track_stepped(info: SeqInfo, config: TrackerConfig, embedder=None, progress=
     detections and tracklets numbered as it counts them) whose ``tracks`` are on every frame (:class:`Densifier`)
     and whose ``dropped`` and ``detected`` boxes have the sequence's frame numbers. ``detections``: handed over
     (the sequence's frame numbers), else read from the detections file as the run would, else the detector's."""
+    from sotmot.detection import file_detections
     from sotmot.io.frames import FrameReader
     from sotmot.pipeline import track_sequence
-    from sotmot.windows import sequence_detections
 
     step = config.input.step
     if detections is None:
-        detections = sequence_detections(info, config)
+        detections = file_detections(config.detection, info)
     given = None if detections is None else stepped_detections(detections, step)
     reader = FrameReader(info, cache_size=8) if info.frames is not None or info.video is not None else None
     try:

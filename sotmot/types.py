@@ -238,6 +238,21 @@ class Tracks:
         """The same rows with other ``(N, 4)`` boxes (e.g. mapped to another frame of reference)."""
         return Tracks(self.frames, self.ids, boxes, self.scores, self.interpolated, self.from_sot, self.confidence)
 
+    def to_lists(self) -> list[list]:
+        """The columns as JSON-ready lists (NaN confidence as None), in field order: what a run record keeps of
+        boxes a resumed run needs (:meth:`from_lists`)."""
+        return [self.frames.tolist(), self.ids.tolist(), self.boxes.tolist(), self.scores.tolist(),
+                self.interpolated.tolist(), self.from_sot.tolist(),
+                [None if np.isnan(v) else v for v in self.confidence.tolist()]]
+
+    @classmethod
+    def from_lists(cls, columns: "Sequence[list]") -> "Tracks":
+        """The tracks :meth:`to_lists` wrote."""
+        frames, ids, boxes, scores, interpolated, from_sot, confidence = columns
+        return cls(np.asarray(frames, np.int64), np.asarray(ids, np.int64),
+                   np.asarray(boxes, np.float64).reshape(-1, 4), scores, interpolated, from_sot,
+                   [np.nan if v is None else v for v in confidence])
+
     @property
     def n_tracks(self) -> int:
         """Number of distinct identities."""

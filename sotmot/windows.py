@@ -14,6 +14,12 @@ frame ``t`` are final as soon as the window holding ``t`` and the one before
 it are tracked, whatever the sequence's length, and windows can be tracked in
 any order or in parallel: the joins are made in order, from the windows alone.
 
+With ``[input] step`` above 1 the windows are windows of the tracked frames
+(:mod:`sotmot.stepping`): window ``k`` covers tracked frames ``[s_k, e_k]``
+(tracked frame ``j`` is the sequence's frame ``1 + (j - 1) * step``), its
+length and overlap counted at the frame rate divided by the step, and each
+committed part's boxes are put back on every frame before they are written.
+
 Frames are 1-based, boxes ``x, y, w, h`` pixels.
 """
 
@@ -29,6 +35,10 @@ from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig
 from sotmot.errors import ConfigError
 from sotmot.io import FrameReader, SeqInfo
+from sotmot.stepping import (
+    Densifier, SteppedFrames, at_full_frames, detections_at_full_frames, full_frames, inner_config, stepped_detections,
+    tracked_count,
+)
 from sotmot.types import Detections, Tracks
 from sotmot.workers import dask_worker_threads, process_threads, worker_embedder
 
@@ -44,18 +54,21 @@ def overlap_frames(frame_rate: float, config: TrackerConfig) -> int:
 
 
 def plan(length: int, frame_rate: float, config: TrackerConfig) -> list[Window]:
-    """The windows ``[(first, last), ...]`` (1-based, inclusive) of a sequence of ``length`` frames; one window
-    (the whole sequence) when windows are off or the sequence is no longer than one.
+    """The windows ``[(first, last), ...]`` (1-based, inclusive) of a sequence of ``length`` frames at
+    ``frame_rate``; one window (the whole sequence) when windows are off or the sequence is no longer than one.
+    With ``[input] step`` above 1, windows of its tracked frames (numbered as the stepped run counts them) at
+    the frame rate divided by the step.
 
     Raises
     ------
     ConfigError
-        A window shorter than twice the overlap; several windows with ``[input] step`` above 1 (a file tracked
-        window by window is tracked at every frame).
+        A window shorter than twice the overlap.
     """
+    step = config.input.step
+    length = tracked_count(length, step)
     if config.windows.seconds <= 0:
         return [(1, length)]
-    size, overlap = window_size(frame_rate, config)
+    size, overlap = window_size(frame_rate / step, config)
     windows, start = [], 1
     while True:
         end = min(start + size - 1, length)
@@ -63,10 +76,6 @@ def plan(length: int, frame_rate: float, config: TrackerConfig) -> list[Window]:
         if end == length:
             break
         start = end - overlap + 1
-    if len(windows) > 1 and config.input.step > 1:
-        raise ConfigError(f"[input] step = {config.input.step} with [windows] seconds = {config.windows.seconds:g}: "
-                          f"a file tracked window by window is tracked at every frame; track it whole (no "
-                          f"--window), or a video as a live source (--live VIDEO), whose windows take the step")
     return windows
 
 
@@ -97,26 +106,18 @@ def cut(windows: list[Window], k: int) -> int:
     return start + (previous_end - start + 1) // 2
 
 
-class WindowFrames:
-    """The frames ``start, start + 1, ...`` of a sequence, as a window reads them (``window[0]`` is ``start``)."""
-
-    def __init__(self, reader: FrameReader, start: int, length: int) -> None:
-        self.reader, self.start, self.length = reader, start, length
-
-    def __len__(self) -> int:
-        return self.length
-
-    def __getitem__(self, index: int) -> np.ndarray:
-        return self.reader(self.start + index)
-
-
-def window_sequence(info: SeqInfo, window: Window, reader: FrameReader) -> SeqInfo:
+def window_sequence(info: SeqInfo, window: Window, reader: FrameReader, step: int = 1) -> SeqInfo:
     """Window ``(first, last)`` of ``info`` as a sequence of its own: frames renumbered from 1, read through
-    ``reader`` (the sequence's own), everything else (name, folder, frame rate, size) kept."""
+    ``reader`` (the sequence's own), everything else (name, folder, frame rate, size) kept. With ``step`` above
+    1 the window's frames are tracked frames (:class:`~sotmot.stepping.SteppedFrames`) and its frame rate is the
+    sequence's divided by ``step``."""
     first, last = window
+    window_info = dataclasses.replace(info, length=last - first + 1)
+    if step > 1:
+        window_info = dataclasses.replace(window_info, frame_rate=info.frame_rate / step)
     if info.frames is None and info.video is None and not info.frames_dir.is_dir():
-        return dataclasses.replace(info, length=last - first + 1)  # no frames at all (labels only): none to read
-    return dataclasses.replace(info, length=last - first + 1, frames=WindowFrames(reader, first, last - first + 1))
+        return window_info  # no frames at all (labels only): none to read
+    return dataclasses.replace(window_info, frames=SteppedFrames(reader, step, last - first + 1, first))
 
 
 def _shift(tracks: Tracks, by: int) -> Tracks:
@@ -140,32 +141,25 @@ class WindowResult:
     detected: Detections | None
 
 
-def sequence_detections(info: SeqInfo, config: TrackerConfig) -> Detections | None:
-    """The detections every window slices, read once from the sequence's detections file; None when the
-    detector runs on each window's frames (``[detection] source``)."""
-    from sotmot.detection import detection_source
-    from sotmot.io import read_detections
-
-    source, path = detection_source(config.detection, info)
-    return read_detections(path, info.length, (info.width, info.height)) if source == "file" else None
-
-
 def track_window(info: SeqInfo, windows: list[Window], k: int, config: TrackerConfig,
                  detections: Detections | None = None, embedder=None, progress=False) -> WindowResult:
     """Track window ``k`` of ``windows`` of sequence ``info``: ``detections`` (the whole sequence's, already
-    read) sliced to it, or the detector run on its frames when None."""
+    read, the sequence's frame numbers) sliced to it, or the detector run on its frames when None. With
+    ``[input] step`` above 1, window ``k`` is of the tracked frames, and so is the result."""
     from sotmot.pipeline import track_sequence
 
+    step = config.input.step
     first, last = windows[k]
     reader = FrameReader(info, cache_size=8)
     try:
         given = None
         if detections is not None:
-            keep = (detections.frames >= first) & (detections.frames <= last)
-            part = detections.subset(np.flatnonzero(keep))
-            given = Detections(part.frames - (first - 1), part.boxes, part.scores).sorted()
-        result = track_sequence(window_sequence(info, windows[k], reader), config, embedder=embedder,
-                                progress=progress, detections=given)
+            start, end = int(full_frames(first, step)), int(full_frames(last, step))  # the sequence's frames
+            part = detections.subset(np.flatnonzero((detections.frames >= start) & (detections.frames <= end)))
+            shifted = Detections(part.frames - (start - 1), part.boxes, part.scores)
+            given = stepped_detections(shifted, step).sorted()
+        result = track_sequence(window_sequence(info, windows[k], reader, step), inner_config(config),
+                                embedder=embedder, progress=progress, detections=given)
     finally:
         reader.close()
     detected = None
@@ -208,7 +202,10 @@ class Stitcher:
     so an interrupted run resumes at the next window (:meth:`state`,
     :meth:`from_state`). ``windows`` may grow while windows are added (a
     stream's, :func:`sotmot.api.stream`): adding window ``k`` reads window
-    ``k + 1``'s first frame, and whether there is one.
+    ``k + 1``'s first frame, and whether there is one. With ``step`` above 1
+    the windows are of the tracked frames, and what each commits is put back
+    on every frame (:class:`~sotmot.stepping.Densifier`, whose state travels
+    too).
     """
 
     windows: list[Window]
@@ -217,10 +214,16 @@ class Stitcher:
     done: int = 0
     carry: Tracks = field(default_factory=Tracks.empty)
     joins: list[dict] = field(default_factory=list)
+    step: int = 1
+    densifier: Densifier | None = None
+
+    def __post_init__(self) -> None:
+        if self.densifier is None:
+            self.densifier = Densifier(self.step)
 
     def add(self, k: int, result: WindowResult) -> tuple[Tracks, Tracks, Detections | None]:
         """Window ``k``'s boxes with their final ids, and the boxes of the frames it owns: ``(tracks, dropped,
-        detected)`` to commit. Windows must come in order."""
+        detected)`` to commit, in the sequence's frame numbers. Windows must come in order."""
         if k != self.done:
             raise ValueError(f"window {k} added after {self.done} windows")
         first, last = self.windows[k]
@@ -240,7 +243,12 @@ class Stitcher:
         detected = result.detected
         if detected is not None:
             detected = detected.subset(np.flatnonzero((detected.frames >= begin) & (detected.frames <= end)))
-        return _between(tracks, begin, end), _between(dropped, begin, end), detected
+        tracks, dropped = _between(tracks, begin, end), _between(dropped, begin, end)
+        if self.step > 1:  # tracked frames: their boxes put back on every frame
+            tracks = self.densifier.add(tracks, end)
+            dropped = at_full_frames(dropped, self.step)
+            detected = detections_at_full_frames(detected, self.step)
+        return tracks, dropped, detected
 
     def _new_ids(self, ids: dict[int, int], tracks: Tracks) -> dict[int, int]:
         """``ids`` completed with a new id for every track of ``tracks`` it lacks, in order of first box."""
@@ -254,19 +262,17 @@ class Stitcher:
 
     def state(self) -> dict:
         """What resuming after :attr:`done` windows needs, as JSON."""
-        c = self.carry
-        return {"done": self.done, "next_id": self.next_id, "joins": self.joins,
-                "carry": [c.frames.tolist(), c.ids.tolist(), c.boxes.tolist(), c.scores.tolist(),
-                          c.interpolated.tolist(), c.from_sot.tolist(),
-                          [None if np.isnan(v) else v for v in c.confidence.tolist()]]}
+        state = {"done": self.done, "next_id": self.next_id, "joins": self.joins, "carry": self.carry.to_lists()}
+        if self.step > 1:
+            state["filled_from"] = self.densifier.state()
+        return state
 
     @classmethod
-    def from_state(cls, windows: list[Window], min_iou: float, state: dict) -> "Stitcher":
-        """The stitcher :meth:`state` describes."""
-        f, i, b, s, interp, sot, conf = state["carry"]
-        carry = Tracks(np.asarray(f, np.int64), np.asarray(i, np.int64), np.asarray(b, np.float64).reshape(-1, 4),
-                       s, interp, sot, [np.nan if v is None else v for v in conf])
-        return cls(windows, min_iou, int(state["next_id"]), int(state["done"]), carry, list(state["joins"]))
+    def from_state(cls, windows: list[Window], min_iou: float, state: dict, step: int = 1) -> "Stitcher":
+        """The stitcher :meth:`state` describes (``step``: the run's, as it was made)."""
+        densifier = Densifier.from_state(step, state["filled_from"]) if step > 1 else None
+        return cls(windows, min_iou, int(state["next_id"]), int(state["done"]), Tracks.from_lists(state["carry"]),
+                   list(state["joins"]), step, densifier)
 
 
 def windowed(info: SeqInfo, windows: list[Window], config: TrackerConfig, detections: Detections | None,
@@ -306,7 +312,7 @@ def track_in_windows(info: SeqInfo, windows: list[Window], config: TrackerConfig
                      workers: int = 1, embedder=None, progress=False) -> tuple[Tracks, Tracks]:
     """The tracks and the unconfirmed boxes of ``info`` tracked in ``windows``, all in memory (the API's way;
     ``sotmot track`` writes each window's boxes as it commits them)."""
-    stitcher = Stitcher(windows, config.windows.join_iou)
+    stitcher = Stitcher(windows, config.windows.join_iou, step=config.input.step)
     kept, dropped = [], []
     for k, result in windowed(info, windows, config, detections, 0, workers, embedder, progress):
         tracks, low, _ = stitcher.add(k, result)
@@ -323,5 +329,5 @@ def _window_job(info: SeqInfo, windows: list[Window], k: int, config: TrackerCon
     return track_window(info, windows, k, config, detections, worker_embedder(config.appearance))
 
 
-__all__ = ["Stitcher", "WindowFrames", "WindowResult", "cut", "join", "overlap_frames", "plan",
-           "sequence_detections", "track_in_windows", "track_window", "window_sequence", "window_size", "windowed"]
+__all__ = ["Stitcher", "WindowResult", "cut", "join", "overlap_frames", "plan", "track_in_windows", "track_window",
+           "window_sequence", "window_size", "windowed"]

@@ -3,7 +3,8 @@ rate divided by k, the tracks' boxes put back on every frame on the line between
 
 The tracked frames' boxes are those of a copy of the sequence made of its every k-th frame (the validation set's
 rate copies, ``sotmot.benchmarks.subsampled_sequence``), box for box; the frames between are filled by hand-checked
-lines; a stream with a step gives, part by part, the frames it read; the settings that cannot take a step say so."""
+lines; a stream with a step gives, part by part, the frames it read, and a file in windows what a copy of its
+every k-th frame gives in the same windows; the runs that cannot take a step say so."""
 
 from __future__ import annotations
 
@@ -128,15 +129,36 @@ def test_sotmot_track_step_writes_every_frame_and_records_the_step(tmp_path):
     assert record["plan"]["l_max_frames"] == TrackerConfig().association.at(15).l_max  # counted at 15 fps
 
 
-def test_the_runs_that_track_every_frame_refuse_a_step(tmp_path, capsys):
+def test_a_file_in_windows_at_a_step_tracks_what_a_copy_of_every_kth_frame_tracks_in_those_windows(tmp_path):
+    from sotmot.benchmarks import subsampled_sequence
     from sotmot.cli import main
+
+    seq = require(CLIP)
+    small = {"association": {"l_max_seconds": 0.2}, "windows": {"seconds": 0.5}}  # at 10 fps: 5-frame windows
+    copy = subsampled_sequence(seq, 3, tmp_path / "copies")
+    alone = np.loadtxt(sotmot.track(copy, config=small).save(tmp_path / "alone.txt"), delimiter=",", ndmin=2)
+    config = tmp_path / "small.toml"
+    config.write_text("[association]\nl_max_seconds = 0.2\n[windows]\nseconds = 0.5\n")
+    out = tmp_path / "out"
+    assert main(["track", str(seq), "--out", str(out), "--config", str(config), "--step", "3", "-q"]) == 0
+    record = json.loads((out / f"{seq.name}.run.json").read_text())
+    assert record["windows"]["plan"] == [[1, 5], [4, 8], [7, 10]]  # of the 10 tracked frames, 2 in each overlap
+    text = (out / f"{seq.name}.txt").read_text()
+    rows = np.loadtxt(out / f"{seq.name}.txt", delimiter=",", ndmin=2)
+    tracked = rows[(rows[:, 0] - 1) % 3 == 0]
+    tracked[:, 0] = (tracked[:, 0] - 1) // 3 + 1
+    assert len(alone) > 50 and np.array_equal(tracked, alone)  # the same boxes, the same ids
+    flags = np.loadtxt(out / f"{seq.name}.flags.csv", delimiter=",", skiprows=1, ndmin=2, usecols=(0, 2))
+    between = (flags[:, 0] - 1) % 3 != 0
+    assert between.sum() > 50 and flags[between, 1].all()  # every box between tracked frames is filled in
+    assert rows[:, 0].max() <= 28  # none after the last tracked frame
+    api = sotmot.track(seq, config={**small, "input": {"step": 3}}).save(tmp_path / "api.txt")
+    assert api.read_text() == text  # the API tracks in windows at a step as the command line does
+
+
+def test_the_runs_that_track_every_frame_refuse_a_step():
     from sotmot.pipeline import track_sequence
 
     seq = require(CLIP)
     with pytest.raises(ConfigError, match="step = 2 is for sotmot track"):
         track_sequence(seq, TrackerConfig().replace("input", step=2))
-    config = tmp_path / "small.toml"  # 15-frame windows overlapping by 6: the 30-frame clip in three
-    config.write_text("[association]\nl_max_seconds = 0.2\n[windows]\nseconds = 0.5\n")
-    assert main(["track", str(seq), "--out", str(tmp_path / "out"), "--config", str(config), "--step", "2",
-                 "-q"]) != 0
-    assert "a file tracked window by window is tracked at every frame" in capsys.readouterr().err

@@ -17,16 +17,16 @@ from conftest import DATA, require, write_sequence
 RATE = 5  # frames per second of the synthetic sequences: the 4-s gap is 20 frames, windows of 8 s are 40
 
 
-def _walkers(tmp_path, gaps: dict[int, tuple[int, int]] | None = None, length: int = 120):
-    """Two people walking the whole sequence in opposite directions, 60 px apart; ``gaps``: person -> frames
-    (first, last) where the detector misses them."""
+def _walkers(tmp_path, gaps: dict[int, tuple[int, int]] | None = None, length: int = 120, rate: float = RATE):
+    """Two people walking the whole sequence in opposite directions, 60 px apart (3 px a frame at ``rate``);
+    ``gaps``: person -> frames (first, last) where the detector misses them."""
     lines = []
     for f in range(1, length + 1):
-        for person, (x0, dx, y) in enumerate(((10, 3.0, 20), (400, -3.0, 120))):
+        for person, (x0, dx, y) in enumerate(((10, 3.0 * RATE / rate, 20), (400, -3.0 * RATE / rate, 120))):
             first, last = (gaps or {}).get(person, (0, -1))
             if not first <= f <= last:
                 lines.append(f"{f},-1,{x0 + dx * f:.2f},{y},30,60,0.9")
-    return write_sequence(tmp_path, lines, length=length, frame_rate=RATE, width=800, height=240, images=False)
+    return write_sequence(tmp_path, lines, length=length, frame_rate=rate, width=800, height=240, images=False)
 
 
 def _track(seq, out, *extra) -> list[str]:
@@ -115,6 +115,35 @@ def test_a_killed_run_resumes_after_its_last_window_with_the_same_results(tmp_pa
     resumed = _track(seq, out, "--window", "8", "--resume")
     assert resumed == reference
     assert json.loads((out / "SYN.run.json").read_text())["windows"]["complete"] is True
+
+
+def test_a_run_in_windows_at_a_step_resumes_in_processes_to_the_uninterrupted_results(tmp_path, monkeypatch):
+    # 10 fps at step 2: 120 tracked frames at 5 fps in the five windows above. The box of frame 100, between the
+    # last tracked frame the interrupted run committed (99) and the next (101), comes from its run record.
+    import sotmot.windows as windows
+
+    seq = _walkers(tmp_path, {1: (128, 140)}, length=240, rate=2 * RATE)
+    reference = _track(seq, tmp_path / "ref", "--window", "8", "--step", "2")
+    # both people on every frame up to the last tracked one, the 1.3-s miss bridged and filled
+    assert len(reference) == 2 * 239 and _ids(reference) == {"1", "2"}
+    real_add = windows.Stitcher.add
+
+    def killed_after_two(self, k, result):
+        if k == 2:
+            raise KeyboardInterrupt
+        return real_add(self, k, result)
+
+    monkeypatch.setattr(windows.Stitcher, "add", killed_after_two)
+    out = tmp_path / "run"
+    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "--unconfirmed", "keep", "-q",
+                 "--window", "8", "--step", "2"]) == 130
+    record = json.loads((out / "SYN.run.json").read_text())
+    assert record["windows"]["done"] == 2 and record["windows"]["plan"] == [[1, 40], [21, 60], [41, 80], [61, 100],
+                                                                            [81, 120]]
+    committed = (out / "SYN.txt").read_text().splitlines()
+    assert committed == [line for line in reference if int(line.split(",")[0]) <= 1 + (50 - 1) * 2]
+    monkeypatch.setattr(windows.Stitcher, "add", real_add)
+    assert _track(seq, out, "--window", "8", "--step", "2", "--resume", "--workers", "2") == reference
 
 
 def test_the_api_tracks_in_windows_as_the_command_line_does(tmp_path):

@@ -25,6 +25,7 @@ import numpy as np
 from sotmot.config import DetectionConfig
 from sotmot.errors import ConfigError
 from sotmot.hashing import file_sha256
+from sotmot.io import read_detections
 from sotmot.models import MODELS, model_in_use, resolve_model_file
 from sotmot.plugins import DETECTORS, EXTRAS
 
@@ -87,6 +88,13 @@ def detection_source(config: DetectionConfig, info) -> tuple[str, Path | None]:
     if config.source == "file" or (config.source == "auto" and path.is_file()):
         return "file", path
     return "model", None
+
+
+def file_detections(config: DetectionConfig, info):
+    """The detections of sequence ``info`` read once from its detections file (:func:`detection_source`), for
+    the runs that hand parts of them on (windows, every k-th frame); None when the detector runs on the frames."""
+    source, path = detection_source(config, info)
+    return read_detections(path, info.length, (info.width, info.height)) if source == "file" else None
 
 
 #: Confidence families of known detector models, by the start of the model file's name (``sotmot.confidence``).
@@ -177,5 +185,5 @@ def detections_path(results: str | Path) -> Path:
 
 
 __all__ = ["BOX_FORMAT", "DETECTORS", "ENV_VAR", "HEADER", "KNOWN_FAMILIES", "SCORE_FORMAT", "Detector",
-           "detection_source", "detections_header", "detections_path", "detector_file_text", "format_detections",
-           "known_family", "make_detector", "read_header", "resolve_detector_path", "rounded"]
+           "detection_source", "detections_header", "detections_path", "detector_file_text", "file_detections",
+           "format_detections", "known_family", "make_detector", "read_header", "resolve_detector_path", "rounded"]
