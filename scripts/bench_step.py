@@ -8,9 +8,11 @@ divided by k; the frames between get their tracks' boxes on the line between the
 **every** frame. A step is run where the tracked rate stays at ``--min-fps`` or above. Per row: HOTA, MOTA, IDF1,
 FP, FN, IDSW, the boxes filled between tracked frames, and the run's seconds (models loaded before the clock
 starts; one run each, on this machine, in this process). Public and model detections are separate tables, as
-MOTChallenge reports them.
+MOTChallenge reports them. ``--window SECONDS`` tracks each run in committed windows of that length (of the
+tracked frames at a step: ``sotmot track --step K --window SECONDS``) instead of whole.
 
     .venv/bin/python scripts/bench_step.py --json docs/results/step.json
+    .venv/bin/python scripts/bench_step.py --window 10 --detections public --json /tmp/step_windows.json
 """
 
 from __future__ import annotations
@@ -28,11 +30,11 @@ from sotmot.io import read_seqinfo
 SHOWN = ("HOTA", "MOTA", "IDF1", "FP", "FN", "IDSW")
 
 
-def step_run(seq: Path, step: int, detections: str) -> dict:
-    """``seq`` tracked at every ``step``-th frame from ``detections`` ("public" or "model"), scored on every
-    frame."""
+def step_run(seq: Path, step: int, detections: str, window: float = 0.0) -> dict:
+    """``seq`` tracked at every ``step``-th frame from ``detections`` ("public" or "model"), in committed windows
+    of ``window`` seconds (0: whole), scored on every frame."""
     info = read_seqinfo(seq)
-    config = {"input": {"step": step}}
+    config = {"input": {"step": step}, "windows": {"seconds": window}}
     if detections == "model":
         config["detection"] = {"source": "model"}
     start = time.perf_counter()
@@ -40,6 +42,7 @@ def step_run(seq: Path, step: int, detections: str) -> dict:
     seconds = time.perf_counter() - start
     scores = result.scores(gt=seq)
     row = {"sequence": info.name, "detections": detections, "frame_rate": info.frame_rate, "step": step,
+           "window_seconds": window,
            "tracked_fps": round(info.frame_rate / step, 2), "frames": info.length, "seconds": round(seconds, 1),
            "filled": int(result.tracks.interpolated.sum()), "boxes": len(result.tracks),
            **{m: round(float(scores[m]), 2) for m in SHOWN}}
@@ -61,6 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--detections", default="public,model",
                         help="public (the sequence's det.txt), model (the built-in detector), or both "
                              "(default: %(default)s)")
+    parser.add_argument("--window", type=float, default=0.0, metavar="SECONDS",
+                        help="track in committed windows of this many seconds (default: 0, whole)")
     parser.add_argument("--json", type=Path, help="write every number here")
     args = parser.parse_args(argv)
     seqs = named_sequences(parser, args.data, args.sequences)
@@ -74,7 +79,8 @@ def main(argv: list[str] | None = None) -> int:
     for kind in kinds:
         for seq in seqs:
             rate = read_seqinfo(seq).frame_rate
-            rows += [step_run(seq, step, kind) for step in steps if step == 1 or rate / step >= args.min_fps]
+            rows += [step_run(seq, step, kind, args.window) for step in steps
+                     if step == 1 or rate / step >= args.min_fps]
     for kind in kinds:
         print(f"\n{kind} detections\n" + "\n".join(step_table([r for r in rows if r["detections"] == kind])))
     write_report(args.json, "bench_step.py", argv, rows=rows)
