@@ -23,6 +23,7 @@ from sotmot.io import SeqInfo
 from sotmot.io.mask import Mask, read_mask
 from sotmot.motion import in_pass
 from sotmot.sot.support import WEAK_MIN_SCORE
+from sotmot.tracklets import checked_batch_length
 
 
 @dataclass(frozen=True)
@@ -122,6 +123,8 @@ def resolve(config: TrackerConfig, info: SeqInfo, given: bool = False) -> Plan:
     if source == "model":  # one pass gives the boxes tracked and, below min_score, the weak ones
         low = min(detection.min_score, WEAK_MIN_SCORE) if weak else detection.min_score
         detector = detection if low == detection.min_score else dataclasses.replace(detection, min_score=low)
+    step = config.input.step
+    checked_batch_length(info.frame_rate / step, config.tracklets, step)  # before any work, not after it
     mask = None if config.preprocess.mask is None else read_mask(config.preprocess.mask, info.width, info.height,
                                                                   info.name)
     return Plan(info, config, source, det_file, weak, detector, _weak(detection, weak),

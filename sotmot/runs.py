@@ -350,8 +350,9 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
         except StopIteration:
             break
         except SotmotError as exc:  # what is committed stays, and says so: --resume continues from there
-            return Outcome(seq_dir, "failed", str(out), f"{seq_dir}: {exc}; windows 1-{stitcher.done} of "
-                                                        f"{len(windows)} are committed in {out} (--resume continues)")
+            done = f"windows 1-{stitcher.done} of {len(windows)} are" if stitcher.done else "no window is yet"
+            return Outcome(seq_dir, "failed", str(out), f"{seq_dir}: {exc}; {done} committed in {out} "
+                                                        f"(--resume continues)")
         tracks, dropped, detected = stitcher.add(k, result)
         append_lines(out, format_results(tracks))
         append_lines(flags_path(out), format_flags(tracks))

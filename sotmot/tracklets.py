@@ -39,6 +39,26 @@ def batch_length(frame_rate: float, batch_seconds: float) -> int:
     return max(1, int(round(batch_seconds * frame_rate)))
 
 
+def checked_batch_length(frame_rate: float, config: TrackletConfig, step: int = 1) -> int:
+    """:func:`batch_length` of ``config`` at ``frame_rate`` (the rate tracked: the sequence's divided by
+    ``step``), checked before any work (:func:`sotmot.plan.resolve`) and again by :func:`build_tracklets`.
+
+    Raises
+    ------
+    ConfigError
+        Batches so short that ``l_min`` drops every tracklet (a frame rate too low for ``batch_seconds``).
+    """
+    batch_frames = batch_length(frame_rate, config.batch_seconds)
+    if batch_frames <= config.l_min:
+        raise ConfigError(f"[tracklets] batch_seconds = {config.batch_seconds:g} at {frame_rate:g} frames/s gives "
+                          f"batches of {batch_frames} frame(s), so every tracklet has at most {batch_frames} box(es) "
+                          f"and l_min = {config.l_min} drops them all; use batch_seconds >= "
+                          f"{(config.l_min + 1) / frame_rate:.3g} "
+                          f"(or check frameRate in seqinfo.ini"
+                          + (f", or a smaller [input] step than {step})" if step > 1 else ")"))
+    return batch_frames
+
+
 def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: float,
                     config: TrackletConfig = TrackletConfig(),
                     progress: Callable[[Iterable[int]], Iterable[int]] | None = None) -> list[Tracklet]:
@@ -71,13 +91,7 @@ def build_tracklets(detections: Detections, features: np.ndarray, frame_rate: fl
     no_reid = motion_only(features)
     per_frame = detections.by_frame()
     frames = sorted(per_frame)
-    batch_frames = batch_length(frame_rate, config.batch_seconds)
-    if batch_frames <= config.l_min:
-        raise ConfigError(f"[tracklets] batch_seconds = {config.batch_seconds:g} at {frame_rate:g} frames/s gives "
-                          f"batches of {batch_frames} frame(s), so every tracklet has at most {batch_frames} box(es) "
-                          f"and l_min = {config.l_min} drops them all; use batch_seconds >= "
-                          f"{(config.l_min + 1) / frame_rate:.3g} "
-                          f"(or check frameRate in seqinfo.ini)")
+    batch_frames = checked_batch_length(frame_rate, config)
     finished: list[list[int]] = []
     active: list[list[int]] = []
     current_batch = None

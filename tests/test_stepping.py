@@ -162,3 +162,19 @@ def test_the_runs_that_track_every_frame_refuse_a_step():
     seq = require(CLIP)
     with pytest.raises(ConfigError, match="step = 2 is for sotmot track"):
         track_sequence(seq, TrackerConfig().replace("input", step=2))
+
+
+@pytest.mark.parametrize("window", [[], ["--window", "20"]])
+def test_a_step_that_leaves_too_few_frames_a_second_is_refused_before_anything_is_written(tmp_path, capsys, window):
+    # 5 fps at step 5: 1 tracked frame a second, so the 1-s batches hold one box each and l_min drops them all
+    from sotmot.cli import main
+
+    from conftest import write_sequence
+
+    seq = write_sequence(tmp_path, [f"{f},-1,{10 + 3 * f},20,30,60,0.9" for f in range(1, 101)], length=100,
+                         frame_rate=5, width=400, height=120, images=False)
+    out = tmp_path / "out"
+    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "--step", "5", "-q", *window]) == 2
+    err = capsys.readouterr().err
+    assert "at 1 frames/s gives batches of 1 frame(s)" in err and "a smaller [input] step than 5" in err
+    assert not out.exists()
