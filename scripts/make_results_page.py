@@ -377,13 +377,16 @@ def windows_section(data: dict | None) -> list[str]:
 def live_table(rows: list[dict]) -> list[str]:
     """The rows of ``scripts/bench_live.py`` as a table (printed by it, and on the results page)."""
     lines = ["| sequence | fps | size | window s | step | stream s | wall s | lag median s | lag max s | last frame's "
-             "lag s | behind s | HOTA | MOTA | IDF1 |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "lag s | behind s | resident MB, first / last part | peak MB | HOTA | MOTA | IDF1 |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         late = "–" if r["behind_s"] is None else f"{r['behind_s']:+.1f}"
+        memory = (f"{r['rss_first_part_mb']} / {r['rss_last_cut_part_mb']} | {r['peak_rss_mb']}"
+                  if "peak_rss_mb" in r else "– | –")
         lines.append(f"| {r['sequence']} | {r['frame_rate']:g} | {r['size']} | {r['window_s']:g} | "
                      f"{r.get('step', 1)} | {r['stream_s']} | "
                      f"{r['wall_s']} | {r['lag_median_s']} | {r['lag_max_s']} | {r['lag_last_frame_s']} | {late} | "
-                     f"{r['HOTA']:.1f} | {r['MOTA']:.1f} | {r['IDF1']:.1f} |")
+                     f"{memory} | {r['HOTA']:.1f} | {r['MOTA']:.1f} | {r['IDF1']:.1f} |")
     return lines
 
 
@@ -398,7 +401,9 @@ def live_section(data: dict | None) -> list[str]:
              "stream; `behind`: how much later the last frame of the last part a window cut was final than the "
              "first part's last frame (the stream's own last part waits for no window): about 0 where tracking "
              "keeps up, growing with the stream where a window takes longer to track than it lasts (–: fewer "
-             "than two such parts). Step: every k-th frame tracked (`--step`; the frames between filled). Scores: "
+             "than two such parts). Step: every k-th frame tracked (`--step`; the frames between filled). Resident "
+             "memory: the process's when the first and the last part a window cut were final, and its peak while "
+             "the stream played (models loaded before; `x K`: the sequence played K times back to back). Scores: "
              "the parts put together (the tracks `sotmot track --window` writes).", "", *live_table(data["rows"]), "",
              f"Machine: {data['machine']}.", ""]
     return lines

@@ -26,3 +26,16 @@ def test_behind_compares_the_parts_a_window_cut():
     parts = [{"lag_last_s": 4.0}, {"lag_last_s": 4.2}, {"lag_last_s": 9.5}, {"lag_last_s": 1.0}]
     assert script.behind(parts) == 5.5  # the stream's own last part (1.0) waits for no window: left out
     assert script.behind(parts[:2]) is None
+
+
+def test_a_clip_played_twice_is_one_stream_scored_against_its_ground_truth_twice(tmp_path):
+    script = load_script("bench_live")
+    require(DATA / "MOT16-02-clip30")
+    assert script.main(["--data", str(DATA), "--sequences", "MOT16-02-clip30:2", "--windows", "10",
+                        "--cache", str(tmp_path / "cache"), "--json", str(tmp_path / "live.json")]) == 0
+    row, = json.loads((tmp_path / "live.json").read_text())["rows"]
+    assert row["sequence"] == "MOT16-02-clip30 x2" and row["frames"] == 60 and row["stream_s"] == 2.0
+    assert row["parts"][-1]["last"] == 60
+    assert row["peak_rss_mb"] >= max(p["rss_mb"] for p in row["parts"]) > 100  # models loaded: hundreds of MB
+    # the second copy's people are new people, so HOTA stays what one copy scores (about), not half of it
+    assert row["HOTA"] > 20 and (tmp_path / "cache" / "MOT16-02-clip30-x2.gt.txt").is_file()
