@@ -436,11 +436,15 @@ def step_section(data: dict | None) -> list[str]:
              "brackets, the change from step 1. Boxes filled: the interpolated ones, post-processing's and those "
              "between tracked frames. MOT17-09-FRCNN and -SDP are one video under two public detectors: from the "
              "built-in detector both runs give the same boxes, and MOT16-09 is the same frames with an older "
-             "ground truth.", ""]
-    for kind, title in (("public", "Public detections"), ("model", "The built-in detector's boxes")):
-        rows = [r for r in data["rows"] if r["detections"] == kind]
-        if rows:
-            lines += [f"{title}:", "", *step_table(rows), ""]
+             "ground truth. Runs in committed windows (`--step K --window S`: windows of the tracked frames) "
+             "are tables of their own, each step beside the same windows at step 1.", ""]
+    windows = sorted({r.get("window_seconds", 0) for r in data["rows"]})
+    for seconds in windows:
+        for kind, title in (("public", "Public detections"), ("model", "The built-in detector's boxes")):
+            rows = [r for r in data["rows"] if r["detections"] == kind and r.get("window_seconds", 0) == seconds]
+            if rows:
+                where = f", in {seconds:g}-s windows" if seconds else ""
+                lines += [f"{title}{where}:", "", *step_table(rows), ""]
     return lines + [f"Machine: {data['machine']}.", ""]
 
 

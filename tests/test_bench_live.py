@@ -26,6 +26,12 @@ def test_behind_compares_the_parts_a_window_cut():
     parts = [{"lag_last_s": 4.0}, {"lag_last_s": 4.2}, {"lag_last_s": 9.5}, {"lag_last_s": 1.0}]
     assert script.behind(parts) == 5.5  # the stream's own last part (1.0) waits for no window: left out
     assert script.behind(parts[:2]) is None
+    # every 2nd frame of 60 tracked: the last tracked frame is 59, and frame 60 comes as a part of its own after
+    # the part that ends there, the stream's end; both are left out
+    stepped = [{"last": 20, "lag_last_s": 4.0}, {"last": 40, "lag_last_s": 3.0}, {"last": 59, "lag_last_s": 1.5},
+               {"last": 60, "lag_last_s": 1.5}]
+    assert script.behind(stepped, 59) == -1.0
+    assert script.behind(stepped[1:], 59) is None
 
 
 def test_a_clip_played_twice_is_one_stream_scored_against_its_ground_truth_twice(tmp_path):
