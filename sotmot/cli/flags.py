@@ -105,7 +105,7 @@ FLAGS: tuple[Flag, ...] = (
          note="Overrides the configuration and SOTMOT_REID_MODEL."),
     Flag(("--appearance",), "appearance", "backend", choices=_backends,
          note="none: no re-ID, the motion-only mode (several times faster with a det.txt, about twice with "
-              "the built-in detector; 4 to 25 HOTA lower where frames exist: docs/results.md, \"Without re-ID\")."),
+              "the built-in detector; 6 to 25 HOTA lower where frames exist: docs/results.md, \"Without re-ID\")."),
     Flag(("--fps",), "input", "fps", metavar="N", commands=frozenset({"track", "graph", "explain", "compare"})),
     Flag(("--step",), "input", "step", metavar="K", commands=frozenset({"track"})),
     Flag(("--no-flip",), "appearance", "flip", switch=False, note="Embed each crop once, without its mirror image."),

@@ -225,10 +225,10 @@ class AppearanceConfig:
         its appearance feature; no SOT step, no end extension. Several times
         faster with a ``det.txt``, about twice as fast with the built-in
         detector (which then does most of the work: MOT16-09's 1080p frames
-        at 39.5 against 19.3 frames/s on two cores), and what
+        at 48.2 against 25.8 frames/s on two cores), and what
         ``scripts/bench_validation.py`` tracks label-only sequences with;
         ahead of SORT, ByteTrack and OC-SORT there (combined HOTA 48.0
-        against at most 44.3). Where frames exist it trails re-ID by 4 to 25
+        against at most 44.3). Where frames exist it trails re-ID by 6 to 25
         HOTA on each full-length sequence (docs/results.md, "Without
         re-ID"). Where the camera moves,
         nothing compensates it here (no frames): the line check
