@@ -163,10 +163,24 @@ def track_whole(info: SeqInfo, config: TrackerConfig, embedder=None, progress=Fa
 def track_stepped(info: SeqInfo, config: TrackerConfig, embedder=None, progress=False,
                   detections: Detections | None = None):
     """:func:`sotmot.pipeline.track_sequence` of ``info`` at every ``[input] step``-th frame: the
-    :class:`~sotmot.pipeline.TrackResult` of the tracked frames (``info`` the stepped sequence, its stages'
-    detections and tracklets numbered as it counts them) whose ``tracks`` are on every frame (:class:`Densifier`)
-    and whose ``dropped`` and ``detected`` boxes have the sequence's frame numbers. ``detections``: handed over
-    (the sequence's frame numbers), else read from the detections file as the run would, else the detector's."""
+    :class:`~sotmot.pipeline.TrackResult` of the tracked frames (:func:`track_tracked_frames`) whose ``tracks`` are
+    on every frame (:class:`Densifier`) and whose ``dropped`` and ``detected`` boxes have the sequence's frame
+    numbers."""
+    step = config.input.step
+    result = track_tracked_frames(info, config, embedder, progress, detections)
+    return dataclasses.replace(result, tracks=Densifier(step).add(result.tracks, result.info.length),
+                               dropped=at_full_frames(result.dropped, step),
+                               detected=detections_at_full_frames(result.detected, step))
+
+
+def track_tracked_frames(info: SeqInfo, config: TrackerConfig, embedder=None, progress=False,
+                         detections: Detections | None = None):
+    """The tracked frames of ``info`` at ``[input] step`` tracked as a sequence of their own: the
+    :class:`~sotmot.pipeline.TrackResult` of that run, ``info`` the stepped sequence and everything (detections,
+    tracklets, tracks) numbered as it counts the frames; its track ids are the stepped run's (what
+    :func:`track_stepped` puts back on every frame, and what ``sotmot explain`` and ``sotmot graph`` show).
+    ``detections``: handed over (the sequence's frame numbers), else read from the detections file as the run
+    would, else the detector's."""
     from sotmot.detection import file_detections
     from sotmot.io.frames import FrameReader
     from sotmot.pipeline import track_sequence
@@ -177,14 +191,11 @@ def track_stepped(info: SeqInfo, config: TrackerConfig, embedder=None, progress=
     given = None if detections is None else stepped_detections(detections, step)
     reader = FrameReader(info, cache_size=8) if info.frames is not None or info.video is not None else None
     try:
-        result = track_sequence(stepped_sequence(info, step, reader), inner_config(config), embedder=embedder,
-                                progress=progress, detections=given)
+        return track_sequence(stepped_sequence(info, step, reader), inner_config(config), embedder=embedder,
+                              progress=progress, detections=given)
     finally:
         if reader is not None:
             reader.close()
-    return dataclasses.replace(result, tracks=Densifier(step).add(result.tracks, result.info.length),
-                               dropped=at_full_frames(result.dropped, step),
-                               detected=detections_at_full_frames(result.detected, step))
 
 
 def inner_config(config: TrackerConfig) -> TrackerConfig:
@@ -194,5 +205,5 @@ def inner_config(config: TrackerConfig) -> TrackerConfig:
 
 
 __all__ = ["Densifier", "SteppedFrames", "at_full_frames", "counted", "detections_at_full_frames", "full_frames",
-           "inner_config", "stepped_detections", "stepped_sequence", "track_stepped", "track_whole",
-           "tracked_count"]
+           "inner_config", "stepped_detections", "stepped_sequence", "track_stepped", "track_tracked_frames",
+           "track_whole", "tracked_count"]

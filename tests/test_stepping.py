@@ -178,3 +178,18 @@ def test_a_step_that_leaves_too_few_frames_a_second_is_refused_before_anything_i
     err = capsys.readouterr().err
     assert "at 1 frames/s gives batches of 1 frame(s)" in err and "a smaller [input] step than 5" in err
     assert not out.exists()
+
+
+def test_explain_at_a_step_tells_the_tracks_of_the_results_file_in_the_tracked_frames(tmp_path, capsys):
+    from sotmot.cli import main
+
+    seq = require(CLIP)
+    assert main(["track", str(seq), "--out", str(tmp_path), "--step", "3", "-q"]) == 0
+    rows = np.loadtxt(tmp_path / f"{seq.name}.txt", delimiter=",", ndmin=2)
+    capsys.readouterr()
+    assert main(["explain", str(seq), "--config", str(tmp_path / f"{seq.name}.run.json"), "--tracks", "-q"]) == 0
+    out, err = capsys.readouterr()
+    assert "frame k here is the sequence's frame 1 + (k - 1) * 3" in err
+    table = out.splitlines()[2:]
+    assert {int(line.split()[0]) for line in table} >= set(rows[:, 1].astype(int))  # the ids the file holds
+    assert max(int(line.split()[1].split("-")[1]) for line in table) <= 10  # the 10 tracked frames of 30

@@ -373,24 +373,36 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 def _track_for_inspection(args: argparse.Namespace, config, seq):
     """``seq`` (a path, or the :class:`~sotmot.io.SeqInfo` the command read already) tracked with ``config``, the
-    whole sequence at once (``[windows]`` said to be ignored: its track ids are an unwindowed run's)."""
+    whole sequence at once (``[windows]`` said to be ignored: its track ids are an unwindowed run's); with
+    ``[input] step`` above 1 its tracked frames, as a sequence of their own (said: frames are counted as that
+    run counts them)."""
+    from sotmot.io import read_seqinfo
     from sotmot.pipeline import track_sequence
+    from sotmot.stepping import track_tracked_frames
 
     if config.windows.seconds:
         print(f"sotmot: warning: [windows] seconds = {config.windows.seconds:g} is ignored here: the whole sequence "
               f"is tracked at once, and its track ids are those 'sotmot track' writes without --window (a windowed "
               f"run's may differ)", file=sys.stderr)
-    return track_sequence(seq, config, progress=_progress(args))
+    step = config.input.step
+    if step == 1:
+        return track_sequence(seq, config, progress=_progress(args))
+    print(f"sotmot: note: [input] step = {step}: the tracked frames are inspected as a sequence of their own, so "
+          f"frame k here is the sequence's frame 1 + (k - 1) * {step} (track ids are those of the results file)",
+          file=sys.stderr)
+    info = seq if not isinstance(seq, (str, Path)) else read_seqinfo(seq, config.input.fps)
+    return track_tracked_frames(info, config, progress=_progress(args))
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
     from sotmot.inspect.explain import graph_files, inspection_graph, parse_frames
     from sotmot.inspect.graph_view import SHOWN, html_page, png_bytes, shown_edges, tracklet_crops
     from sotmot.io import check_output_dir, read_seqinfo, write_files_atomic
+    from sotmot.stepping import tracked_count
 
     config = build_config(args)
     info = read_seqinfo(args.seq_dir, config.input.fps)
-    frames = parse_frames(args.frames, info.length)
+    frames = parse_frames(args.frames, tracked_count(info.length, config.input.step))  # the frames tracked
     check_output_dir(args.out)  # a file, a read-only folder: said now, not after the tracking
     result = _track_for_inspection(args, config, info)
     graph = inspection_graph(result, config, frames)

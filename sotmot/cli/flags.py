@@ -107,7 +107,7 @@ FLAGS: tuple[Flag, ...] = (
          note="none: no re-ID, the motion-only mode (several times faster with a det.txt, about twice with "
               "the built-in detector; 6 to 25 HOTA lower where frames exist: docs/results.md, \"Without re-ID\")."),
     Flag(("--fps",), "input", "fps", metavar="N", commands=frozenset({"track", "graph", "explain", "compare"})),
-    Flag(("--step",), "input", "step", metavar="K", commands=frozenset({"track"})),
+    Flag(("--step",), "input", "step", metavar="K", commands=frozenset({"track", "graph", "explain"})),
     Flag(("--no-flip",), "appearance", "flip", switch=False, note="Embed each crop once, without its mirror image."),
     Flag(("--device",), "appearance", "device"),
     Flag(("--weights",), "appearance", "weights", metavar="FILE.pt", note="Implies --appearance torch.",
