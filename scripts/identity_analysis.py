@@ -259,6 +259,12 @@ def main(argv: list[str] | None = None) -> int:
         [p for p in sequences(args.data) if read_seqinfo(p).length > FULL_LENGTH]
     if not seqs:
         parser.error(f"no such sequences with frames under {args.data}: {args.sequences or 'none full-length'}")
+    if args.peer is not None:  # a peer that is not there must not become a column of blanks
+        missing = [str(args.peer / f"{read_seqinfo(seq).name}.txt") for seq in seqs
+                   if not (args.peer / f"{read_seqinfo(seq).name}.txt").is_file()]
+        if missing:
+            parser.error(f"--peer: no results file {', '.join(missing)} (bench_peers.py writes "
+                         f"<out>/results/<tracker>/<sequence>.txt)")
     report: dict[str, dict] = {}
     embedder: list = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -284,7 +290,7 @@ def main(argv: list[str] | None = None) -> int:
             write_results(ceiling, finish_sequence(prepared, ceiling_config).tracks)
             row["ceiling_scores"] = scores(ceiling, info)
             peer_file = args.peer / f"{info.name}.txt" if args.peer else None
-            if peer_file is not None and peer_file.is_file():
+            if peer_file is not None:
                 row["peer"] = counts(frame_errors(peer_file, info.gt_path, info.length, info.name))
                 row["peer_scores"] = scores(peer_file, info)
             if args.choices:

@@ -55,3 +55,17 @@ def test_a_missing_detector_model_is_refused_before_any_tracking(tmp_path, capsy
     with pytest.raises(SystemExit) as stop:
         script.main(["--model", "unused.onnx", "--data", str(tmp_path), "--detector-model", str(tmp_path / "no.xml")])
     assert stop.value.code == 2 and "--detector-model: no such file" in capsys.readouterr().err
+
+
+def test_a_peer_folder_without_the_sequences_results_is_refused_before_any_tracking(tmp_path, capsys):
+    import pytest
+
+    from conftest import DATA, require
+
+    require(DATA / "MOT16-02-clip30")
+    script = load_script("identity_analysis")
+    (tmp_path / "StrongSORT_+GSI").mkdir()  # the peer without its 4-s memory: another folder
+    with pytest.raises(SystemExit) as stop:
+        script.main(["--model", "unused.onnx", "--data", str(DATA), "--sequences", "MOT16-02-clip30",
+                     "--peer", str(tmp_path / "StrongSORT_+GSI_4s")])
+    assert stop.value.code == 2 and "StrongSORT_+GSI_4s/MOT16-02-clip30.txt" in capsys.readouterr().err
