@@ -111,23 +111,30 @@ def live_run(seq: Path, seconds: float, step: int = 1, copies: int = 1, cache: P
         wall = time.perf_counter() - start
     gt = seq if copies == 1 else repeated_gt(seq, copies, cache)
     scores = sotmot.evaluate(Tracks.concatenate(tracks), gt, length=length, name=info.name)
-    cut = [p["rss_mb"] for p in parts[:-1]] or [parts[-1]["rss_mb"]]
+    last_tracked = 1 + (length - 1) // step * step
+    cut = [p["rss_mb"] for p in cut_parts(parts, last_tracked)] or [parts[-1]["rss_mb"]]
     return {"sequence": name, "frame_rate": info.frame_rate, "frames": length, "copies": copies,
             "size": f"{info.width} x {info.height}", "window_s": seconds, "step": step,
             "stream_s": round(length / info.frame_rate, 1), "wall_s": round(wall, 1),
             "lag_median_s": round(float(np.median(lag)), 1), "lag_max_s": round(float(lag.max()), 1),
             "lag_last_frame_s": round(float(lag[-1]), 1),
-            "behind_s": behind(parts, 1 + (length - 1) // step * step), "peak_rss_mb": round(peak[0]),
+            "behind_s": behind(parts, last_tracked), "peak_rss_mb": round(peak[0]),
             "rss_first_part_mb": cut[0], "rss_last_cut_part_mb": cut[-1],
             "parts": parts, **{m: round(scores[m], 2) for m in ("HOTA", "MOTA", "IDF1")}}
 
 
+def cut_parts(parts: list[dict], last_tracked: int | None = None) -> list[dict]:
+    """The parts a window cut: all but those that reach ``last_tracked`` (the last frame tracked), the stream's own
+    end, which waits for no window (at a step the frames after the last tracked one are a part of their own);
+    without ``last_tracked``, all but the last part."""
+    return [p for p in parts if p["last"] < last_tracked] if last_tracked is not None else parts[:-1]
+
+
 def behind(parts: list[dict], last_tracked: int | None = None) -> float | None:
-    """How much later the last frame of the last part cut by a window was final than the first part's last frame
-    (seconds): about 0 where tracking keeps up, growing with the stream where it does not. The stream's own end
-    waits for no window, so the parts that reach ``last_tracked`` (the last frame tracked; at a step, the frames
-    after it are a part of their own) are left out; None (the last part alone) with fewer than two parts left."""
-    cut = [p for p in parts if p["last"] < last_tracked] if last_tracked is not None else parts[:-1]
+    """How much later the last frame of the last part cut by a window (:func:`cut_parts`) was final than the first
+    part's last frame (seconds): about 0 where tracking keeps up, growing with the stream where it does not; None
+    with fewer than two such parts."""
+    cut = cut_parts(parts, last_tracked)
     return round(cut[-1]["lag_last_s"] - cut[0]["lag_last_s"], 1) if len(cut) >= 2 else None
 
 
