@@ -254,7 +254,6 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--detector-model: no such file: {args.detector_model}")
 
     config = (load_config(args.config) if args.config else TrackerConfig()).replace("appearance", model=args.model)
-    SOLVERS["ground-truth"] = f"{__name__}:ground_truth_solve"
     seqs = named_sequences(parser, args.data, args.sequences) if args.sequences else \
         [p for p in sequences(args.data) if read_seqinfo(p).length > FULL_LENGTH]
     if not seqs:
@@ -265,6 +264,7 @@ def main(argv: list[str] | None = None) -> int:
         if missing:
             parser.error(f"--peer: no results file {', '.join(missing)} (bench_peers.py writes "
                          f"<out>/results/<tracker>/<sequence>.txt)")
+    SOLVERS["ground-truth"] = f"{__name__}:ground_truth_solve"  # after the checks: a refused run changes nothing
     report: dict[str, dict] = {}
     embedder: list = []
     with tempfile.TemporaryDirectory() as tmp:
