@@ -259,8 +259,8 @@ def main(argv: list[str] | None = None) -> int:
     if not seqs:
         parser.error(f"no such sequences with frames under {args.data}: {args.sequences or 'none full-length'}")
     if args.peer is not None:  # a peer that is not there must not become a column of blanks
-        missing = [str(args.peer / f"{read_seqinfo(seq).name}.txt") for seq in seqs
-                   if not (args.peer / f"{read_seqinfo(seq).name}.txt").is_file()]
+        wanted = (args.peer / f"{read_seqinfo(seq).name}.txt" for seq in seqs)
+        missing = [str(path) for path in wanted if not path.is_file()]
         if missing:
             parser.error(f"--peer: no results file {', '.join(missing)} (bench_peers.py writes "
                          f"<out>/results/<tracker>/<sequence>.txt)")
