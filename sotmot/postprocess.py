@@ -57,8 +57,8 @@ def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_g
     boxes
         ``(L, 4)`` ``x, y, w, h`` pixels.
     scores
-        ``(L,)`` scores; a filled box gets the lower score of the two boxes
-        around its gap.
+        ``(L,)`` scores, or ``(L, K)``: K kinds of score, each column alike;
+        a filled box gets the lower score of the two boxes around its gap.
     max_gap
         Longest gap filled, as the frame difference of the boxes around it.
 
@@ -79,7 +79,8 @@ def interpolate(frames: np.ndarray, boxes: np.ndarray, scores: np.ndarray, max_g
     right = np.clip(np.searchsorted(frames, full, side="left"), 0, len(frames) - 1)
     left = np.clip(np.searchsorted(frames, full, side="right") - 1, 0, len(frames) - 1)
     filled = ~np.isin(full, frames)
-    full_scores = np.where(filled, np.minimum(scores[left], scores[right]), scores[left])
+    where = filled.reshape((-1,) + (1,) * (np.ndim(scores) - 1))  # a row of every kind of score at once
+    full_scores = np.where(where, np.minimum(scores[left], scores[right]), scores[left])
     return full, out, full_scores, filled
 
 

@@ -122,9 +122,9 @@ class Densifier:
             if len(rows) == 1:  # one box: nothing to fill
                 out.append(both.subset(rows))
                 continue
-            filled_frames, boxes, scores, filled = interpolate(frames, both.boxes[rows], both.scores[rows],
-                                                               max_gap=self.step)
-            confidence = interpolate(frames, both.boxes[rows], both.confidence[rows], max_gap=self.step)[2]
+            kinds = np.stack([both.scores[rows], both.confidence[rows]], axis=1)
+            filled_frames, boxes, kinds, filled = interpolate(frames, both.boxes[rows], kinds, max_gap=self.step)
+            scores, confidence = kinds[:, 0].copy(), kinds[:, 1].copy()
             at = np.searchsorted(frames, filled_frames, side="right") - 1  # the box before (or at) each frame
             out.append(Tracks(filled_frames, np.full(len(filled_frames), track), boxes, scores,
                               both.interpolated[rows][at] | filled, both.from_sot[rows][at] & ~filled,

@@ -19,6 +19,19 @@ def test_linear_interpolation_fills_gaps():
     np.testing.assert_allclose(s, [0.9, 0.6, 0.6, 0.6])
 
 
+def test_interpolation_of_several_kinds_of_score_treats_each_column_as_its_own_run():
+    frames = np.array([1, 4, 6, 20])
+    boxes = np.array([[0, 0, 10, 20], [30, 3, 13, 20], [40, 3, 13, 20], [50, 3, 13, 20]], float)
+    scores, confidence = np.array([0.9, 0.6, 0.8, 0.7]), np.array([0.2, 0.5, np.nan, 0.4])
+    f, b, both, filled = interpolate(frames, boxes, np.stack([scores, confidence], axis=1), max_gap=3)
+    for column, kind in enumerate((scores, confidence)):
+        f1, b1, s1, filled1 = interpolate(frames, boxes, kind, max_gap=3)
+        assert f.tolist() == f1.tolist() and filled.tolist() == filled1.tolist()
+        np.testing.assert_array_equal(b, b1)
+        np.testing.assert_array_equal(both[:, column], s1)  # NaN where a NaN lies beside the gap, as alone
+    assert both.shape == (len(f), 2) and np.isnan(both[f.tolist().index(5), 1])
+
+
 def test_smoothing_is_a_window_mean_truncated_at_the_ends():
     frames = np.arange(1, 8)
     boxes = np.zeros((7, 4))
