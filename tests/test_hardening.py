@@ -435,3 +435,10 @@ def test_a_file_that_is_neither_folder_nor_known_video_says_so(tmp_path):
         read_seqinfo(notes)
     with pytest.raises(InputError, match="not a sequence folder .it does not exist"):
         read_seqinfo(tmp_path / "missing")
+    record, settings = tmp_path / "street.run.json", tmp_path / "mine.toml"
+    record.write_text("{}")
+    settings.write_text("")
+    with pytest.raises(InputError, match=r"street\.run\.json: a run record .*--config FILE"):
+        read_seqinfo(record)
+    with pytest.raises(InputError, match=r"mine\.toml: a settings file, not a sequence: .*--config FILE"):
+        read_seqinfo(settings)

@@ -29,8 +29,7 @@ def read_seqinfo(seq: str | Path, fps: float | None = None, *, rate_needed: bool
     if is_video(seq):
         return video_info(seq, fps)
     if Path(seq).is_file():
-        raise InputError(seq, f"a file, not a sequence folder; a video is known by its extension "
-                              f"({', '.join(VIDEO_SUFFIXES)}): rename it if it is one")
+        raise InputError(seq, _not_a_sequence(Path(seq)))
     found = frames_folder(seq)
     if found is not None:
         return image_folder_info(seq, fps if fps is not None or rate_needed else math.nan, found)
@@ -38,6 +37,19 @@ def read_seqinfo(seq: str | Path, fps: float | None = None, *, rate_needed: bool
         raise ConfigError(f"{seq}: --fps ([input] fps) is for a video or a folder of images; a sequence folder's "
                           f"frame rate is frameRate in its seqinfo.ini")
     return read_seqinfo_ini(seq)
+
+
+def _not_a_sequence(path: Path) -> str:
+    """Why the file ``path`` is no sequence, and what was likely meant: a run record or a settings file is given
+    as the settings (``--config``, the API's ``config=``), beside the sequence."""
+    if path.name.endswith(".run.json"):
+        return ("a run record (how a results file was made), not a sequence: give the sequence its run tracked, "
+                "and this file as --config FILE (config=FILE from Python) to use that run's settings")
+    if path.suffix in (".toml", ".json"):
+        return ("a settings file, not a sequence: give the sequence, and this file as --config FILE (config=FILE "
+                "from Python)")
+    return (f"a file, not a sequence folder; a video is known by its extension ({', '.join(VIDEO_SUFFIXES)}): "
+            f"rename it if it is one")
 
 
 def takes_frame_rate(seq: str | Path) -> bool:
