@@ -229,3 +229,15 @@ def test_without_re_id_the_affinity_is_said_to_be_the_walks_and_the_speed_limit_
     assert track_sequence(seq, unlimited).tracks.n_tracks == 1  # the walk's line alone joins them
     re_id_config, re_id_result = teleport_run(tmp_path / "re-id")
     assert "motion_only" not in inspection_graph(re_id_result, re_id_config).graph
+
+
+def test_a_frame_range_past_the_end_says_what_the_frames_count_at_a_step():
+    from sotmot.errors import SotmotError
+    from sotmot.inspect.explain import parse_frames
+
+    assert parse_frames("3:9", 10) == (3, 9) and parse_frames(None, 10) is None
+    with pytest.raises(SotmotError, match="the sequence has frames 1 to 10 only"):
+        parse_frames("11:20", 10)
+    with pytest.raises(SotmotError, match=r"at step 3 the tracked frames are 1 to 10 only \(frame k is the "
+                                          r"sequence's 1 \+ \(k - 1\) \* 3\)"):
+        parse_frames("11:20", 10, step=3)

@@ -402,7 +402,8 @@ def cmd_graph(args: argparse.Namespace) -> int:
 
     config = build_config(args)
     info = read_seqinfo(args.seq_dir, config.input.fps)
-    frames = parse_frames(args.frames, tracked_count(info.length, config.input.step))  # the frames tracked
+    step = config.input.step
+    frames = parse_frames(args.frames, tracked_count(info.length, step), step)  # the frames tracked
     check_output_dir(args.out)  # a file, a read-only folder: said now, not after the tracking
     result = _track_for_inspection(args, config, info)
     graph = inspection_graph(result, config, frames)

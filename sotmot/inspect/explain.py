@@ -406,11 +406,12 @@ def track_table(result: TrackResult, config: TrackerConfig) -> str:
                       fmt.format(*head), *(fmt.format(*line) for line in lines)])
 
 
-def parse_frames(text: str | None, length: int | None = None) -> tuple[int, int] | None:
+def parse_frames(text: str | None, length: int | None = None, step: int = 1) -> tuple[int, int] | None:
     """``"A:B"`` -> ``(A, B)`` (1-based, inclusive); None stays None.
 
-    With ``length`` (the sequence's ``seqLength``), a range that starts
-    after the last frame is an error: it would select nothing.
+    With ``length`` (the sequence's ``seqLength``, or at ``step`` above 1 how
+    many of its frames are tracked), a range that starts after the last frame
+    is an error: it would select nothing.
     """
     if text is None:
         return None
@@ -421,7 +422,10 @@ def parse_frames(text: str | None, length: int | None = None) -> tuple[int, int]
     if a < 1 or b < a:
         raise SotmotError(f"--frames {text}: need 1 <= A <= B")
     if length is not None and a > length:
-        raise SotmotError(f"--frames {text}: the sequence has frames 1 to {length} only")
+        has = (f"the sequence has frames 1 to {length} only" if step == 1 else
+               f"at step {step} the tracked frames are 1 to {length} only (frame k is the sequence's 1 + (k - 1) * "
+               f"{step})")
+        raise SotmotError(f"--frames {text}: {has}")
     return a, b
 
 
