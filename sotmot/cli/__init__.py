@@ -239,7 +239,9 @@ def build_parser() -> argparse.ArgumentParser:
         if name == "graph":
             p.add_argument("--out", type=Path, required=True, metavar="DIR",
                            help="folder for graph.graphml, graph.json, graph.png and graph.html")
-            p.add_argument("--frames", metavar="A:B", help="only tracklets that touch frames A..B")
+            p.add_argument("--frames", metavar="A:B", help="only tracklets that touch frames A..B (with --step K, "
+                                                               "tracked frames: frame k is the sequence's 1 + (k - 1) "
+                                                               "* K)")
         else:
             p.add_argument("--ids", metavar="ID[,ID]",
                            help="two track ids of the results file (e.g. 3,17: why they were not merged), or one "
