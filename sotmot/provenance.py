@@ -29,10 +29,10 @@ from sotmot.io import SeqInfo
 from sotmot.versions import environment
 
 #: Record fields that never make a resume re-run: when it ran and on which library versions, how fast (threads,
-#: batch size), what it found (the camera's motion), what the configuration's "auto" choices became (they follow
-#: from the configuration and inputs, which are compared), and paths whose file contents are compared by hash
-#: instead.
-IGNORED = ("time", "environment", "camera_motion", "plan", "config.appearance.threads",
+#: batch size), what it found (the camera's motion, the line check's bound), what the configuration's "auto" choices
+#: became (they follow from the configuration and inputs, which are compared), and paths whose file contents are
+#: compared by hash instead.
+IGNORED = ("time", "environment", "camera_motion", "line_check", "plan", "config.appearance.threads",
            "config.appearance.batch_size", "config.appearance.model", "config.confirm.calibration", "reid_model.path",
            "confidence_calibration.path", "results_sha256", "config.detection.model", "config.detection.file",
            "config.detection.threads", "detector_model.path", "inputs.detections.path", "side_files",

@@ -222,6 +222,9 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
         record["results_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()  # --resume checks it
         if result.motion is not None and result.motion.moving:
             record["camera_motion"] = result.motion.summary()
+        bound = lowered_bound(result, config)
+        if bound is not None:  # what the line check decided, as camera_motion says what "auto" found
+            record["line_check"] = {"interpolate_max_seconds": bound}
         record["confidence_method"] = result.confidence_method  # what "auto" chose; a replay must choose the same
         written: list[Path] = []
         try:
@@ -255,7 +258,11 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
             dropped = f", {len(result.dropped)} unconfirmed {where}"
         made = [f"{n} {how}" for n, how in ((int(result.tracks.interpolated.sum()), "interpolated"),
                                             (int(result.tracks.from_sot.sum()), "added by SOT or weak boxes")) if n]
-        boxes = f"{len(result.tracks)} boxes" + (f" ({', '.join(made)})" if made else "")
+        said = [", ".join(made)] if made else []
+        if bound is not None:
+            said.append(f"gaps filled up to {bound:g} s: the straight line did not hold over "
+                        f"{config.postprocess.line_check_seconds:g} s here")
+        boxes = f"{len(result.tracks)} boxes" + (f" ({'; '.join(said)})" if said else "")
         return Outcome(seq_dir, "done", str(out), f"{info.name}: {result.tracks.n_tracks} tracks, "
                                                   f"{boxes}{dropped}, {fps:.1f} frames/s -> {out}{rerun}")
     except SotmotError as exc:
@@ -263,6 +270,15 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
     except Exception as exc:  # a bug must not lose the other sequences' results either
         detail = traceback.format_exc(limit=3).strip().splitlines()[-1]
         return Outcome(seq_dir, "failed", None, f"{seq_dir}: unexpected {type(exc).__name__}: {detail}")
+
+
+def lowered_bound(result, config: TrackerConfig) -> float | None:
+    """The interpolation bound (seconds) of a whole run's ``result`` where the line check lowered it below
+    ``[postprocess] interpolate_max_seconds`` (:func:`sotmot.postprocess.line_checked`); None where it did not."""
+    post = result.postprocess
+    if post is None or post.interpolate_max_seconds == config.postprocess.interpolate_max_seconds:
+        return None
+    return post.interpolate_max_seconds
 
 
 def _resumable_windows(out: Path, record: dict, windows: list, files: list[Path]) -> dict | None:

@@ -265,3 +265,20 @@ def test_paired_verdicts_need_one_sign_in_every_run():
     assert paired_verdict([-0.4, -1.2]) == "below in every run"
     assert paired_verdict([0.0, 0.0]) == "equal in every run"
     assert paired_verdict([1.0, -0.2]) == paired_verdict([0.0, 0.3]) == "not told apart from chance"
+
+
+def test_the_run_says_where_the_line_check_lowered_the_interpolation_bound(tmp_path, capsys):
+    moving = require(DATA / "MOT17-labels" / "MOT17-10-SDP")  # a hand-held camera, tracked without its frames
+    still = require(DATA / "TUD-Stadtmitte")
+    for seq in (moving, still):
+        assert main(["track", str(seq), "--appearance", "none", "--out", str(tmp_path / seq.name)]) == 0
+    printed = capsys.readouterr()
+    record = json.loads((tmp_path / "MOT17-10-SDP" / "MOT17-10-SDP.run.json").read_text())
+    assert record["line_check"] == {"interpolate_max_seconds": 1.5}
+    assert "gaps filled up to 1.5 s: the straight line did not hold over 2 s here" in printed.out + printed.err
+    assert "line_check" not in json.loads((tmp_path / "TUD-Stadtmitte" / "TUD-Stadtmitte.run.json").read_text())
+    # what the run found, not a setting: --resume does not track again for it
+    assert main(["track", str(moving), "--appearance", "none", "--out", str(tmp_path / "MOT17-10-SDP"),
+                 "--resume"]) == 0
+    printed = capsys.readouterr()
+    assert "skipped (--resume)" in printed.out + printed.err

@@ -102,7 +102,9 @@ class PostprocessConfig:
         the samples. Where it does not (a camera that moves with nothing to
         compensate it, as in the motion-only mode), gaps are filled only up to
         the longest span from 1 s, in steps of 0.5 s, over which it holds
-        (:func:`sotmot.postprocess.line_checked`; the run's log says so).
+        (:func:`sotmot.postprocess.line_checked`; ``sotmot track`` says so
+        in its summary line and, for a whole run, in the run record's
+        ``line_check``).
         ``None`` trusts the line (the default before 2026-12-04). 2.0 changes
         no validation sequence with frames and no compensated synthetic
         camera, and lifts the motion-only mode on the moving-camera label sets
