@@ -263,8 +263,10 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
             said.append(f"gaps filled up to {bound:g} s: the straight line did not hold over "
                         f"{config.postprocess.line_check_seconds:g} s here")
         boxes = f"{len(result.tracks)} boxes" + (f" ({'; '.join(said)})" if said else "")
+        moved = (f"; the camera moves ({record['camera_motion']['median_shift_px']:.1f} px a frame at the median), "
+                 f"compensated" if "camera_motion" in record else "")
         return Outcome(seq_dir, "done", str(out), f"{info.name}: {result.tracks.n_tracks} tracks, "
-                                                  f"{boxes}{dropped}, {fps:.1f} frames/s -> {out}{rerun}")
+                                                  f"{boxes}{dropped}, {fps:.1f} frames/s{moved} -> {out}{rerun}")
     except SotmotError as exc:
         return Outcome(seq_dir, "failed", None, f"{seq_dir}: {exc}")
     except Exception as exc:  # a bug must not lose the other sequences' results either

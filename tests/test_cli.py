@@ -267,16 +267,21 @@ def test_paired_verdicts_need_one_sign_in_every_run():
     assert paired_verdict([1.0, -0.2]) == paired_verdict([0.0, 0.3]) == "not told apart from chance"
 
 
-def test_the_run_says_where_the_line_check_lowered_the_interpolation_bound(tmp_path, capsys):
+def test_the_run_says_where_the_line_check_lowered_the_interpolation_bound_and_where_the_camera_moves(
+        tmp_path, capsys):
     moving = require(DATA / "MOT17-labels" / "MOT17-10-SDP")  # a hand-held camera, tracked without its frames
-    still = require(DATA / "TUD-Stadtmitte")
-    for seq in (moving, still):
+    still, walking = require(DATA / "TUD-Stadtmitte"), require(DATA / "MOT16-05-clip30")
+    said = {}
+    for seq in (moving, still, walking):
         assert main(["track", str(seq), "--appearance", "none", "--out", str(tmp_path / seq.name)]) == 0
-    printed = capsys.readouterr()
+        printed = capsys.readouterr()
+        said[seq.name] = printed.out + printed.err
     record = json.loads((tmp_path / "MOT17-10-SDP" / "MOT17-10-SDP.run.json").read_text())
     assert record["line_check"] == {"interpolate_max_seconds": 1.5}
-    assert "gaps filled up to 1.5 s: the straight line did not hold over 2 s here" in printed.out + printed.err
+    assert "gaps filled up to 1.5 s: the straight line did not hold over 2 s here" in said["MOT17-10-SDP"]
     assert "line_check" not in json.loads((tmp_path / "TUD-Stadtmitte" / "TUD-Stadtmitte.run.json").read_text())
+    assert re.search(r"the camera moves \(\d+\.\d px a frame at the median\), compensated", said["MOT16-05-clip30"])
+    assert "camera" not in said["TUD-Stadtmitte"] + said["MOT17-10-SDP"]
     # what the run found, not a setting: --resume does not track again for it
     assert main(["track", str(moving), "--appearance", "none", "--out", str(tmp_path / "MOT17-10-SDP"),
                  "--resume"]) == 0
