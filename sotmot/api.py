@@ -26,7 +26,7 @@ import contextlib
 import tempfile
 import threading
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -60,12 +60,18 @@ class Result:
         The sequence: name, frame rate, length, image size.
     config
         The configuration the run used.
+    found
+        What the run found or chose by itself, as ``sotmot track``'s run record keeps it
+        (:func:`sotmot.provenance.findings`): ``camera_motion`` where the camera was found moving and compensated,
+        ``line_check`` where the line check lowered the interpolation bound, ``confidence_method``. Empty for a
+        run in windows, which decides them window by window.
     """
 
     tracks: Tracks
     dropped: Tracks
     info: SeqInfo
     config: TrackerConfig
+    found: dict = field(default_factory=dict)
 
     def save(self, path: str | Path) -> Path:
         """Write :attr:`tracks` as a MOTChallenge results file (``frame, id, x, y, w, h, score, -1, -1, -1``),
@@ -290,7 +296,8 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         file holds them (e.g. ``{"association": {"l_max_seconds": 3}}``), or the
         path of a ``.toml``/``.json`` file; ``None`` for the defaults.
         ``{"input": {"step": 2}}`` tracks every 2nd frame and fills the
-        frames between (:mod:`sotmot.stepping`; not with ``[windows]``).
+        frames between (:mod:`sotmot.stepping`; with ``[windows]``, windows of
+        the tracked frames).
     name
         The sequence's name for frames in memory (folders and videos have one).
     progress
@@ -299,7 +306,8 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
     Returns
     -------
     Result
-        ``tracks`` (numpy arrays), ``save(path)``, ``scores(gt=...)``.
+        ``tracks`` (numpy arrays), ``save(path)``, ``scores(gt=...)``, ``found`` (what the run found by
+        itself: a moving camera, a lowered interpolation bound).
 
     Raises
     ------
@@ -308,6 +316,7 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         row named by its number.
     """
     from sotmot.detection import file_detections
+    from sotmot.provenance import findings
     from sotmot.stepping import track_whole
     from sotmot.windows import plan, track_in_windows
 
@@ -341,7 +350,7 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
             tracks, dropped = track_in_windows(info, windows, cfg, given, progress=progress)
             return Result(tracks, dropped, info, cfg)
         result = track_whole(info, cfg, progress=progress, detections=given)  # every k-th frame with [input] step
-    return Result(result.tracks, result.dropped, info, cfg)
+    return Result(result.tracks, result.dropped, info, cfg, findings(result, cfg))
 
 
 @dataclass(frozen=True, eq=False)

@@ -122,6 +122,22 @@ def _run_fields(name: str, config: TrackerConfig, detector: str | None) -> dict[
     }
 
 
+def findings(result, config: TrackerConfig) -> dict[str, Any]:
+    """What a whole run (a :class:`~sotmot.pipeline.TrackResult` of ``config``) found or chose by itself, as its
+    run record keeps it (none of it makes ``--resume`` track again): ``camera_motion``, the camera's motion where it
+    was found moving (:meth:`~sotmot.motion.CameraMotion.summary`); ``line_check``, ``{"interpolate_max_seconds":
+    s}`` where the line check lowered the interpolation bound (:func:`sotmot.postprocess.line_checked`); and
+    ``confidence_method``, the score map ``auto`` became."""
+    found: dict[str, Any] = {}
+    if result.motion is not None and result.motion.moving:
+        found["camera_motion"] = result.motion.summary()
+    post = result.postprocess
+    if post is not None and post.interpolate_max_seconds != config.postprocess.interpolate_max_seconds:
+        found["line_check"] = {"interpolate_max_seconds": post.interpolate_max_seconds}
+    found["confidence_method"] = result.confidence_method
+    return found
+
+
 def record_path(results: str | Path) -> Path:
     """``<name>.run.json`` beside ``<name>.txt``."""
     results = Path(results)

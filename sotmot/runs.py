@@ -193,7 +193,7 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
     from sotmot.detection import detections_path, detector_file_text
     from sotmot.hashing import file_sha256
     from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
-    from sotmot.provenance import record_path, run_record, why_rerun, write_record
+    from sotmot.provenance import findings, record_path, run_record, why_rerun, write_record
     from sotmot.stepping import track_whole
     from sotmot.io.flags import flags_path, write_flags
 
@@ -220,12 +220,8 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
         result = track_whole(info, config, embedder=embedder, progress=progress)  # every k-th frame with a step
         text = format_results(result.tracks)
         record["results_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()  # --resume checks it
-        if result.motion is not None and result.motion.moving:
-            record["camera_motion"] = result.motion.summary()
-        bound = lowered_bound(result, config)
-        if bound is not None:  # what the line check decided, as camera_motion says what "auto" found
-            record["line_check"] = {"interpolate_max_seconds": bound}
-        record["confidence_method"] = result.confidence_method  # what "auto" chose; a replay must choose the same
+        record.update(findings(result, config))  # what the run found and "auto" chose (a replay must choose alike)
+        bound = record.get("line_check", {}).get("interpolate_max_seconds")
         written: list[Path] = []
         try:
             if low_confidence_path(out) in outputs:
@@ -272,15 +268,6 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
     except Exception as exc:  # a bug must not lose the other sequences' results either
         detail = traceback.format_exc(limit=3).strip().splitlines()[-1]
         return Outcome(seq_dir, "failed", None, f"{seq_dir}: unexpected {type(exc).__name__}: {detail}")
-
-
-def lowered_bound(result, config: TrackerConfig) -> float | None:
-    """The interpolation bound (seconds) of a whole run's ``result`` where the line check lowered it below
-    ``[postprocess] interpolate_max_seconds`` (:func:`sotmot.postprocess.line_checked`); None where it did not."""
-    post = result.postprocess
-    if post is None or post.interpolate_max_seconds == config.postprocess.interpolate_max_seconds:
-        return None
-    return post.interpolate_max_seconds
 
 
 def _resumable_windows(out: Path, record: dict, windows: list, files: list[Path]) -> dict | None:

@@ -190,3 +190,19 @@ def test_the_examples_of_docs_api_md_run(example, tmp_path, monkeypatch, capsys)
     monkeypatch.chdir(tmp_path)
     exec(compile(code, f"docs/api.md example {example + 1}", "exec"), {"__name__": "__docs__"})
     assert capsys.readouterr().out.strip()
+
+
+def test_the_result_says_what_the_run_found_by_itself_as_its_run_record_does(tmp_path):
+    import json
+
+    walking = require(DATA / "MOT16-05-clip30")  # a walking camera
+    motion_only = {"appearance": {"backend": "none"}}
+    found = sotmot.track(walking, config=motion_only).found
+    assert found["camera_motion"]["moving"] and found["confidence_method"] == "dpm" and "line_check" not in found
+    assert main(["track", str(walking), "--appearance", "none", "--out", str(tmp_path), "-q"]) == 0
+    record = json.loads((tmp_path / "MOT16-05-clip30.run.json").read_text())
+    assert {key: record[key] for key in found} == found and "line_check" not in record
+    hand_held = require(DATA / "MOT17-labels" / "MOT17-10-SDP")  # no frames: the line check bounds its gaps
+    assert sotmot.track(hand_held, config=motion_only).found["line_check"] == {"interpolate_max_seconds": 1.5}
+    windows = {**motion_only, "windows": {"seconds": 0.5}, "association": {"l_max_seconds": 0.2}}
+    assert sotmot.track(walking, config=windows).found == {}  # decided window by window
