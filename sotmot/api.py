@@ -475,9 +475,7 @@ def _stepped_stream(frames: Iterator, detections: Any, rate: float, cfg: Tracker
     a last part holds the frames after the last tracked one (no boxes)."""
     import itertools
 
-    from sotmot.stepping import (
-        Densifier, at_full_frames, counted, detections_at_full_frames, full_frames, inner_config, stepped_detections,
-    )
+    from sotmot.stepping import Densifier, counted, full_frames, inner_config, stepped_detections
 
     step = cfg.input.step
     frames, count = counted(frames)
@@ -490,8 +488,7 @@ def _stepped_stream(frames: Iterator, detections: Any, rate: float, cfg: Tracker
     with contextlib.closing(parts):
         for part in parts:
             last = int(full_frames(part.last, step))
-            yield Committed(done + 1, last, densifier.add(part.tracks, part.last), at_full_frames(part.dropped, step),
-                            detections_at_full_frames(part.detected, step))
+            yield Committed(done + 1, last, *densifier.put_back(part.tracks, part.dropped, part.detected, part.last))
             done = last
     if count() > done:  # the frames after the last tracked one
         none = None if detections is not None else Detections(np.zeros(0, np.int64), np.zeros((0, 4)), np.zeros(0))

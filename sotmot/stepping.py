@@ -135,6 +135,14 @@ class Densifier:
         self._before = full.subset(full.frames == end)
         return dense.subset(np.lexsort((dense.frames, dense.ids)))  # by track, then frame, as a run's are
 
+    def put_back(self, tracks: Tracks, dropped: Tracks, detected: Detections | None, last: int
+                 ) -> tuple[Tracks, Tracks, Detections | None]:
+        """One part of a stepped run, up to tracked frame ``last``, at the sequence's frame numbers: its ``tracks``
+        on every frame (:meth:`add`), its unconfirmed boxes ``dropped`` and the detector's boxes ``detected``
+        (None stays None) renumbered, no box added."""
+        return (self.add(tracks, last), at_full_frames(dropped, self.step),
+                detections_at_full_frames(detected, self.step))
+
 
 def counted(frames: Iterator) -> tuple[Iterator, Callable[[], int]]:
     """``frames`` passed on, and a function that says how many have passed."""
@@ -166,11 +174,10 @@ def track_stepped(info: SeqInfo, config: TrackerConfig, embedder=None, progress=
     :class:`~sotmot.pipeline.TrackResult` of the tracked frames (:func:`track_tracked_frames`) whose ``tracks`` are
     on every frame (:class:`Densifier`) and whose ``dropped`` and ``detected`` boxes have the sequence's frame
     numbers."""
-    step = config.input.step
     result = track_tracked_frames(info, config, embedder, progress, detections)
-    return dataclasses.replace(result, tracks=Densifier(step).add(result.tracks, result.info.length),
-                               dropped=at_full_frames(result.dropped, step),
-                               detected=detections_at_full_frames(result.detected, step))
+    tracks, dropped, detected = Densifier(config.input.step).put_back(result.tracks, result.dropped, result.detected,
+                                                                      result.info.length)
+    return dataclasses.replace(result, tracks=tracks, dropped=dropped, detected=detected)
 
 
 def track_tracked_frames(info: SeqInfo, config: TrackerConfig, embedder=None, progress=False,

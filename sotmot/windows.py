@@ -35,10 +35,7 @@ from sotmot.boxes import iou_matrix
 from sotmot.config import TrackerConfig
 from sotmot.errors import ConfigError
 from sotmot.io import FrameReader, SeqInfo
-from sotmot.stepping import (
-    Densifier, SteppedFrames, at_full_frames, detections_at_full_frames, full_frames, inner_config, stepped_detections,
-    tracked_count,
-)
+from sotmot.stepping import Densifier, SteppedFrames, full_frames, inner_config, stepped_detections, tracked_count
 from sotmot.types import Detections, Tracks
 from sotmot.workers import dask_worker_threads, process_threads, worker_embedder
 
@@ -245,9 +242,7 @@ class Stitcher:
             detected = detected.subset(np.flatnonzero((detected.frames >= begin) & (detected.frames <= end)))
         tracks, dropped = _between(tracks, begin, end), _between(dropped, begin, end)
         if self.step > 1:  # tracked frames: their boxes put back on every frame
-            tracks = self.densifier.add(tracks, end)
-            dropped = at_full_frames(dropped, self.step)
-            detected = detections_at_full_frames(detected, self.step)
+            return self.densifier.put_back(tracks, dropped, detected, end)
         return tracks, dropped, detected
 
     def _new_ids(self, ids: dict[int, int], tracks: Tracks) -> dict[int, int]:
