@@ -36,6 +36,7 @@ from bench_long import repeated_gt
 from common import DEFAULT_DATA, ROOT, comma_numbers, named_sequences, write_report
 from make_results_page import live_table
 from sotmot.io import read_seqinfo
+from sotmot.stepping import full_frames, tracked_count
 from sotmot.types import Tracks
 
 
@@ -111,7 +112,7 @@ def live_run(seq: Path, seconds: float, step: int = 1, copies: int = 1, cache: P
         wall = time.perf_counter() - start
     gt = seq if copies == 1 else repeated_gt(seq, copies, cache)
     scores = sotmot.evaluate(Tracks.concatenate(tracks), gt, length=length, name=info.name)
-    last_tracked = 1 + (length - 1) // step * step
+    last_tracked = int(full_frames(tracked_count(length, step), step))
     cut = [p["rss_mb"] for p in cut_parts(parts, last_tracked)] or [parts[-1]["rss_mb"]]
     return {"sequence": name, "frame_rate": info.frame_rate, "frames": length, "copies": copies,
             "size": f"{info.width} x {info.height}", "window_s": seconds, "step": step,
