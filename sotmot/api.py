@@ -23,8 +23,10 @@ Boxes are ``x, y, w, h`` in pixels and frames 1-based, as in MOTChallenge files.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import tempfile
 import threading
+import warnings
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,7 +38,7 @@ from sotmot.config import TrackerConfig, config_from_dict, load_config
 from sotmot.errors import ConfigError, InputError
 from sotmot.io import (
     SeqInfo, detections_from_array, format_results, is_plain_name, read_detections, read_results, read_seqinfo,
-    refuse_overwriting, write_text_atomic,
+    guard_outputs, write_text_atomic,
 )
 from sotmot.io.frames import not_an_image
 from sotmot.io.images import image_list_info
@@ -76,11 +78,17 @@ class Result:
     def save(self, path: str | Path) -> Path:
         """Write :attr:`tracks` as a MOTChallenge results file (``frame, id, x, y, w, h, score, -1, -1, -1``),
         atomically: byte for byte what ``sotmot track`` writes for the same run. Never over one of the
-        sequence's own files. Returns the path."""
+        sequence's files, never over a file the run read (its detections, an image of a list of paths), never
+        inside its sequence folder or folder of images (:func:`sotmot.io.guard_outputs`). Returns the path."""
         path = Path(path)
-        if self.info.frames is None:
-            inputs = [self.info.source, self.info.det_path, self.info.gt_path, self.config.detection.file]
-            refuse_overwriting([path], inputs, "choose another path")
+        info = self.info
+        reads = [self.config.detection.file, self.config.preprocess.mask, *(info.files or ())]
+        folders = []
+        if info.frames is None:  # frames in memory: ``info.path`` only names them
+            reads += [info.source, info.det_path, info.gt_path]
+            if info.video is None:  # a MOTChallenge folder or a folder of images
+                folders = [info.path, info.frames_dir]
+        guard_outputs([path], reads, folders, "choose another path")
         path.parent.mkdir(parents=True, exist_ok=True)
         write_text_atomic(path, format_results(self.tracks))
         return path
@@ -227,6 +235,9 @@ def _config(config: TrackerConfig | dict | str | Path | None) -> TrackerConfig:
 
 def _in_memory(frames: Any, frame_rate: float | None, name: str, stack: contextlib.ExitStack) -> SeqInfo:
     """The sequence of frames held by the caller (spooled to a temporary folder when they come one pass only)."""
+    if frames is None or isinstance(frames, (int, float, bool)):
+        raise InputError(name, f"frames must be a video file, a MOTChallenge folder, a folder of images, a list of "
+                               f"image paths or the images themselves; got {frames!r}")
     frame_rate = _frame_rate(frame_rate, name)
     if isinstance(frames, (list, tuple)) and frames and all(isinstance(f, (str, Path)) for f in frames):
         return image_list_info(list(frames), frame_rate, name)  # image files, read when a stage needs them
@@ -242,13 +253,18 @@ def _in_memory(frames: Any, frame_rate: float | None, name: str, stack: contextl
     return _frames_info(frames, frame_rate, name)
 
 
+def _check_name(name: str) -> None:
+    """Refuse a sequence name that is not a plain file name (it names the results file)."""
+    if not is_plain_name(name):
+        raise ConfigError(f"name must be a plain file name (no path separators); got {name!r}")
+
+
 def _frame_rate(frame_rate: float | None, name: str) -> float:
     """``frame_rate`` checked as ``--fps`` is, and ``name`` as a results file's name."""
     if frame_rate is None:
         raise ConfigError("frame_rate is needed for frames held in memory (a video or a MOTChallenge folder says "
                           "its own)")
-    if not is_plain_name(name):
-        raise ConfigError(f"name must be a plain file name (no path separators); got {name!r}")
+    _check_name(name)
     return float(TrackerConfig().replace("input", fps=frame_rate).input.fps)
 
 
@@ -266,7 +282,7 @@ def _frames_info(frames: Any, frame_rate: float, name: str) -> SeqInfo:
 
 
 def track(frames: Any, detections: Any = None, *, frame_rate: float | None = None,
-          config: TrackerConfig | dict | str | Path | None = None, name: str = "frames",
+          config: TrackerConfig | dict | str | Path | None = None, name: str | None = None,
           progress: bool = False) -> Result:
     """Track the people in a sequence and return the tracks (offline: the whole sequence is associated at once).
 
@@ -299,7 +315,9 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         frames between (:mod:`sotmot.stepping`; with ``[windows]``, windows of
         the tracked frames).
     name
-        The sequence's name for frames in memory (folders and videos have one).
+        The sequence's name (``Result.info.name``, the results file's in ``sotmot track``): for frames in memory
+        ``"frames"`` when omitted; a folder or a video has its own (``seqinfo.ini``'s, the file's stem), which a
+        name given here replaces.
     progress
         Progress bars on stderr.
 
@@ -334,8 +352,11 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
             if frame_rate is not None and frame_rate != info.frame_rate:
                 raise ConfigError(f"{info.source}: the folder's frame rate is {info.frame_rate:g}; frame_rate "
                                   f"{frame_rate:g} does not apply to a folder (edit frameRate in seqinfo.ini)")
+            if name is not None:
+                _check_name(name)
+                info = dataclasses.replace(info, name=name)
         else:
-            info = _in_memory(frames, frame_rate, name, stack)
+            info = _in_memory(frames, frame_rate, "frames" if name is None else name, stack)
             if detections is None and not cfg.detection.file:
                 cfg = cfg.replace("detection", source="model")
         if isinstance(detections, (str, Path)):
@@ -559,7 +580,8 @@ def evaluate(results: "Result | Tracks | str | Path", gt: str | Path, *, length:
     Parameters
     ----------
     results
-        A :class:`Result`, :class:`~sotmot.types.Tracks`, or a MOTChallenge results file.
+        A :class:`Result`, :class:`~sotmot.types.Tracks`, or a MOTChallenge results file (a file whose run
+        record says its run stopped before the end, or that it changed since, is scored with a warning).
     gt
         A ``gt.txt`` (MOT16 or 2DMOT2015 layout), or a sequence folder with ``gt/gt.txt``.
     length
@@ -580,6 +602,7 @@ def evaluate(results: "Result | Tracks | str | Path", gt: str | Path, *, length:
         A malformed file (named, with its line), or TrackEval missing or failing.
     """
     from sotmot.io import read_ground_truth
+    from sotmot.provenance import results_doubts
     from sotmot.scoring import evaluate_files
 
     gt = Path(gt)
@@ -595,6 +618,8 @@ def evaluate(results: "Result | Tracks | str | Path", gt: str | Path, *, length:
             path.write_text(format_results(results), encoding="utf-8")
         else:
             path = Path(results)
+            for doubt in results_doubts(path):  # a partial or changed file is scored, but never silently
+                warnings.warn(doubt, stacklevel=2)
         if length is None:
             frames = [read_results(path).frames, read_ground_truth(gt).frames]
             length = int(max((f.max() for f in frames if len(f)), default=1))

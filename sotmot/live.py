@@ -15,9 +15,9 @@ from sotmot.api import stream_config
 from sotmot.appearance import resolve_backend
 from sotmot.config import TrackerConfig
 from sotmot.detection import detections_header, detections_path, format_detections
-from sotmot.errors import SotmotError
+from sotmot.errors import InputError, SotmotError
 from sotmot.hashing import file_sha256
-from sotmot.io import check_output_dir, format_results, refuse_overwriting, results_path, write_text_atomic
+from sotmot.io import check_output_dir, format_results, guard_outputs, results_path, write_text_atomic
 from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
 from sotmot.io.video import open_live, paced, shown
 from sotmot.models import model_in_use
@@ -41,7 +41,8 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     ``late_s``, how long after it came the newest final frame was final, and ``behind`` once that exceeds
     :data:`BEHIND_WINDOWS` windows, with a warning).
 
-    The files are made when the first part is final, so a run that fails or is stopped before leaves none. A
+    An earlier session's files of the same name in ``out_dir`` are never replaced: the run refuses before it reads
+    a frame. The files are made when the first part is final, so a run that fails or is stopped before leaves none. A
     failure after keeps what is final (the outcome and the record say how far); Ctrl-C or SIGTERM too, the
     record saying where it stopped, then the interrupt goes on to the caller. A live source is read once:
     there is no ``--resume``. ``reads``: other files the run reads (``--config``), never written over.
@@ -54,14 +55,19 @@ def track_live(source: str, out_dir: str | Path, config: TrackerConfig, progress
     out = results_path(check_output_dir(out_dir), name)
     detected = config.detection.file is None  # the detector runs: its boxes are written beside the results
     outputs = output_paths(out_dir, name, config, detected=detected)
-    refuse_overwriting(outputs, [config.detection.file, config.preprocess.mask, source, *reads],
-                       "choose another --out")
+    guard_outputs(outputs, [config.detection.file, config.preprocess.mask, source, *reads],
+                  hint="choose another --out")
     record = live_record(shown(source), rate, name, config)
     files = {out: "", flags_path(out): FLAGS_HEADER}
     if low_confidence_path(out) in outputs:
         files[low_confidence_path(out)] = ""
     if detected:
         files[detections_path(out)] = detections_header(model_in_use(config.detection.model, "detector"))
+    earlier = [path for path in (*files, record_path(out)) if path.exists()]
+    if earlier:  # an earlier session's boxes (a camera's cannot be had again): never replaced
+        raise InputError(earlier[0], f"an earlier session of {name!r} left its results here, and a live session "
+                                     f"never replaces them; give another --out, or move {out.name} and the files "
+                                     f"beside it away")
     state = {"frames_final": 0, "complete": False}
 
     def progress_record() -> None:

@@ -144,11 +144,16 @@ def record_path(results: str | Path) -> Path:
     return results.with_name(results.stem + ".run.json")
 
 
+def record_text(record: dict[str, Any]) -> str:
+    """The text of a run record file, as :func:`write_record` writes it."""
+    return json.dumps(record, indent=2, sort_keys=True, default=str) + "\n"
+
+
 def write_record(results: str | Path, record: dict[str, Any]) -> None:
     """Write the run record beside ``results`` (atomically)."""
     from sotmot.io import write_text_atomic
 
-    write_text_atomic(record_path(results), json.dumps(record, indent=2, sort_keys=True, default=str) + "\n")
+    write_text_atomic(record_path(results), record_text(record))
 
 
 def differences(old: dict[str, Any], new: dict[str, Any], prefix: str = "") -> list[str]:
@@ -200,11 +205,33 @@ def side_file_doubt(results: str | Path, side: str | Path) -> str | None:
     return None
 
 
-def results_doubts(results: str | Path) -> list[str]:
-    """What a reader of ``results`` should know before trusting scores of it: the file is empty, or it no
-    longer matches the run record ``sotmot track`` wrote beside it (cut or edited since). Empty: no doubt."""
+def partial_doubt(results: str | Path) -> str | None:
+    """Why ``results`` is not a whole run, when its run record says so: a windowed run (``sotmot track
+    --window``) or a live session stopped before its end, with how far its boxes are final and how to finish it.
+    None: the record says it is whole, or there is no record (results from elsewhere)."""
     results = Path(results)
-    doubts = []
+    record = read_record(results) or {}
+    windowed, live = record.get("windows"), record.get("live")
+    if isinstance(windowed, dict) and windowed.get("complete") is False:
+        final, length = windowed.get("frames_final"), windowed.get("length")
+        how_far = (f"frames 1-{final} of {length} are final" if isinstance(final, int) and final and length
+                   else "only its first windows are final" if windowed.get("done") else "no frame is final yet")
+        return (f"{results} is partial: its run stopped before the end ({how_far}, {record_path(results).name} "
+                f"says so); `sotmot track` of the same sequence with the same settings, --out {results.parent} "
+                f"and --resume, finishes it")
+    if isinstance(live, dict) and live.get("complete") is False:
+        final = live.get("frames_final", 0)
+        return (f"{results} is partial: its live session stopped ({live.get('stopped', 'before the source ended')})"
+                f" with frames 1-{final} final; a live source cannot be resumed")
+    return None
+
+
+def results_doubts(results: str | Path) -> list[str]:
+    """What a reader of ``results`` should know before trusting scores of it: the run stopped before the end
+    (:func:`partial_doubt`), the file is empty, or it no longer matches the run record ``sotmot track`` wrote
+    beside it (cut or edited since). Empty: no doubt."""
+    results = Path(results)
+    doubts = [doubt] if (doubt := partial_doubt(results)) else []
     if results.is_file() and not results.read_text(encoding="utf-8-sig", errors="replace").strip():
         doubts.append(f"{results} is empty: every ground-truth box counts as missed")
     made = (read_record(results) or {}).get("results_sha256")

@@ -191,16 +191,15 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
     on and a sequence longer than one window, window by window (:func:`track_windowed`, its windows in
     ``window_workers`` processes, or submitted to ``window_submit``, a Dask client's ``submit``)."""
     from sotmot.detection import detections_path, detector_file_text
-    from sotmot.hashing import file_sha256
-    from sotmot.io import format_results, read_seqinfo, refuse_overwriting, write_results, write_text_atomic
-    from sotmot.provenance import findings, record_path, run_record, why_rerun, write_record
+    from sotmot.io import format_results, guard_outputs, read_seqinfo, write_files_atomic
+    from sotmot.provenance import findings, record_path, record_text, run_record, why_rerun
     from sotmot.stepping import track_whole
-    from sotmot.io.flags import flags_path, write_flags
+    from sotmot.io.flags import FLAGS_HEADER, flags_path, format_flags
 
     try:
         info = read_seqinfo(seq_dir, config.input.fps)
         outputs = sequence_outputs(out_dir, info, config)
-        refuse_overwriting(outputs, sequence_inputs(info, config), "choose another --out")
+        guard_outputs(outputs, sequence_inputs(info, config), hint="choose another --out")  # before any work
         out = outputs[-1]
         record = run_record(info, config)
         rerun = ""
@@ -222,25 +221,20 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
         record["results_sha256"] = hashlib.sha256(text.encode("utf-8")).hexdigest()  # --resume checks it
         record.update(findings(result, config))  # what the run found and "auto" chose (a replay must choose alike)
         bound = record.get("line_check", {}).get("interpolate_max_seconds")
-        written: list[Path] = []
-        try:
-            if low_confidence_path(out) in outputs:
-                write_results(low_confidence_path(out), result.dropped)
-                written.append(low_confidence_path(out))
-            if result.detected is not None:  # what the model found, to repeat the run or feed the peers
-                write_text_atomic(detections_path(out), detector_file_text(result.detected, config.detection))
-                written.append(detections_path(out))
-            write_flags(out, result.tracks)
-            written.append(flags_path(out))
-            # the side files of these results, each by its hash: --resume and render know them from an earlier run's
-            record["side_files"] = {path.name: file_sha256(path) for path in written}
-            write_record(out, record)
-            written.append(record_path(out))
-            write_text_atomic(out, text)  # last: a results file exists only with its side files
-        except BaseException:
-            for path in written:  # no side file of a results file that was not written (made by this run)
-                path.unlink(missing_ok=True)
-            raise
+        # every file of the run staged first, then renamed into place, the results last (write_files_atomic): a
+        # failure (a path that became a folder, a full disk, Ctrl-C) leaves the earlier run's files as they were
+        staged: dict[Path, bytes] = {out: text.encode("utf-8")}
+        if low_confidence_path(out) in outputs:
+            staged[low_confidence_path(out)] = format_results(result.dropped).encode("utf-8")
+        if result.detected is not None:  # what the model found, to repeat the run or feed the peers
+            staged[detections_path(out)] = detector_file_text(result.detected, config.detection).encode("utf-8")
+        staged[flags_path(out)] = (FLAGS_HEADER + format_flags(result.tracks)).encode("utf-8")
+        # the side files of these results, each by its hash: --resume and render know them from an earlier run's
+        record["side_files"] = {path.name: hashlib.sha256(data).hexdigest() for path, data in staged.items()
+                                if path != out}
+        staged[record_path(out)] = record_text(record).encode("utf-8")
+        write_files_atomic(staged)
+        written = list(staged)
         fps = info.length / (time.perf_counter() - start)
         stale = [path.name for path in (low_confidence_path(out), detections_path(out))
                  if path not in written and path.exists()]
@@ -340,8 +334,15 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
         for path, text in files.items():
             write_text_atomic(path, text)
 
+    def final_through(done: int) -> int:
+        """The last frame final once ``done`` windows are committed (0: none yet)."""
+        if done == 0:
+            return 0
+        return int(full_frames(cut(windows, done) - 1, step)) if done < len(windows) else info.length
+
     def progress_record(complete: bool) -> None:
         record["windows"] = {"plan": [list(w) for w in windows], "complete": complete,
+                             "frames_final": final_through(stitcher.done), "length": info.length,
                              "bytes": {path.name: path.stat().st_size for path in files}, **stitcher.state()}
         write_record(out, record)
 
@@ -349,29 +350,39 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
     ids: set[int] = set()
     workers = usable_workers(workers, len(windows) - stitcher.done)
     results = windowed(info, windows, config, detections, stitcher.done, workers, embedder, progress, submit)
-    while True:
-        try:
-            k, result = next(results)
-        except StopIteration:
-            break
-        except SotmotError as exc:  # what is committed stays, and says so: --resume continues from there
-            done = f"windows 1-{stitcher.done} of {len(windows)} are" if stitcher.done else "no window is yet"
-            return Outcome(seq_dir, "failed", str(out), f"{seq_dir}: {exc}; {done} committed in {out} "
-                                                        f"(--resume continues)")
-        tracks, dropped, detected = stitcher.add(k, result)
-        append_lines(out, format_results(tracks))
-        append_lines(flags_path(out), format_flags(tracks))
-        if low_confidence_path(out) in files:
-            append_lines(low_confidence_path(out), format_results(dropped))
-        if detected is not None and detections_path(out) in files:
-            append_lines(detections_path(out), format_detections(detected.frames, detected.boxes, detected.scores))
-        progress_record(False)
-        ids.update(int(i) for i in tracks.ids)
-        last = int(full_frames(cut(windows, k + 1) - 1, step)) if k + 1 < len(windows) else info.length
-        log.info("%s: frames 1-%d of %d final (window %d of %d)", info.name, last, info.length, k + 1, len(windows))
-        if progress:
-            print(f"{info.name}: frames 1-{last} of {info.length} final (window {k + 1} of {len(windows)}; "
-                  f"{time.perf_counter() - start:.0f} s)", file=sys.stderr)
+    try:
+        while True:
+            try:
+                k, result = next(results)
+            except StopIteration:
+                break
+            except SotmotError as exc:  # what is committed stays, and says so: --resume continues from there
+                done = f"windows 1-{stitcher.done} of {len(windows)} are" if stitcher.done else "no window is yet"
+                return Outcome(seq_dir, "failed", str(out), f"{seq_dir}: {exc}; {done} committed in {out} "
+                                                            f"(--resume continues)")
+            tracks, dropped, detected = stitcher.add(k, result)
+            append_lines(out, format_results(tracks))
+            append_lines(flags_path(out), format_flags(tracks))
+            if low_confidence_path(out) in files:
+                append_lines(low_confidence_path(out), format_results(dropped))
+            if detected is not None and detections_path(out) in files:
+                append_lines(detections_path(out),
+                             format_detections(detected.frames, detected.boxes, detected.scores))
+            progress_record(False)
+            ids.update(int(i) for i in tracks.ids)
+            last = final_through(k + 1)
+            log.info("%s: frames 1-%d of %d final (window %d of %d)", info.name, last, info.length, k + 1,
+                     len(windows))
+            if progress:
+                print(f"{info.name}: frames 1-{last} of {info.length} final (window {k + 1} of {len(windows)}; "
+                      f"{time.perf_counter() - start:.0f} s)", file=sys.stderr)
+    except KeyboardInterrupt:  # Ctrl-C, SIGTERM: what is committed stays, and is said to be partial
+        final = final_through(stitcher.done)
+        print(f"sotmot: {info.name}: stopped; the results are partial: frames 1-{final} of {info.length} are final "
+              f"in {out} (the same command with --resume continues)" if final else
+              f"sotmot: {info.name}: stopped before the first window was committed; {out} holds no boxes yet",
+              file=sys.stderr)
+        raise
     record["results_sha256"] = file_sha256(out)
     record["side_files"] = {path.name: file_sha256(path) for path in files if path != out}
     progress_record(True)

@@ -361,14 +361,15 @@ def test_a_failed_results_write_leaves_no_side_files(tmp_path, monkeypatch):
     from sotmot import runs as batch
 
     seq = _walker_sequence(tmp_path)
-    real = io_files.write_bytes_atomic
+    real, calls = io_files.os.fsync, []
 
-    def full_disk(path, data):
-        if str(path).endswith("SYN.txt"):
+    def full_disk(fd):  # the disk fills while the third of the run's files is written
+        calls.append(fd)
+        if len(calls) == 3:
             raise OSError(28, "No space left on device")
-        real(path, data)
+        real(fd)
 
-    monkeypatch.setattr(io_files, "write_bytes_atomic", full_disk)
+    monkeypatch.setattr(io_files.os, "fsync", full_disk)
     outcome = batch.track_one(str(seq), str(tmp_path / "out"), TrackerConfig(), False,
                               embedder=GeometryEmbedder())
     assert outcome.status == "failed"

@@ -87,6 +87,14 @@ examples:
 """
 
 
+def _out_path(text: str) -> Path:
+    """An ``--out`` path; an empty one (``--out ""``, an unset shell variable) is refused, not taken for the
+    current folder."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; name a folder or file (--out . for the current folder)")
+    return Path(text)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="sotmot",
@@ -109,7 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "or a folder of images without seqinfo.ini (the images in it, or in its img1/, in the order "
                         "of their names, numbers compared as numbers: frame_2 before frame_10; --fps gives the rate; "
                         "det/det.txt and gt/gt.txt read as in a sequence folder)")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="where <name>.txt results go")
+    p.add_argument("--out", type=_out_path, required=True, metavar="DIR", help="where <name>.txt results go")
     p.add_argument("--live", metavar="SOURCE",
                    help="instead of SEQ_DIR: a camera (its number, e.g. 0), a network stream (its URL: rtsp://..., "
                         "http://...) or a video file read once as it plays, tracked as the frames come in committed "
@@ -117,9 +125,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "window's final boxes are appended to DIR/<name>.txt (<name>: camera0, the URL's host and "
                         "path, the file's stem; a password in the URL is never written or shown) and <name>.run.json "
                         "says how far they are final, until the source ends or Ctrl-C stops it (what is final "
-                        "stays). The detector finds the people unless --det gives boxes (frames counted from the "
-                        "first frame read); --fps where the source gives no rate; --step K where the camera is "
-                        "faster than the tracker. Not with --eval, --resume, --workers or --cluster")
+                        "stays; a new session refuses a DIR holding an earlier one's <name>.txt). The detector "
+                        "finds the people unless --det gives boxes (frames counted from the first frame read); "
+                        "--fps where the source gives no rate; --step K where the camera is faster than the "
+                        "tracker. Not with --eval, --resume, --workers or --cluster")
     add_tracker_flags(p, "track")
     p.add_argument("--det", type=Path, metavar="DET.txt",
                    help="the detections of the one video or sequence tracked (MOTChallenge layout: frame, id, x, y, "
@@ -178,7 +187,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--init", metavar="MODEL.onnx",
                    help="the re-ID model to start from (default: the bundled person-reidentification-retail-0288, "
                         "or SOTMOT_REID_MODEL)")
-    p.add_argument("--out", type=Path, required=True, metavar="FILE.pt", help="checkpoint (best validation AUC)")
+    p.add_argument("--out", type=_out_path, required=True, metavar="FILE.pt", help="checkpoint (best validation AUC)")
     p.add_argument("--epochs", type=_positive_int, default=3, help="passes over the crops (default: %(default)s)")
     p.add_argument("--margin", type=_positive_float, default=0.3, help="triplet margin (default: %(default)s)")
     p.add_argument("--lr", type=_positive_float, default=1e-4, help="Adam learning rate (default: %(default)s)")
@@ -204,7 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("results", type=Path, metavar="RESULTS.txt",
                    help="MOTChallenge results, e.g. from sotmot track (its .flags.csv beside it marks SOT and "
                         "interpolated boxes)")
-    p.add_argument("--out", type=Path, required=True, metavar="VIDEO.mp4|DIR",
+    p.add_argument("--out", type=_out_path, required=True, metavar="VIDEO.mp4|DIR",
                    help="a .mp4 or .avi file, or a folder name without extension for one JPEG per frame; never "
                         "inside the sequence folder, never over an input. A video or a new folder is written under "
                         "a hidden .partial name and renamed when complete; an existing folder must be empty or hold "
@@ -237,7 +246,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="folder with seqinfo.ini, det/det.txt and img1/, a video file, or a folder of images "
                             "(with --fps)")
         if name == "graph":
-            p.add_argument("--out", type=Path, required=True, metavar="DIR",
+            p.add_argument("--out", type=_out_path, required=True, metavar="DIR",
                            help="folder for graph.graphml, graph.json, graph.png and graph.html")
             p.add_argument("--frames", metavar="A:B", help="only tracklets that touch frames A..B (with --step K, "
                                                                "tracked frames: frame k is the sequence's 1 + (k - 1) "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -172,17 +173,19 @@ def _check_json(path: Path | None, seq_dirs: list[Path], results_dir: Path | Non
     """Refuse, before the work, a ``--json`` that is a folder or one of the files the command reads."""
     if not path:
         return
-    from sotmot.io import read_seqinfo, refuse_overwriting, results_path
+    from sotmot.io import guard_outputs, read_seqinfo, results_path
 
     if path.is_dir():
         raise SotmotError(f"{path}: --json must name a file, but this is a folder")
-    inputs = []
+    inputs, folders = [], []
     for seq in seq_dirs:
         info = read_seqinfo(seq, rate_needed=False)
         inputs += [info.source, info.det_path, info.gt_path]
+        if info.video is None:  # a sequence folder or a folder of images: no report lands among its files
+            folders += [info.path, info.frames_dir]
         if results_dir is not None:
             inputs.append(results_path(results_dir, info.name))
-    refuse_overwriting([path], inputs, "choose another --json")
+    guard_outputs([path], inputs, folders, "choose another --json")
 
 
 def _json_ready(value):
@@ -219,15 +222,21 @@ def cmd_eval(args: argparse.Namespace) -> int:
         raise SotmotError(f"{args.results_dir} is a sequence folder and {plain[0]} is not: eval takes the results "
                           f"folder first, then the sequences (sotmot eval {plain[0]} {args.results_dir})")
     _check_json(args.json, args.seq_dirs, args.results_dir)
-    report = evaluate(args.results_dir, args.seq_dirs)
+    doubts = {}  # said before the scores: a partial or changed file is not scored as if it were the whole run
     for seq in args.seq_dirs:
-        for doubt in results_doubts(results_path(args.results_dir, read_seqinfo(seq, rate_needed=False).name)):
+        name = read_seqinfo(seq, rate_needed=False).name
+        for doubt in results_doubts(results_path(args.results_dir, name)):
             print(f"sotmot: warning: {doubt}", file=sys.stderr)
+            doubts.setdefault(name, []).append(doubt)
+    report = evaluate(args.results_dir, args.seq_dirs)
     print(format_table(report))
     print("TrackEval rules: " + ", ".join(f"{name} {rules}" for name, rules in report.benchmark.items())
           + " (MOT16: boxes on distractor classes removed; MOT15: people marked 0 in gt.txt left out, a box on "
             "them counts as false)")
-    _write_json(args.json, report.to_dict(), "scores")
+    if doubts:
+        print(f"sotmot: the scores of {', '.join(doubts)} are of results that are not a whole run as it was "
+              f"written (warnings above)", file=sys.stderr)
+    _write_json(args.json, {**report.to_dict(), **({"warnings": doubts} if doubts else {})}, "scores")
     return 0
 
 
@@ -283,11 +292,15 @@ def _render(args: argparse.Namespace, seq_dir: Path, inputs: list[Path]) -> int:
     from sotmot.progress import progress_bar
     from sotmot.inspect.render import check_render_target, render
     from sotmot.io.flags import flags_path, read_flags
-    from sotmot.provenance import side_file_doubt
+    from sotmot.provenance import partial_doubt, side_file_doubt
 
     info = read_seqinfo(seq_dir, args.fps)
     check_render_target(info, args.out, inputs)  # before reading and matching anything
     tracks = read_results(args.results, info.length)
+    partial = partial_doubt(args.results)
+    if partial:  # drawn, but never as if it were the whole run
+        print(f"sotmot: warning: {partial}: the frames after the last final one are drawn without boxes",
+              file=sys.stderr)
     doubt = side_file_doubt(args.results, flags_path(args.results))
     if doubt:
         print(f"sotmot: warning: {doubt}: drawn without the SOT and interpolation markers", file=sys.stderr)
@@ -354,8 +367,12 @@ def cmd_train(args: argparse.Namespace) -> int:
 def cmd_models(args: argparse.Namespace) -> int:
     from sotmot.models import MODELS, bundled_path, describe
 
-    for kind in MODELS:
+    for kind, model in MODELS.items():
         bundled_path(kind)  # a changed or cut bundled file: one clear error, not a table that hides it
+        given = os.environ.get(model.env_var)
+        if given and not Path(given).expanduser().is_file():  # every run would fail on it: said here first
+            raise SotmotError(f"{model.env_var}={given}: no such file; every run would fail to open it. Give the "
+                              f"path of a {kind} model file, or unset {model.env_var} for the bundled one")
     rows = describe()
     if args.json:
         print(json.dumps(rows, indent=2))
@@ -398,12 +415,15 @@ def cmd_graph(args: argparse.Namespace) -> int:
     from sotmot.inspect.explain import graph_files, inspection_graph, parse_frames
     from sotmot.inspect.graph_view import SHOWN, html_page, png_bytes, shown_edges, tracklet_crops
     from sotmot.io import check_output_dir, read_seqinfo, write_files_atomic
+    from sotmot.io.files import refuse_inside
     from sotmot.stepping import tracked_count
 
     config = build_config(args)
     info = read_seqinfo(args.seq_dir, config.input.fps)
     step = config.input.step
     frames = parse_frames(args.frames, tracked_count(info.length, step), step)  # the frames tracked
+    if info.video is None:  # as track --out and render --out: never among the sequence's own files
+        refuse_inside(args.out, [info.path, info.frames_dir])
     check_output_dir(args.out)  # a file, a read-only folder: said now, not after the tracking
     result = _track_for_inspection(args, config, info)
     graph = inspection_graph(result, config, frames)

@@ -124,16 +124,17 @@ def _join_rounds(association, pairs: list[tuple[int, int]]) -> dict[tuple[int, i
     return rounds
 
 
-def json_scalar(value, digits: int | None = None):
-    """GraphML and JSON friendly scalars: numpy types to Python, NaN and inf to strings,
-    floats rounded to ``digits`` decimals if given."""
+def json_scalar(value, digits: int | None = None, nonfinite: str | None = "text"):
+    """GraphML and JSON friendly scalars: numpy types to Python, floats rounded to ``digits`` decimals if given;
+    NaN and inf as ``nonfinite`` says: ``"text"`` (``"nan"``, for a page that shows them), ``"keep"`` (floats,
+    for GraphML) or None (JSON's null)."""
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     if isinstance(value, (int, np.integer)):
         return int(value)
     if isinstance(value, (float, np.floating)):
         if not math.isfinite(value):
-            return str(float(value))
+            return {"text": str(float(value)), "keep": float(value), None: None}[nonfinite]
         return float(value) if digits is None else round(float(value), digits)
     return value
 
@@ -146,14 +147,23 @@ def export_graph(graph: nx.DiGraph, out_dir: str | Path) -> list[Path]:
 
 
 def graph_files(graph: nx.DiGraph) -> dict[str, bytes]:
-    """``graph.graphml`` and ``graph.json`` (networkx node-link) of ``graph``: file name -> bytes."""
-    clean = nx.DiGraph(**{key: json_scalar(value) for key, value in graph.graph.items()})
-    for n, data in graph.nodes(data=True):
-        clean.add_node(n, **{key: json_scalar(value) for key, value in data.items()})
-    for u, v, data in graph.edges(data=True):
-        clean.add_edge(u, v, **{key: json_scalar(value) for key, value in data.items()})
-    return {"graph.graphml": ("\n".join(nx.generate_graphml(clean)) + "\n").encode("utf-8"),
-            "graph.json": (json.dumps(nx.node_link_data(clean, edges="edges"), indent=1) + "\n").encode("utf-8")}
+    """``graph.graphml`` and ``graph.json`` (networkx node-link) of ``graph``: file name -> bytes.
+
+    A measurement that does not exist (an affinity without re-ID, a velocity of a one-box tracklet: NaN) stays a
+    number in GraphML (its key typed ``double``, read back as NaN) and is ``null`` in the JSON, which has no NaN;
+    neither file holds it as text."""
+
+    def clean(nonfinite) -> nx.DiGraph:
+        out = nx.DiGraph(**{key: json_scalar(value, nonfinite=nonfinite) for key, value in graph.graph.items()})
+        for n, data in graph.nodes(data=True):
+            out.add_node(n, **{key: json_scalar(value, nonfinite=nonfinite) for key, value in data.items()})
+        for u, v, data in graph.edges(data=True):
+            out.add_edge(u, v, **{key: json_scalar(value, nonfinite=nonfinite) for key, value in data.items()})
+        return out
+
+    linked = nx.node_link_data(clean(None), edges="edges")
+    return {"graph.graphml": ("\n".join(nx.generate_graphml(clean("keep"))) + "\n").encode("utf-8"),
+            "graph.json": (json.dumps(linked, indent=1, allow_nan=False) + "\n").encode("utf-8")}
 
 
 def _verdict(data: dict, gaps: AssociationConfig) -> list[str]:
@@ -177,7 +187,8 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
     for track in (track_a, track_b):
         members[track] = sorted(n for n, d in graph.nodes(data=True) if d.get("track") == track)
         if not members[track]:
-            raise SotmotError(f"track {track} has no tracklet in this graph (wrong id, or outside --frames)")
+            raise SotmotError(f"track {track} has no tracklet in this run: no output track has that id (the "
+                                  f"results file's second column holds the ids)")
     tracks = list(dict.fromkeys((track_a, track_b)))
     head = "; ".join(f"track {track}: tracklets {members[track]}" for track in tracks)
     notes = [f"  track {track} is not in the results: confirmation dropped every box of it (more likely false than "
@@ -269,8 +280,8 @@ def _explain_members(graph: nx.DiGraph, first: list[int], second: list[int], con
 
 def explain_gaps(result: TrackResult, config: TrackerConfig, track: int) -> str:
     """Plain words on the gaps of output track ``track``: for each, the frames without a box, how many boxes
-    post-processing wrote there and the rule that decided (:func:`sotmot.postprocess.gaps_of`). Boxes confirmation
-    dropped afterwards are not counted here (``<name>.flags.csv`` has every written box's confidence)."""
+    post-processing filled there, how many of them the confirmation then kept in the results and dropped, and the
+    rule that decided (:func:`sotmot.postprocess.gaps_of`)."""
     from sotmot.postprocess import gaps_of
 
     found = [t for t, i in zip(result.trajectories, result.track_ids) if i == track]
@@ -286,12 +297,23 @@ def explain_gaps(result: TrackResult, config: TrackerConfig, track: int) -> str:
         out.append(f"  (the straight line does not hold over {config.postprocess.line_check_seconds:g} s on this "
                    f"sequence's trajectories, [postprocess] line_check_seconds: gaps are filled up to "
                    f"{post.interpolate_max_seconds:g} s)")
+    def in_gap(tracks, g) -> int:
+        """How many boxes of ``tracks`` with this id lie in the gap ``g``."""
+        return int(np.sum((tracks.ids == track) & (tracks.frames > g.after) & (tracks.frames < g.before)))
+
     for g in gaps:
         missing = g.before - g.after - 1
         seconds = f", {missing / rate:.2f} s" if rate else ""
         left = f", {g.left_out} left out" if g.left_out else ""
-        out.append(f"  frames {g.after + 1}-{g.before - 1} ({missing} frame(s){seconds}): {g.written} box(es) "
-                   f"written{left}; {g.why}")
+        kept, dropped = in_gap(result.tracks, g), in_gap(result.dropped, g)
+        if not g.written:
+            boxes = "no box filled"
+        elif dropped:
+            boxes = (f"{g.written} box(es) filled, {kept} in the results and {dropped} dropped by the confirmation "
+                     f"(more likely false than true)")
+        else:
+            boxes = f"{g.written} box(es) filled, all in the results"
+        out.append(f"  frames {g.after + 1}-{g.before - 1} ({missing} frame(s){seconds}): {boxes}{left}; {g.why}")
     return "\n".join(out)
 
 

@@ -52,9 +52,10 @@ def write_text_atomic(path: str | Path, text: str) -> None:
 def write_files_atomic(files: dict[Path, bytes]) -> None:
     """Write several files all or none: every one to a temporary file first, then each renamed into place.
 
-    A failure while writing (a full disk, a read-only folder) leaves every
-    target as it was and no temporary file behind; only the renames, which
-    need no space, come after the last byte is written.
+    A failure while writing (a full disk, a read-only folder, a target that is
+    a folder) leaves every target as it was and no temporary file behind; only
+    the renames, which need no space, come after the last byte is written, in
+    the reverse of ``files``' order (its first file, the results, renamed last).
     """
     with ExitStack() as stack:
         staged = [(stack.enter_context(atomic_path(path)), data) for path, data in files.items()]
@@ -63,6 +64,9 @@ def write_files_atomic(files: dict[Path, bytes]) -> None:
                 fh.write(data)
                 fh.flush()
                 os.fsync(fh.fileno())
+        for path in files:  # what would stop a rename, found before the first one
+            if Path(path).is_dir():
+                raise InputError(path, "is a folder, and a file would go here; nothing was written")
         # leaving the stack renames each temporary file over its target, last entered first
 
 
@@ -90,7 +94,7 @@ def refuse_overwriting(outputs: Iterable[str | Path], inputs: Iterable[str | Pat
                 raise InputError(out, f"would write over {source}, which this run reads; {hint}")
 
 
-def refuse_inside(out: str | Path, folders: Iterable[str | Path]) -> None:
+def refuse_inside(out: str | Path, folders: Iterable[str | Path], hint: str = "choose --out elsewhere") -> None:
     """Raise an :class:`InputError` when ``out`` is one of the sequence ``folders`` (or their frame folders) or
     lies inside one: results never land among a user's inputs (``track --out``, ``render --out``)."""
     target = Path(out).resolve()
@@ -98,7 +102,27 @@ def refuse_inside(out: str | Path, folders: Iterable[str | Path]) -> None:
         protected = folder.resolve()
         if target == protected or target.is_relative_to(protected):
             raise InputError(out, f"refusing to write into the sequence folder {protected}: results would land "
-                             f"among its frames and detections; choose --out elsewhere")
+                             f"among its frames and detections; {hint}")
+
+
+def guard_outputs(outputs: Iterable[str | Path], reads: Iterable[str | Path | None] = (),
+                  folders: Iterable[str | Path | None] = (), hint: str = "choose another path") -> None:
+    """The one check every writer of files makes before any work (``track``, ``render``, ``graph``, the JSON
+    reports, :meth:`sotmot.Result.save`, live sessions).
+
+    Each output file must not be a folder, must not be one of the files the
+    run ``reads`` (:func:`refuse_overwriting`) and must not lie inside one of
+    the user's sequence ``folders`` (:func:`refuse_inside`; ``None`` entries
+    skipped). Raises :class:`InputError` naming the output and ``hint``.
+    """
+    outputs = [Path(p) for p in outputs]
+    for out in outputs:
+        if out.is_dir():
+            raise InputError(out, f"is a folder, and a file would go here; {hint}")
+    refuse_overwriting(outputs, reads, hint)
+    folders = [Path(f) for f in folders if f is not None]
+    for out in outputs:
+        refuse_inside(out, folders, hint)
 
 
 def check_output_dir(path: str | Path) -> Path:

@@ -73,7 +73,7 @@ def image_folder_info(seq: str | Path, fps: float | None,
     folder, files = found
     where = f"{len(files)} images{' in img1/' if folder != seq else ''} but no seqinfo.ini"
     if fps is None:
-        raise InputError(seq, f"holds {where}, so no frame rate: give it (sotmot track --fps N, "
+        raise InputError(seq, f"holds {where}, so no frame rate: give it (--fps N; "
                               f"sotmot.track(..., frame_rate=N)), or write a seqinfo.ini ([Sequence] name, "
                               f"frameRate, seqLength, imWidth, imHeight; frames img1/NNNNNN.jpg)")
     if fps > MAX_FRAME_RATE:  # NaN is not
