@@ -99,6 +99,23 @@ def live_record(source: str, frame_rate: float, name: str, config: TrackerConfig
     }
 
 
+def reid_precision(appearance) -> str | None:
+    """The arithmetic re-ID runs in under ``appearance`` (an :class:`~sotmot.config.AppearanceConfig` whose
+    backend is resolved): ``"f32"``, or what OpenVINO picks on this CPU for ``precision = "fast"``; None without
+    re-ID."""
+    if appearance.backend == "auto":
+        from sotmot.appearance import resolve_backend
+
+        appearance = resolve_backend(appearance)
+    if appearance.backend == "none":
+        return None
+    if appearance.backend != "openvino":
+        return "f32"
+    from sotmot.appearance.openvino import openvino_precision
+
+    return openvino_precision(appearance.precision)
+
+
 def _run_fields(name: str, config: TrackerConfig, detector: str | None) -> dict[str, Any]:
     """What every run record holds: versions, the configuration, the models and calibration by SHA-256
     (``detector``: the detector model, where the run's boxes came from it), the environment and the time."""
@@ -113,6 +130,7 @@ def _run_fields(name: str, config: TrackerConfig, detector: str | None) -> dict[
         "solver": config.association.solver,
         "config": config.to_dict(),
         "reid_model": {"path": model, "sha256": file_sha256(model) if model else None},
+        "reid_precision": reid_precision(config.appearance),
         "confidence_calibration": {"path": calibration or "packaged",
                                    "sha256": file_sha256(calibration or str(packaged))},
         "detector_model": {"path": detector, "sha256": file_sha256(detector) if detector else None},

@@ -26,13 +26,36 @@ def _shape(port) -> list:
     return [d.get_length() if d.is_static else "N" for d in port.get_partial_shape()]
 
 
+def precision_options(precision: str) -> dict:
+    """OpenVINO's compile options for ``[appearance] precision``: ``"f32"`` pins float32 (OpenVINO's CPU plugin
+    otherwise runs a float model in bf16 on CPUs that have it, and features then differ from one CPU to
+    another); ``"fast"`` leaves the choice to OpenVINO."""
+    return {"INFERENCE_PRECISION_HINT": "f32"} if precision == "f32" else {}
+
+
+def _type_name(value) -> str:
+    """OpenVINO's element type (``<Type: 'float32'>``) as a short name: ``"f32"``, ``"bf16"``."""
+    text = str(getattr(value, "get_type_name", lambda: value)())
+    return {"float32": "f32", "bfloat16": "bf16", "float16": "f16"}.get(text, text)
+
+
+def openvino_precision(precision: str) -> str:
+    """The arithmetic the OpenVINO backend runs a float model in on this CPU under ``[appearance] precision``:
+    ``"f32"``, or for ``"fast"`` what the CPU plugin picks (``"bf16"`` where the CPU has it)."""
+    if precision == "f32":
+        return "f32"
+    import openvino as ov
+
+    return _type_name(ov.Core().get_property("CPU", "INFERENCE_PRECISION_HINT"))
+
+
 class OpenVinoReidEmbedder(CropEmbedder):
     """Flip-averaged re-ID features from an ONNX or OpenVINO IR model run with OpenVINO on the CPU.
 
     Parameters
     ----------
     config
-        ``model`` (path to ``.onnx`` or ``.xml``), ``flip``, ``batch_size`` and ``threads`` are used;
+        ``model`` (path to ``.onnx`` or ``.xml``), ``flip``, ``batch_size``, ``threads`` and ``precision`` are used;
         ``device = "cuda"`` is refused (OpenVINO here runs on the CPU).
     """
 
@@ -55,10 +78,14 @@ class OpenVinoReidEmbedder(CropEmbedder):
         self.dim = fixed_dim(self.path, dim)
         if model.inputs[0].get_partial_shape()[0].is_static:  # e.g. Intel's IR files: batch fixed at 1
             model.reshape({model.inputs[0]: ov.PartialShape([-1, 3, CROP_HEIGHT, CROP_WIDTH])})
-        compiled = openvino_compiled(core, model, self.path, openvino_cpu_options(config.threads))
+        options = openvino_cpu_options(config.threads, **precision_options(config.precision))
+        compiled = openvino_compiled(core, model, self.path, options)
         self._output = compiled.outputs[0]
         self._request = compiled.create_infer_request()
-        log.info("re-ID model %s (OpenVINO %s): %d-d embedding", self.path, ov.__version__, self.dim)
+        #: the arithmetic OpenVINO runs the model in here ("f32", "bf16", ...)
+        self.precision = _type_name(compiled.get_property("INFERENCE_PRECISION_HINT"))
+        log.info("re-ID model %s (OpenVINO %s, %s): %d-d embedding", self.path, ov.__version__, self.precision,
+                 self.dim)
 
     def _run(self, tensor: np.ndarray) -> np.ndarray:
         # the batch is read where it lies (share_inputs: no copy of it into the runtime's own tensor)

@@ -213,10 +213,7 @@ class AppearanceConfig:
         (needs the ``torch`` extra: ``torch==2.13.0`` and ``onnx``);
         ``"openvino"``: the same ONNX file (or an OpenVINO IR ``.xml``) run by
         the OpenVINO runtime on the CPU, about twice as fast as onnxruntime here
-        (bf16 where the CPU has it: the features agree to a cosine of 0.999,
-        and the scores differ only as much as any change that should change
-        nothing does: combined within 0.4 on the full-length sequences, one
-        sequence by up to 0.8 HOTA; docs/benchmarks.md); ``"none"``: no
+        (in float32, as ``precision`` says); ``"none"``: no
         re-ID at all, the **motion-only mode** (``sotmot.appearance.none``): no
         model and no frame read for appearance (a folder of detections and
         ground truth without ``img1/`` is tracked), tracklets matched by IoU,
@@ -258,6 +255,15 @@ class AppearanceConfig:
         Inference threads of the re-ID runtime (OpenVINO, onnxruntime or
         torch); 0 lets the runtime choose (with ``--workers N``: each
         process's share of the cores).
+    precision
+        The arithmetic of the OpenVINO backend: ``"f32"`` (default), float32 on
+        every CPU, so one sequence gives the same features, and the same tracks,
+        on any x86 machine; ``"fast"``, what OpenVINO runs fastest on this CPU
+        (bf16 where it has AMX or AVX-512 BF16, float32 elsewhere): faster
+        there, with features that differ in the third decimal of their cosine,
+        and tracks that differ with them. The run record says which ran
+        (``reid_precision``). onnxruntime and torch compute in float32; the
+        built-in detector always runs in float32.
     device
         ``"cpu"`` or ``"cuda"`` (onnxruntime's CUDA provider, or torch on the GPU);
         asking for ``"cuda"`` where there is none is an error, never a silent fallback.
@@ -271,6 +277,7 @@ class AppearanceConfig:
     flip: bool = True
     batch_size: int = 64
     threads: int = 0
+    precision: Literal["f32", "fast"] = "f32"
     device: Literal["cpu", "cuda"] = "cpu"
     weights: str | None = None
 
@@ -280,5 +287,7 @@ class AppearanceConfig:
         _check(self.backend in BACKENDS or self.backend == "auto", "appearance",
                f"backend must be 'auto' or one of {', '.join(sorted(BACKENDS))}; got {self.backend!r}")
         _check(self.device in ("cpu", "cuda"), "appearance", f"device must be 'cpu' or 'cuda'; got {self.device!r}")
+        _check(self.precision in ("f32", "fast"), "appearance",
+               f"precision must be 'f32' or 'fast'; got {self.precision!r}")
         _check(1 <= self.batch_size <= 4096, "appearance", "batch_size must be between 1 and 4096 crops")
         _check(0 <= self.threads <= 1024, "appearance", "threads must be between 0 and 1024")
