@@ -83,7 +83,7 @@ from pathlib import Path
 import numpy as np
 
 from sotmot.appearance import make_embedder
-from common import DEFAULT_DATA, named_sequences, read_report
+from common import DEFAULT_DATA, add_more_argument, more_found, named_sequences, read_report
 from peers_paired import paired_text
 from sotmot.benchmarks import JITTER_PIXELS, detector_clips, private_config, sequences
 from sotmot.config import TrackerConfig
@@ -228,6 +228,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
     parser.add_argument("--model", required=True, help="ONNX re-ID model (sotmot and DeepSORT)")
+    add_more_argument(parser)
     parser.add_argument("--out", type=Path, required=True, help="folder for results files, peers.md/json/png")
     parser.add_argument("--sequences", default="", help="comma-separated subset of sequence names")
     parser.add_argument("--trackers", default=",".join([*SOTMOT, *PEERS]),
@@ -285,7 +286,7 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     # --sequences names the data folder's sequences and, with --mot17-clips, the MOT17 clips
-    seqs = named_sequences(parser, args.data, args.sequences, sequences(args.data) + (
+    seqs = named_sequences(parser, args.data, args.sequences, sequences(args.data) + more_found(args) + (
         detector_clips(args.data, args.clip_cache) if args.mot17_clips else []))
     if kept is not None:  # every kept row must cover every sequence run now (the groups are checked at the end)
         names = [read_seqinfo(path).name for path in seqs]

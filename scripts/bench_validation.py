@@ -82,7 +82,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import DEFAULT_DATA, named_config, read_report, validation_groups
+from common import DEFAULT_DATA, add_more_argument, more_found, named_config, read_report, validation_groups
 from sotmot.appearance import resolve_backend
 from sotmot.benchmarks import (GROUPS, JITTER_PIXELS, LABEL_GROUPS, for_group, group_features, jittered_detections,
                                jittered_sequence, preparation_key, private_config, validation_set)
@@ -260,6 +260,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of sequences (default: %(default)s)")
     parser.add_argument("--model", required=True, help="ONNX re-ID model (for the sequences with frames)")
+    add_more_argument(parser)
     parser.add_argument("--config", action="append", type=named_config, metavar="NAME=FILE",
                         help="a configuration to judge (repeat; the first is the reference; FILE empty: the "
                              "defaults; default: defaults=)")
@@ -340,7 +341,8 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--merge: {', '.join(fresh)} not in the old report: run them on every group it has")
     # configurations that agree on every section a preparation reads share one preparation of each sequence
     preparation = {name: preparation_key(cfg) for name, cfg in configs.items()}
-    members = validation_set(args.data, args.cache, set(args.groups), private=detector is not None)
+    members = validation_set(args.data, args.cache, set(args.groups), private=detector is not None,
+                             more=more_found(args))
     if not members:
         print(f"no validation sequences under {args.data}", file=sys.stderr)
         return 1

@@ -18,12 +18,30 @@ import tempfile
 import time
 from pathlib import Path
 
-from sotmot.benchmarks import GROUPS, fit_sequences, only_named, sequences
+from sotmot.benchmarks import GROUPS, fit_sequences, more_sequences, only_named, sequences
 from sotmot.config import TrackerConfig, load_config
 from sotmot.errors import InputError, SotmotError
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = Path(os.environ.get("SOTMOT_DATA", ROOT.parent / "shared" / "data"))
+#: Where ``../shared/more/prepare.sh`` built the crowd and the vehicle (:data:`sotmot.benchmarks.MORE_SEQUENCES`):
+#: the environment variable ``SOTMOT_MORE``; unset, they are left out (and the benchmark says so).
+DEFAULT_MORE = Path(os.environ["SOTMOT_MORE"]) if os.environ.get("SOTMOT_MORE") else None
+
+
+def add_more_argument(parser: argparse.ArgumentParser) -> None:
+    """``--more DIR``: the folder ``../shared/more/prepare.sh`` built the crowd and the vehicle into."""
+    parser.add_argument("--more", type=Path, default=DEFAULT_MORE, metavar="DIR",
+                        help="folder holding MOT20-01, MOT16-13, MOT17-13-DPM and MOT17-13-FRCNN as "
+                             "../shared/more/prepare.sh builds them (default: $SOTMOT_MORE; unset: left out, said)")
+
+
+def more_found(args: argparse.Namespace) -> list[Path]:
+    """The sequences ``--more`` holds, after saying on stderr which are missing and how to build them."""
+    found, missing = more_sequences(args.more)
+    if missing:
+        print(f"{Path(sys.argv[0]).name}: {missing}", file=sys.stderr)
+    return found
 
 
 #: The label-only sequences (detections and ground truth, no frames) whose detections the family maps learn from:

@@ -35,6 +35,25 @@ LABEL_GROUPS = ("labels", "label-rates")
 PREPARATION = ("input", "detection", "preprocess", "appearance", "sot", "tracklets", "motion")
 
 
+#: The full-length sequences with frames that do not fit in ``../shared/data``: a crowd (``MOT20-01``) and a camera
+#: on a moving vehicle (``MOT16-13`` and the same frames under MOT17's ground truth and detectors), built on the
+#: user's machine by ``../shared/more/prepare.sh`` (issue #87). Optional: tests and CI never need them.
+MORE_SEQUENCES = ("MOT20-01", "MOT16-13", "MOT17-13-DPM", "MOT17-13-FRCNN")
+#: How a benchmark says where the :data:`MORE_SEQUENCES` come from when they are missing.
+MORE_HOW = ("build them with bash ../shared/more/prepare.sh SNAPSHOTS OUT (its header names the three public "
+            "repositories whose snapshots it reads) and give OUT as --more (or SOTMOT_MORE)")
+
+
+def more_sequences(more: Path | None) -> tuple[list[Path], str]:
+    """The :data:`MORE_SEQUENCES` found under ``more`` (None: not asked for), and a line saying which are missing
+    and how to build them (empty when none is)."""
+    if more is None:
+        return [], f"the crowd and the vehicle ({', '.join(MORE_SEQUENCES)}) are left out: {MORE_HOW}"
+    found = [more / name for name in MORE_SEQUENCES if (more / name / "seqinfo.ini").is_file()]
+    missing = [name for name in MORE_SEQUENCES if more / name not in found]
+    return found, (f"{', '.join(missing)} not under {more}: {MORE_HOW}" if missing else "")
+
+
 def sequences(data: Path, only: str = "") -> list[Path]:
     """Sequence folders with frames under ``data`` (the label-only MOT16-labels folders are skipped); ``only``, a
     comma-separated list of folder names (a script's ``--sequences``), keeps those alone (:func:`only_named`)."""
@@ -129,8 +148,8 @@ def cached_features(seq: Path, config: TrackerConfig, cache: Path, embedder_box:
     return features
 
 
-def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]" = GROUPS, private: bool = False
-                   ) -> list[tuple[str, Path]]:
+def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]" = GROUPS, private: bool = False,
+                   more: "list[Path] | None" = None) -> list[tuple[str, Path]]:
     """``(group, folder)`` of every validation sequence under ``data`` (issue #39): ``frames``, the full-length
     sequences with frames; ``rates``, each of them at :data:`VARIANT_MIN_FPS` or above at every 2nd and 3rd
     frame (:func:`subsampled_sequence`, made once under ``cache / "rates"``); ``clips``, the short sequences with
@@ -139,10 +158,12 @@ def validation_set(data: Path, cache: Path, groups: "set[str] | tuple[str, ...]"
     label-only sequences (:data:`LABEL_SETS`), tracked without frames (:func:`for_group`); ``label-rates``, each
     label-only sequence at :data:`VARIANT_MIN_FPS` or above at every 2nd frame (made alike), tracked alike.
     ``private``: the sequences are tracked from a detector's boxes, so ``clips`` keeps the clips of ``data``
-    alone (another detector's boxes on the same frames would be the same run again)."""
+    alone (another detector's boxes on the same frames would be the same run again). ``more``: further
+    full-length sequences with frames (:func:`more_sequences`), members of ``frames`` and ``rates`` as those of
+    ``data`` are."""
     members: list[tuple[str, Path]] = []
     found = sequences(data)
-    full = {p: info for p in found if (info := read_seqinfo(p)).length > FULL_LENGTH}
+    full = {p: info for p in [*found, *(more or [])] if (info := read_seqinfo(p)).length > FULL_LENGTH}
     if "frames" in groups:
         members += [("frames", p) for p in full]
     if "rates" in groups:

@@ -183,8 +183,20 @@ def test_scores_that_are_all_the_same_make_every_box_one_the_detector_stands_beh
         assert method == "raw" and (detection_confidence(np.full(50, value), knots) == 1.0).all()
         assert f"street: every detection scores {value:g}, so the scores tell nothing" in caplog.text
     assert confidence_knots("auto", np.full(50, -1.0), name="MOT17-04-SDP")[0] == "raw"  # not the name's map
-    assert confidence_knots("auto", np.array([-1.0, 0.5]))[0] == "dpm"
+    assert confidence_knots("auto", np.array([-1.0, 0.5, 2.0]))[0] == "dpm"
     assert confidence_knots("auto", np.full(50, 0.9), family="pd0202")[0] == "pd0202"  # a known detector's own
+
+
+def test_scores_of_two_values_are_a_flag_whose_meaning_the_sequence_teaches(caplog):
+    """MOT20's public detections score 0 or 1 (issue #87): read with Faster R-CNN's map, every 0 was a weak box
+    and the confirmation dropped 7,635 of MOT20-01's boxes, most of them on people."""
+    flags = np.r_[np.zeros(30), np.ones(20)]
+    with caplog.at_level("WARNING"):
+        assert confidence_knots("auto", flags, name="MOT20-01")[0] == "self"
+    assert "two values only (0 and 1)" in caplog.text
+    assert confidence_knots("auto", flags, family="pd0202")[0] == "pd0202"  # a known detector: its own map
+    assert confidence_knots("frcnn", flags)[0] == "frcnn"  # asked for by name: as asked
+    assert confidence_knots("auto", np.r_[flags, 0.5])[0] == "frcnn"  # three values: a detector's scores
 
 
 def test_the_built_in_detector_has_its_own_map_model_and_threshold_and_needs_all_three():
@@ -200,7 +212,7 @@ def test_the_built_in_detector_has_its_own_map_model_and_threshold_and_needs_all
     assert {"calibrated", "quantile", "pd0202"} <= set(packaged.box_models) <= set(packaged.thresholds)
     assert model_kind("frcnn") == model_kind("dpm") == "calibrated"
     assert confidence_knots("auto", np.array([0.5, 0.9]), packaged, "pd0202")[0] == "pd0202"
-    assert confidence_knots("auto", np.array([0.5, 0.9]), packaged)[0] == "frcnn"  # scores alone: guessed
+    assert confidence_knots("auto", np.array([0.5, 0.7, 0.9]), packaged)[0] == "frcnn"  # scores alone: guessed
     data = json.loads(resources.files("sotmot").joinpath("data", "confidence.json").read_text())
     del data["box_models"]["pd0202"]
     with pytest.raises(ConfigError, match="no box model or threshold for pd0202"):

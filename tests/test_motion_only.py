@@ -218,6 +218,23 @@ def test_the_validation_set_tracks_label_only_sequences_and_their_lower_rates_wi
     assert for_group(TrackerConfig(), "rates", "reid.onnx").appearance.backend == "auto"
 
 
+def test_the_crowd_and_the_vehicle_join_the_frames_group_when_built_and_are_said_missing_when_not(tmp_path):
+    from sotmot.benchmarks import more_sequences, validation_set
+
+    data, more = tmp_path / "data", tmp_path / "more"
+    data.mkdir()
+    found, said = more_sequences(None)
+    assert found == [] and "prepare.sh" in said and "MOT20-01" in said
+    write_sequence(more, [f"{f},-1,1,1,10,20,1" for f in range(1, 130)], length=129, frame_rate=25,
+                   name="MOT20-01", width=32, height=32, gt_lines=[f"{f},1,1,1,10,20,1,1,1" for f in range(1, 130)])
+    found, said = more_sequences(more)
+    assert [p.name for p in found] == ["MOT20-01"]
+    assert said.startswith("MOT16-13, MOT17-13-DPM, MOT17-13-FRCNN not under") and "prepare.sh" in said
+    members = validation_set(data, tmp_path / "cache", ("frames", "rates"), more=found)
+    assert [(g, p.name) for g, p in members] == [("frames", "MOT20-01"), ("rates", "MOT20-01-every2"),
+                                                ("rates", "MOT20-01-every3")]
+
+
 def test_jittered_sequences_move_each_box_by_under_half_a_pixel_and_keep_the_rest(tmp_path):
     from sotmot.benchmarks import jittered_sequence
     from sotmot.io import read_detections, read_seqinfo
