@@ -125,7 +125,11 @@ class CameraMotion:
 
     @classmethod
     def from_pairs(cls, pair: np.ndarray, confidence: np.ndarray) -> "CameraMotion":
-        """Compose pair estimates (row ``f``: frame ``f`` -> ``f - 1``) into transforms to frame 1."""
+        """Compose pair estimates (row ``f``: frame ``f`` -> ``f - 1``) into transforms to frame 1. Where no pair
+        could be estimated (frames without corners: every transform the identity) the camera is not said to
+        move: it is still, as far as anything here can tell, and nothing is compensated."""
+        if not (np.asarray(confidence)[2:] > 0).any():
+            return cls.still(len(pair) - 1)
         to_reference = np.empty_like(pair)
         to_reference[0] = to_reference[1] = _identity()
         for f in range(2, len(pair)):
@@ -296,11 +300,14 @@ def still_check_pairs(length: int, frame_rate: float, video: bool = False) -> li
 
 
 def in_pass(info: SeqInfo, config: MotionConfig) -> bool:
-    """Whether the pass that decodes every frame of ``info`` measures the camera too (:class:`PassMotion`): for a
-    video whose camera ``[motion]`` looks at, since a video cannot be decoded small the way a JPEG can (the
-    estimate's own decode cost MOT16-09 from its video 1-2 s). Not for a JPEG folder: its frames decode small on
-    their own, and small copies of the full images would not be the same bytes."""
-    return config.compensation != "off" and info.video is not None and info.length >= 2
+    """Whether the pass that decodes every frame of ``info`` measures the camera too (:class:`PassMotion`):
+    wherever ``[motion]`` looks at the camera and there are frames (a video, a folder of JPEGs, frames in
+    memory). The estimate reads each frame as the full image made small (:func:`~sotmot.io.frames.grey_reduced`,
+    for every source alike, so one sequence handed over any way gives one estimate), which the pass has decoded
+    already; a decode of its own cost MOT16-09 1-2 s from its video."""
+    if config.compensation == "off" or info.length < 2:
+        return False
+    return info.video is not None or info.frames is not None or info.frames_dir.is_dir()
 
 
 def _moved(previous: np.ndarray, current: np.ndarray, factor: int, people: np.ndarray, info: SeqInfo,
@@ -404,7 +411,7 @@ class PassMotion:
                  people: Callable[[int, object], np.ndarray] | None = None) -> None:
         self.info, self.config = info, config
         self._people = people if people is not None else (lambda frame, found: found)
-        self._pairs = still_check_pairs(info.length, info.frame_rate, video=True) \
+        self._pairs = still_check_pairs(info.length, info.frame_rate, video=info.video is not None) \
             if config.compensation == "auto" else []
         self._check_factor = reduce_factor(info.width, STILL_CHECK_WIDTH)
         self._check_frames = {f for pair in self._pairs for f in pair}

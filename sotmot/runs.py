@@ -252,9 +252,16 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
         if bound is not None:
             said.append(f"gaps filled up to {bound:g} s: the straight line did not hold over "
                         f"{config.postprocess.line_check_seconds:g} s here")
+        if not result.tracks.n_tracks and len(result.detections) and not result.tracklets:  # why nothing came
+            l_min = config.tracklets.l_min
+            said.append(f"{len(result.detections)} detections, but a tracklet needs a person seen in more than "
+                        f"[tracklets] l_min = {l_min} frame{'s' if l_min != 1 else ''}"
+                        + (f", and the sequence has {info.length}" if info.length <= l_min + 1 else ""))
         boxes = f"{len(result.tracks)} boxes" + (f" ({'; '.join(said)})" if said else "")
         moved = (f"; the camera moves ({record['camera_motion']['median_shift_px']:.1f} px a frame at the median), "
                  f"compensated" if "camera_motion" in record else "")
+        if config.preprocess.confidence == "auto":  # the score map auto chose: the same boxes under another map
+            moved += f"; scores read as {record['confidence_method']!r} (--confidence sets the map)"  # track apart
         return Outcome(seq_dir, "done", str(out), f"{info.name}: {result.tracks.n_tracks} tracks, "
                                                   f"{boxes}{dropped}, {fps:.1f} frames/s{moved} -> {out}{rerun}")
     except SotmotError as exc:
@@ -424,7 +431,15 @@ def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerC
     seq_dirs = [str(s) for s in seq_dirs]
     folders = [Path(seq) for seq in seq_dirs if Path(seq).is_dir()]  # a video's folder holds more than its inputs
     refuse_inside(out_dir, [*folders, *(folder / "img1" for folder in folders)])
-    out_dir = str(check_output_dir(out_dir))  # a file, a read-only folder: said now, not after the work
+    try:
+        out_dir = str(check_output_dir(out_dir))  # a file, a read-only folder: said now, not after the work
+    except SotmotError:
+        # a folder this run cannot write into that holds every sequence's whole results of these settings:
+        # --resume has nothing to write there, and says each is skipped
+        if not (resume and Path(out_dir).is_dir() and all(_resumable(seq, str(out_dir), config)
+                                                          for seq in seq_dirs)):
+            raise
+        out_dir = str(out_dir)
     report = report or (lambda outcome: None)
     if cluster is not None:
         if workers > 1:

@@ -284,3 +284,61 @@ def test_a_folder_of_images_without_a_rate_names_the_flag_of_the_command_in_use(
                  "-q"]) == 2
     err = capsys.readouterr().err
     assert "--fps N" in err and "sotmot track --fps" not in err
+
+
+# 5. frames in memory and the same folder give the same boxes where the camera moves ---------------------------
+
+def test_frames_in_memory_and_their_folder_give_the_same_boxes_where_the_camera_moves():
+    from conftest import DATA, require
+
+    seq = require(DATA / "MOT16-05-clip30")
+    info = sotmot.io.read_seqinfo(seq)
+    frames = [cv2.imread(str(info.frame_path(f))) for f in range(1, info.length + 1)]
+    folder = sotmot.track(seq, config=MOTION_ONLY)
+    memory = sotmot.track(frames, detections=info.det_path, frame_rate=info.frame_rate, name=info.name,
+                          config=MOTION_ONLY)
+    assert folder.found["camera_motion"]["moving"] and folder.found == memory.found
+    assert len(folder.tracks) == len(memory.tracks) > 50
+    np.testing.assert_array_equal(folder.tracks.boxes, memory.tracks.boxes)  # were up to 1.9 px apart
+
+
+# 6. the summary names the score map auto chose ------------------------------------------------------------------
+
+def test_the_summary_names_the_score_map_auto_chose_and_keeps_quiet_when_the_user_chose(tmp_path, capsys):
+    seq = _seq(tmp_path)
+    assert main(["track", str(seq), "--out", str(tmp_path / "a"), "--appearance", "none", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "scores read as 'quantile' (--confidence sets the map)" in out  # 0.9 and 0.8: a flag, too few to learn
+    assert "the camera moves" not in out  # grey frames: no corner, no motion measured (was "moves (0.0 px ...)")
+    assert main(["track", str(seq), "--out", str(tmp_path / "b"), "--appearance", "none", "--confidence", "frcnn",
+                 "-q"]) == 0
+    assert "scores read as" not in capsys.readouterr().out
+
+
+# messages: a one-frame video's empty result, and --resume where nothing needs writing --------------------------
+
+def test_a_sequence_too_short_for_any_tracklet_says_why_it_has_no_track(tmp_path, capsys):
+    seq = write_sequence(tmp_path / "data", ["1,-1,5,5,10,20,0.9", "1,-1,40,5,10,20,0.8"], length=1, width=96,
+                         height=64)
+    assert main(["track", str(seq), "--out", str(tmp_path / "out"), "--appearance", "none", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "0 tracks, 0 boxes (2 detections, but a tracklet needs a person seen in more than [tracklets] l_min = 1" \
+           in out and "the sequence has 1" in out
+
+
+def test_resume_into_a_folder_it_cannot_write_skips_what_is_complete(tmp_path, capsys, monkeypatch):
+    import sotmot.io
+
+    seq = _seq(tmp_path)
+    out = tmp_path / "out"
+    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "-q"]) == 0
+    capsys.readouterr()
+
+    def read_only(path):
+        raise InputError(path, "cannot write results here: Permission denied")
+
+    monkeypatch.setattr(sotmot.io, "check_output_dir", read_only)  # as a read-only folder answers a user
+    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "--resume", "-q"]) == 0
+    assert "skipped (--resume)" in capsys.readouterr().out
+    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "-q"]) == 2  # without: refused
+    assert "Permission denied" in capsys.readouterr().err
