@@ -273,6 +273,11 @@ def test_explain_of_an_unknown_id_does_not_name_a_flag_explain_has_not():
     with pytest.raises(SotmotError) as info:
         explain(graph, 1, 99, TrackerConfig())
     assert "--frames" not in str(info.value) and "no output track has that id" in str(info.value)
+    from sotmot.inspect.explain import explain_tracklets
+
+    with pytest.raises(SotmotError) as info:
+        explain_tracklets(graph, 0, 7, TrackerConfig())
+    assert "--frames" not in str(info.value) and "tracklet 7 is not one of this run's tracklets" in str(info.value)
 
 
 def test_a_folder_of_images_without_a_rate_names_the_flag_of_the_command_in_use(tmp_path, capsys):

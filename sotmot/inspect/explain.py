@@ -206,8 +206,9 @@ def explain_tracklets(graph: nx.DiGraph, a: int, b: int, config: TrackerConfig) 
     """Plain words on why tracklets ``a`` and ``b`` (the ids ``sotmot graph`` draws) were or were not merged."""
     for t in (a, b):
         if t not in graph:
-            raise SotmotError(f"tracklet {t} is not in this graph (wrong id, or outside --frames); "
-                              f"'sotmot graph' shows the tracklet ids")
+            raise SotmotError(f"tracklet {t} is not one of this run's tracklets ({graph.number_of_nodes()}, ids "
+                              f"{min(graph, default=0)}-{max(graph, default=0)}); 'sotmot graph' draws them with "
+                              f"their ids")
     da, db = graph.nodes[a], graph.nodes[b]
     same = da.get("track", -1) >= 0 and da.get("track") == db.get("track")
     head = f"tracklet {a} ended {fate(da)}; tracklet {b} ended {fate(db)}"
