@@ -300,7 +300,8 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
         1080p frame: give a long stream as its video file).
     detections
         ``None``: a folder's ``det/det.txt`` when it has one, else the bundled
-        person detector runs on the frames. A ``det.txt`` path. Or an
+        person detector runs on the frames. ``"model"``: the detector runs even where a ``det.txt`` exists.
+        A ``det.txt`` path. Or an
         ``(N, 6)`` array ``frame, x, y, w, h, score`` (frames 1-based, boxes in
         pixels), checked as a file is.
     frame_rate
@@ -359,7 +360,9 @@ def track(frames: Any, detections: Any = None, *, frame_rate: float | None = Non
             info = _in_memory(frames, frame_rate, "frames" if name is None else name, stack)
             if detections is None and not cfg.detection.file:
                 cfg = cfg.replace("detection", source="model")
-        if isinstance(detections, (str, Path)):
+        if isinstance(detections, str) and detections == "model":  # the bundled detector, asked for by name
+            cfg = cfg.replace("detection", source="model", file=None)
+        elif isinstance(detections, (str, Path)):
             cfg = cfg.replace("detection", source="file", file=str(detections))
         elif detections is not None:
             given = detections_from_array(detections, info.length, (info.width, info.height))

@@ -90,7 +90,9 @@ def window_size(frame_rate: float, config: TrackerConfig) -> tuple[int, int]:
     if size < 2 * overlap:
         raise ConfigError(f"[windows] seconds = {config.windows.seconds:g} is {size} frames, less than twice the "
                           f"overlap of {overlap} frames ({overlap / frame_rate:g} s, at least the association's gap "
-                          f"limit): give windows of at least {2 * overlap / frame_rate:g} s")
+                          f"limit): give windows of at least {2 * overlap / frame_rate:g} s, or a shorter "
+                          f"association gap ([association] l_max_seconds; the overlap follows it) for shorter "
+                          f"windows")
     return size, overlap
 
 

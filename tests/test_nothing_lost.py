@@ -347,3 +347,41 @@ def test_resume_into_a_folder_it_cannot_write_skips_what_is_complete(tmp_path, c
     assert "skipped (--resume)" in capsys.readouterr().out
     assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "-q"]) == 2  # without: refused
     assert "Permission denied" in capsys.readouterr().err
+
+
+def test_detections_model_runs_the_detector_rather_than_looking_for_a_file_named_model(tmp_path):
+    seq = _seq(tmp_path)
+    result = sotmot.track(seq, detections="model", config=MOTION_ONLY)
+    assert result.config.detection.source == "model" and result.config.detection.file is None
+
+
+def test_a_ground_truth_file_cut_mid_line_is_called_cut_not_a_layout_of_too_few_columns(tmp_path):
+    from sotmot.io import read_ground_truth
+
+    gt = tmp_path / "gt.txt"
+    gt.write_text("1,1,1,1,10,10,1,1,1\n2,1,1,1,10,10,1")
+    with pytest.raises(InputError, match=r"gt.txt:2: the file ends in the middle of this line \(7 of 9 columns\)"):
+        read_ground_truth(gt, 5)
+
+
+def test_a_window_too_short_for_the_gap_says_a_shorter_gap_allows_it(tmp_path, capsys):
+    seq = _seq(tmp_path)
+    assert main(["track", str(seq), "--out", str(tmp_path / "o"), "--window", "2", "--appearance", "none",
+                 "-q"]) == 2
+    assert "or a shorter association gap ([association] l_max_seconds" in capsys.readouterr().err
+
+
+def test_an_empty_folder_with_fps_says_it_is_empty_not_how_seqinfo_works(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    assert main(["track", str(tmp_path / "empty"), "--out", str(tmp_path / "o"), "--fps", "5", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "holds neither images" in err and "frameRate" not in err
+
+
+@pytest.mark.parametrize("command", [["render", "URL", "r.txt", "--out", "o"], ["graph", "URL", "--out", "o"],
+                                     ["eval", "res", "URL"], ["track", "URL", "--out", "o"]])
+def test_a_stream_url_given_as_a_path_is_named_without_its_password(tmp_path, capsys, command):
+    argv = ["rtsp://admin:s3cret@10.0.0.5/live" if a == "URL" else a for a in command]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "rtsp://admin:***@10.0.0.5/live" in err and "s3cret" not in err and "rtsp:/admin" not in err

@@ -288,6 +288,12 @@ def main(argv: list[str] | None = None) -> int:
     level = [logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)]
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     try:
+        if args.command != "track":  # track says it its own way (--live)
+            from sotmot.cli.commands import refuse_urls
+
+            refuse_urls([*getattr(args, "seq_dirs", ()), *([args.seq_dir] if hasattr(args, "seq_dir") else [])],
+                        f"{args.command} reads a sequence folder, a video file or a folder of images; a stream is "
+                        f"tracked live (sotmot track --live URL)")
         return args.func(args)
     except SotmotError as exc:
         print(f"sotmot: error: {exc}", file=sys.stderr)

@@ -52,18 +52,26 @@ def _progress(args: argparse.Namespace) -> bool:
     return not args.quiet and sys.stderr.isatty()
 
 
+def refuse_urls(paths, why: str) -> None:
+    """Refuse a stream's URL given where a path goes, named without its password (:func:`~sotmot.io.video.shown`):
+    ``why`` says what to do instead. A URL given as a path has lost a slash (``rtsp://host`` -> ``rtsp:/host``)."""
+    from sotmot.io.video import URL, shown
+
+    for seq in paths:
+        url = str(seq).replace(":/", "://", 1)
+        if URL.match(url) and not Path(seq).exists():
+            raise SotmotError(f"{shown(url)}: {why}")
+
+
 def cmd_track(args: argparse.Namespace) -> int:
-    from sotmot.io.video import URL, is_video
+    from sotmot.io.video import is_video
 
     if args.live is not None:
         return _track_live(args)
     if not args.seq_dirs:
         raise SotmotError("nothing to track: give SEQ_DIR (a sequence folder, a video, a folder of images) or "
                           "--live SOURCE (a camera, a stream)")
-    for seq in args.seq_dirs:  # a URL given as a path has lost a slash: rtsp://host -> rtsp:/host
-        url = str(seq).replace(":/", "://", 1)
-        if URL.match(url) and not seq.exists():
-            raise SotmotError(f"{url}: a stream is tracked with --live URL (a camera with --live 0)")
+    refuse_urls(args.seq_dirs, "a stream is tracked with --live URL (a camera with --live 0)")
     videos = [p for p in args.seq_dirs if is_video(p)]
     if args.det is not None and len(args.seq_dirs) > 1:
         raise SotmotError("--det belongs to one video or sequence; track several in separate runs")

@@ -196,6 +196,12 @@ def _ini_line(path: Path, needle: str) -> int | None:
     return None
 
 
+#: The columns of each kind of MOTChallenge text file, as an error names them.
+_COLUMNS = {"detections": "frame, id, x, y, w, h, score, ...", "results": "frame, id, x, y, w, h, score, ...",
+            "ground-truth": "frame, id, x, y, w, h, ...",
+            ("ground-truth", 9): "frame, id, x, y, w, h, consider, class, visibility"}
+
+
 def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None,
                 what: str, ids: bool = False) -> tuple[np.ndarray, list[int]]:
     """Parse a comma-separated MOTChallenge text file into a float array.
@@ -214,13 +220,17 @@ def _parse_rows(path: Path, min_cols: int, max_cols: int, seq_length: int | None
         for number, text in enumerate(fh, 1):
             if not is_row(text):
                 continue
+            ends = text.endswith("\n")
             text = text.strip()
             fields = _fields(text)
             if not (min_cols <= len(fields) <= max_cols):
+                if not ends and len(fields) < min_cols and rows:  # the last line, and no newline after it
+                    raise InputError(path, f"the file ends in the middle of this line ({len(fields)} of "
+                                     f"{min_cols} columns): cut short while it was written or copied", line=number)
                 hint = ("; no score column? a detector that gives none: add the same score to every line (e.g. "
                         "',1'), and each box counts as one it stands behind" if len(fields) == 6 and not ids else "")
                 raise InputError(path, f"{len(fields)} columns, expected {min_cols} to {max_cols} "
-                                 f"(frame, id, x, y, w, h, score, ...){hint}", line=number)
+                                 f"({_COLUMNS.get((what, min_cols), _COLUMNS[what])}){hint}", line=number)
             try:
                 values = [float(f) for f in fields]
             except ValueError:

@@ -33,6 +33,9 @@ def read_seqinfo(seq: str | Path, fps: float | None = None, *, rate_needed: bool
     found = frames_folder(seq)
     if found is not None:
         return image_folder_info(seq, fps if fps is not None or rate_needed else math.nan, found)
+    if fps is not None and Path(seq).is_dir() and not (Path(seq) / "seqinfo.ini").is_file():
+        raise InputError(seq, "holds neither images (.jpg, .png, ... here or in img1/) nor a seqinfo.ini: nothing "
+                              "to track at --fps")
     if fps is not None:  # applied nowhere, it would only be recorded (and force a re-run on --resume)
         raise ConfigError(f"{seq}: --fps ([input] fps) is for a video or a folder of images; a sequence folder's "
                           f"frame rate is frameRate in its seqinfo.ini")
