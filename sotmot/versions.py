@@ -2,9 +2,10 @@
 
 Run records (:mod:`sotmot.provenance`) carry :func:`environment`; a run repeated from a record says which of these
 differ (:func:`environment_changes`), since re-ID in another OpenVINO or onnxruntime, or another NumPy or OpenCV,
-can move a box or flip a close decision, and so can another CPU: OpenVINO runs the re-ID model in bf16 where the
-CPU has it, with kernels of its own per instruction set (the same inputs tracked on an AMD EPYC with AVX-512 bf16
-and on an Intel Xeon with AMX gave MOT17-09-SDP 72.22 and 72.14 HOTA; docs/benchmarks.md). Versions are read from
+can move a box or flip a close decision, and so can another CPU: OpenVINO has kernels of its own per instruction
+set (re-ID runs in float32 everywhere by default, ``[appearance] precision``; in bf16, where OpenVINO chose it
+before, the same inputs on an AMD EPYC with AVX-512 bf16 and on an Intel Xeon with AMX gave MOT17-09-SDP 72.22
+and 72.14 HOTA; docs/benchmarks.md). Versions are read from
 the installed packages' metadata: nothing here imports the libraries themselves.
 """
 

@@ -46,8 +46,8 @@ separators). Beside it:
 (sotmot version, full configuration, solver, model and input hashes, library versions, the CPU,
 time); --resume skips a sequence only when that record matches the current run (library
 versions and CPU aside), and --config <name>.run.json repeats the run, saying which versions
-differ and whether the CPU does (re-ID runs in bf16 where the CPU has it, and another CPU can
-round it otherwise: a close decision may flip).
+differ and whether the CPU does (re-ID runs in float32 on every CPU, [appearance] precision, but
+another instruction set rounds otherwise: a close decision may flip).
 """
 
 EPILOG_EVAL = """\

@@ -12,9 +12,10 @@ The input is reshaped to keep the frame's aspect ratio (see
 :func:`input_size`). OpenVINO would run an FP16 model in bf16 on CPUs that
 have it, silently; the precision is pinned to f32 so that the boxes do not
 depend on whether the CPU has bf16 (on an Intel Xeon with AMX it costs no
-time: 14.8 against 15.1 ms a 544 x 960 frame). Results still differ a little
-between CPUs (re-ID runs in bf16 where it can, and other instruction sets
-round otherwise): tracked from the detector's boxes, the validation set's
+time: 14.8 against 15.1 ms a 544 x 960 frame); re-ID is pinned likewise
+(``[appearance] precision``). Results still differed a little between CPUs
+when re-ID ran in bf16 where it could (and other instruction sets round
+otherwise): tracked from the detector's boxes, the validation set's
 rows on that Xeon lie within 0.22 HOTA and 0.8 MOTA of an AMD EPYC's
 (docs/benchmarks.md, "The noise floor"). Needs the ``openvino`` extra.
 """
