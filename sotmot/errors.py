@@ -7,6 +7,11 @@ prints or exits. Messages say what is wrong and what to do about it.
 
 from __future__ import annotations
 
+import os
+import sys
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -57,3 +62,27 @@ def runtime_message(exc: BaseException) -> str:
     lines = [line.strip() for line in str(exc).splitlines()]
     kept = [line for line in lines if line and not (line.startswith("Exception from ") and line.endswith(":"))]
     return " ".join(kept) or type(exc).__name__
+
+
+@contextmanager
+def native_noise_held() -> Iterator[None]:
+    """Hold what native code writes to the process's stderr (file descriptor 2) while the block runs: passed on
+    when the block succeeds, dropped when it raises. OpenVINO tries every front end on a file it cannot read, and
+    TensorFlow's parser printed "Error parsing text-format tensorflow.GraphDef" lines before sotmot's own message
+    about a broken model file; that message (:func:`runtime_message`) says what they meant."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as held:
+        os.dup2(held.fileno(), 2)
+        ok = False
+        try:
+            yield
+            ok = True
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            if ok:
+                held.seek(0)
+                data = held.read()
+                if data:
+                    os.write(2, data)

@@ -260,8 +260,8 @@ def track_one(seq_dir: str, out_dir: str, config: TrackerConfig, resume: bool,
         boxes = f"{len(result.tracks)} boxes" + (f" ({'; '.join(said)})" if said else "")
         moved = (f"; the camera moves ({record['camera_motion']['median_shift_px']:.1f} px a frame at the median), "
                  f"compensated" if "camera_motion" in record else "")
-        if config.preprocess.confidence == "auto":  # the score map auto chose: the same boxes under another map
-            moved += f"; scores read as {record['confidence_method']!r} (--confidence sets the map)"  # track apart
+        if config.preprocess.confidence == "auto":  # said: the same boxes read by another map track otherwise
+            moved += f"; scores read as {record['confidence_method']!r} (--confidence sets the map)"
         return Outcome(seq_dir, "done", str(out), f"{info.name}: {result.tracks.n_tracks} tracks, "
                                                   f"{boxes}{dropped}, {fps:.1f} frames/s{moved} -> {out}{rerun}")
     except SotmotError as exc:

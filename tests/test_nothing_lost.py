@@ -385,3 +385,15 @@ def test_a_stream_url_given_as_a_path_is_named_without_its_password(tmp_path, ca
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "rtsp://admin:***@10.0.0.5/live" in err and "s3cret" not in err and "rtsp:/admin" not in err
+
+
+def test_a_broken_model_file_gets_sotmot_s_message_without_the_parsers_noise(tmp_path, capfd):
+    from sotmot.appearance import make_embedder
+    from sotmot.config import AppearanceConfig
+    from sotmot.errors import ModelError
+
+    broken = tmp_path / "bad.onnx"
+    broken.write_text("not a model")
+    with pytest.raises(ModelError, match="bad.onnx: cannot be loaded by OpenVINO"):
+        make_embedder(AppearanceConfig(model=str(broken), backend="openvino"))
+    assert "tensorflow" not in capfd.readouterr().err.lower()  # TensorFlow's front end printed its parse errors

@@ -15,7 +15,7 @@ import numpy as np
 
 from sotmot.appearance.base import CROP_HEIGHT, CROP_WIDTH, CropEmbedder, check_model_io, fixed_dim, resolve_model_path
 from sotmot.config import AppearanceConfig
-from sotmot.errors import ModelError, runtime_message
+from sotmot.errors import ModelError, native_noise_held, runtime_message
 from sotmot.models import openvino_compiled, openvino_cpu_options
 
 log = logging.getLogger(__name__)
@@ -70,7 +70,8 @@ class OpenVinoReidEmbedder(CropEmbedder):
         self.batch_size = config.batch_size
         core = ov.Core()
         try:
-            model = core.read_model(str(self.path))
+            with native_noise_held():
+                model = core.read_model(str(self.path))
         except Exception as exc:  # OpenVINO raises its own untyped errors
             raise ModelError(f"{self.path}: cannot be loaded by OpenVINO: {runtime_message(exc)}") from exc
         _, dim = check_model_io(self.path, [(p.any_name, _shape(p)) for p in model.inputs],

@@ -31,7 +31,7 @@ import openvino as ov  # a missing runtime fails this module's import: make_dete
 from sotmot.boxes import clip_xyxy, xyxy_to_xywh
 from sotmot.config import DetectionConfig
 from sotmot.detection import resolve_detector_path, rounded
-from sotmot.errors import ModelError, runtime_message
+from sotmot.errors import ModelError, native_noise_held, runtime_message
 from sotmot.models import openvino_compiled, openvino_cpu_options
 
 log = logging.getLogger(__name__)
@@ -90,7 +90,8 @@ class OpenVinoDetector:
         self._config = config
         self._core = ov.Core()
         try:
-            self._model = self._core.read_model(str(self.path))
+            with native_noise_held():
+                self._model = self._core.read_model(str(self.path))
         except Exception as exc:  # OpenVINO raises its own untyped errors
             raise ModelError(f"{self.path}: cannot be loaded by OpenVINO as a detector: "
                              f"{runtime_message(exc)}") from exc
