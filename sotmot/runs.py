@@ -395,9 +395,12 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
     progress_record(True)
     fps = info.length / (time.perf_counter() - start)
     joined = sum(j["joined"] for j in stitcher.joins)
+    with open(out, encoding="utf-8") as fh:  # the file's tracks: a resumed run's windows hold only some of them
+        in_file = len({line.split(",", 2)[1] for line in fh if line.strip()})
+    here = f" ({len(ids)} in the windows tracked now)" if rerun.startswith(" (resumed") else ""
     return Outcome(seq_dir, "done", str(out),
                    f"{info.name}: {len(windows)} windows of {config.windows.seconds:g} s ({joined} tracks joined "
-                   f"across them), {len(ids)} tracks in this run's windows, {fps:.1f} frames/s -> {out}{rerun}")
+                   f"across them), {in_file} tracks{here}, {fps:.1f} frames/s -> {out}{rerun}")
 
 
 def track_many(seq_dirs: list[str | Path], out_dir: str | Path, config: TrackerConfig,

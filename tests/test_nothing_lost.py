@@ -397,3 +397,12 @@ def test_a_broken_model_file_gets_sotmot_s_message_without_the_parsers_noise(tmp
     with pytest.raises(ModelError, match="bad.onnx: cannot be loaded by OpenVINO"):
         make_embedder(AppearanceConfig(model=str(broken), backend="openvino"))
     assert "tensorflow" not in capfd.readouterr().err.lower()  # TensorFlow's front end printed its parse errors
+
+
+def test_a_resumed_windowed_run_counts_the_tracks_of_its_file(tmp_path, monkeypatch, capsys):
+    seq, out, code, _ = _partial_run(tmp_path, monkeypatch, capsys)
+    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "-q", "--window", "2", "--config",
+                 str(_short_gap(tmp_path)), "--resume"]) == 0
+    said = capsys.readouterr().out
+    ids = {line.split(",")[1] for line in (out / "SYN.txt").read_text().splitlines()}
+    assert f"), {len(ids)} tracks (" in said and "in the windows tracked now)" in said and "resumed after" in said
