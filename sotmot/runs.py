@@ -332,12 +332,12 @@ def track_windowed(seq_dir: str, info, windows: list, outputs: list[Path], confi
         files[detections_path(out)] = detections_header(model_in_use(config.detection.model, "detector"))
     state = _resumable_windows(out, record, [list(w) for w in windows], list(files)) if resume else None
     if state is not None:
-        stitcher = Stitcher.from_state(windows, config.windows.join_iou, state, step)
+        stitcher = Stitcher.from_state(windows, config.windows.join_iou, state, step, info.length)
         for name, size in state["bytes"].items():
             os.truncate(out.with_name(name), size)  # lines appended after the last record are made again
         rerun = f" (resumed after window {stitcher.done} of {len(windows)})"
     else:
-        stitcher = Stitcher(windows, config.windows.join_iou, step=step)
+        stitcher = Stitcher(windows, config.windows.join_iou, step=step, length=info.length)
         for path, text in files.items():
             write_text_atomic(path, text)
 

@@ -135,13 +135,30 @@ class Densifier:
         self._before = full.subset(full.frames == end)
         return dense.subset(np.lexsort((dense.frames, dense.ids)))  # by track, then frame, as a run's are
 
-    def put_back(self, tracks: Tracks, dropped: Tracks, detected: Detections | None, last: int
-                 ) -> tuple[Tracks, Tracks, Detections | None]:
+    def put_back(self, tracks: Tracks, dropped: Tracks, detected: Detections | None, last: int,
+                 until: int = 0) -> tuple[Tracks, Tracks, Detections | None]:
         """One part of a stepped run, up to tracked frame ``last``, at the sequence's frame numbers: its ``tracks``
         on every frame (:meth:`add`), its unconfirmed boxes ``dropped`` and the detector's boxes ``detected``
-        (None stays None) renumbered, no box added."""
-        return (self.add(tracks, last), at_full_frames(dropped, self.step),
-                detections_at_full_frames(detected, self.step))
+        (None stays None) renumbered, no box added. ``until``: the run's last part, and the sequence's last
+        frame, whose frames after the last tracked one get :meth:`tail`'s boxes."""
+        dense = self.add(tracks, last)
+        if until:
+            dense = Tracks.concatenate([dense, self.tail(until)])
+            dense = dense.subset(np.lexsort((dense.frames, dense.ids)))
+        return dense, at_full_frames(dropped, self.step), detections_at_full_frames(detected, self.step)
+
+    def tail(self, until: int) -> Tracks:
+        """The boxes of the last tracked frame (the last part's) held on each frame after it up to ``until``, the
+        sequence's last frame (fewer than ``step`` frames), flagged interpolated: a person tracked there is still
+        there a fraction of a second later, where a run at every frame has a box."""
+        before = self._before
+        if not len(before):
+            return Tracks.empty()
+        frames = np.arange(int(before.frames.max()) + 1, until + 1)
+        rows = np.repeat(np.arange(len(before)), len(frames))
+        held = before.subset(rows)
+        return dataclasses.replace(held, frames=np.tile(frames, len(before)), interpolated=np.ones(len(rows), bool),
+                                   from_sot=np.zeros(len(rows), bool))
 
 
 def counted(frames: Iterator) -> tuple[Iterator, Callable[[], int]]:
@@ -176,7 +193,7 @@ def track_stepped(info: SeqInfo, config: TrackerConfig, embedder=None, progress=
     numbers."""
     result = track_tracked_frames(info, config, embedder, progress, detections)
     tracks, dropped, detected = Densifier(config.input.step).put_back(result.tracks, result.dropped, result.detected,
-                                                                      result.info.length)
+                                                                      result.info.length, until=info.length)
     return dataclasses.replace(result, tracks=tracks, dropped=dropped, detected=detected)
 
 

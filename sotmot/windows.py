@@ -215,6 +215,9 @@ class Stitcher:
     joins: list[dict] = field(default_factory=list)
     step: int = 1
     densifier: Densifier | None = None
+    #: the sequence's frames (with ``step`` above 1: the last window holds its last boxes on those after the last
+    #: tracked frame, :meth:`~sotmot.stepping.Densifier.tail`); 0: unknown (a stream's, which does that itself)
+    length: int = 0
 
     def __post_init__(self) -> None:
         if self.densifier is None:
@@ -244,7 +247,8 @@ class Stitcher:
             detected = detected.subset(np.flatnonzero((detected.frames >= begin) & (detected.frames <= end)))
         tracks, dropped = _between(tracks, begin, end), _between(dropped, begin, end)
         if self.step > 1:  # tracked frames: their boxes put back on every frame
-            return self.densifier.put_back(tracks, dropped, detected, end)
+            return self.densifier.put_back(tracks, dropped, detected, end,
+                                           until=self.length if self.done == len(self.windows) else 0)
         return tracks, dropped, detected
 
     def _new_ids(self, ids: dict[int, int], tracks: Tracks) -> dict[int, int]:
@@ -265,11 +269,13 @@ class Stitcher:
         return state
 
     @classmethod
-    def from_state(cls, windows: list[Window], min_iou: float, state: dict, step: int = 1) -> "Stitcher":
-        """The stitcher :meth:`state` describes (``step``: the run's, as it was made)."""
+    def from_state(cls, windows: list[Window], min_iou: float, state: dict, step: int = 1,
+                   length: int = 0) -> "Stitcher":
+        """The stitcher :meth:`state` describes (``step``: the run's, as it was made; ``length``: the sequence's
+        frames)."""
         densifier = Densifier.from_state(step, state["filled_from"]) if step > 1 else None
         return cls(windows, min_iou, int(state["next_id"]), int(state["done"]), Tracks.from_lists(state["carry"]),
-                   list(state["joins"]), step, densifier)
+                   list(state["joins"]), step, densifier, length)
 
 
 def windowed(info: SeqInfo, windows: list[Window], config: TrackerConfig, detections: Detections | None,
@@ -309,7 +315,7 @@ def track_in_windows(info: SeqInfo, windows: list[Window], config: TrackerConfig
                      workers: int = 1, embedder=None, progress=False) -> tuple[Tracks, Tracks]:
     """The tracks and the unconfirmed boxes of ``info`` tracked in ``windows``, all in memory (the API's way;
     ``sotmot track`` writes each window's boxes as it commits them)."""
-    stitcher = Stitcher(windows, config.windows.join_iou, step=config.input.step)
+    stitcher = Stitcher(windows, config.windows.join_iou, step=config.input.step, length=info.length)
     kept, dropped = [], []
     for k, result in windowed(info, windows, config, detections, 0, workers, embedder, progress):
         tracks, low, _ = stitcher.add(k, result)

@@ -89,7 +89,13 @@ def test_a_stepped_run_tracks_what_a_copy_of_every_kth_frame_tracks_and_fills_th
         assert np.array_equal(a, b)
     between = stepped.tracks.subset((stepped.tracks.frames - 1) % 3 != 0)
     assert len(between) and between.interpolated.all() and not tracked.interpolated.any()
-    assert stepped.tracks.frames.max() <= 28  # the frames after the last tracked one get none
+    # the frames after the last tracked one (29, 30) hold its boxes, flagged filled (issue #89: they had none)
+    after = stepped.tracks.subset(stepped.tracks.frames > 28)
+    at_28 = stepped.tracks.subset(stepped.tracks.frames == 28)
+    assert set(after.frames) == {29, 30} and after.interpolated.all() and len(after) == 2 * len(at_28)
+    for frame in (29, 30):
+        held = after.subset(after.frames == frame)
+        assert np.array_equal(held.ids, at_28.ids) and np.array_equal(held.boxes, at_28.boxes)
 
 
 def test_a_stepped_stream_gives_every_frame_it_read_and_the_stepped_tracks(tmp_path):
@@ -103,13 +109,15 @@ def test_a_stepped_stream_gives_every_frame_it_read_and_the_stepped_tracks(tmp_p
     parts = list(sotmot.stream(iter(frames), det, frame_rate=30, config={**small, "input": {"step": 3}}))
     assert [(p.first, p.last) for p in parts][0][0] == 1 and parts[-1].last == 29
     assert all(a.last + 1 == b.first for a, b in zip(parts, parts[1:]))
-    assert parts[-1].first == 29 and not len(parts[-1].tracks)  # frame 29 comes after the last tracked one, 28
+    # frame 29 comes after the last tracked one, 28, in a part of its own: 28's boxes held there
+    assert parts[-1].first == 29 and len(parts[-1].tracks) == np.sum(parts[-2].tracks.frames == 28) > 0
+    assert parts[-1].tracks.interpolated.all()
     # the same as the stream of the tracked frames alone, put back on every frame
     kept = det[(det[:, 0] - 1) % 3 == 0]
     kept[:, 0] = (kept[:, 0] - 1) // 3 + 1
     alone = list(sotmot.stream(iter(frames[::3]), kept, frame_rate=10, config=small))
     densifier = Densifier(3)
-    expected = Tracks.concatenate([densifier.add(p.tracks, p.last) for p in alone])
+    expected = Tracks.concatenate([*(densifier.add(p.tracks, p.last) for p in alone), parts[-1].tracks])
     got = Tracks.concatenate([p.tracks for p in parts])
     assert len(got) > len(Tracks.concatenate([p.tracks for p in alone]))
     assert np.array_equal(got.frames, expected.frames) and np.array_equal(got.boxes, expected.boxes)
@@ -151,7 +159,7 @@ def test_a_file_in_windows_at_a_step_tracks_what_a_copy_of_every_kth_frame_track
     flags = np.loadtxt(out / f"{seq.name}.flags.csv", delimiter=",", skiprows=1, ndmin=2, usecols=(0, 2))
     between = (flags[:, 0] - 1) % 3 != 0
     assert between.sum() > 50 and flags[between, 1].all()  # every box between tracked frames is filled in
-    assert rows[:, 0].max() <= 28  # none after the last tracked frame
+    assert rows[:, 0].max() == 30 and np.sum(rows[:, 0] == 30) == np.sum(rows[:, 0] == 28)  # 28's boxes held
     api = sotmot.track(seq, config={**small, "input": {"step": 3}}).save(tmp_path / "api.txt")
     assert api.read_text() == text  # the API tracks in windows at a step as the command line does
 

@@ -124,8 +124,9 @@ def test_a_run_in_windows_at_a_step_resumes_in_processes_to_the_uninterrupted_re
 
     seq = _walkers(tmp_path, {1: (128, 140)}, length=240, rate=2 * RATE)
     reference = _track(seq, tmp_path / "ref", "--window", "8", "--step", "2")
-    # both people on every frame up to the last tracked one, the 1.3-s miss bridged and filled
-    assert len(reference) == 2 * 239 and _ids(reference) == {"1", "2"}
+    # both people on every frame (the last, 240, after the last tracked one, holding 239's boxes), the 1.3-s miss
+    # bridged and filled
+    assert len(reference) == 2 * 240 and _ids(reference) == {"1", "2"}
     real_add = windows.Stitcher.add
 
     def killed_after_two(self, k, result):
