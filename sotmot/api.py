@@ -440,7 +440,8 @@ def stream(frames: Iterable, detections: Any = None, *, frame_rate: float,
     With ``[input] step`` k above 1 (a camera faster than the tracker), frames 1, 1 + k, ... are tracked as a
     stream of their own at the frame rate divided by k, and each part holds every frame it covers, those
     between tracked frames on the line between their tracks' boxes (:mod:`sotmot.stepping`); the frames after
-    the last tracked one come as a last part without boxes. Detections' rows of the frames between are not used.
+    the last tracked one come as a last part, holding its boxes. Detections' rows of the frames between are not
+    used.
 
     Parameters
     ----------
@@ -496,7 +497,7 @@ def _stepped_stream(frames: Iterator, detections: Any, rate: float, cfg: Tracker
                     overlap: int, progress: bool) -> Iterator[Committed]:
     """:func:`stream` of every ``[input] step``-th frame (:mod:`sotmot.stepping`): the tracked frames streamed
     as a stream of their own, each part's boxes put back on every frame and numbered as the stream counts them;
-    a last part holds the frames after the last tracked one (no boxes)."""
+    a last part holds the frames after the last tracked one (its boxes held there)."""
     import itertools
 
     from sotmot.stepping import Densifier, counted, full_frames, inner_config, stepped_detections

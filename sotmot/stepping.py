@@ -6,8 +6,8 @@ nearly all of it (docs/benchmarks.md, "Speed"), and a camera faster than the tra
 (``sotmot track --live``). A frame between two tracked ones gets each track's box on the straight line between
 that track's boxes in the tracked frames around it (:func:`sotmot.postprocess.interpolate`, flagged
 ``interpolated``, its score and confidence the lower of the two); a track absent from either of them gets none
-there, and the frames after the last tracked one get none. A detections file's rows of the frames between are
-not used. Frames are 1-based and boxes ``x, y, w, h`` pixels, as everywhere.
+there, and the frames after the last tracked one (fewer than ``step``) hold its boxes (:meth:`Densifier.tail`).
+A detections file's rows of the frames between are not used. Frames are 1-based and boxes ``x, y, w, h`` pixels, as everywhere.
 """
 
 from __future__ import annotations
