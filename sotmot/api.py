@@ -517,8 +517,7 @@ def _stepped_stream(frames: Iterator, detections: Any, rate: float, cfg: Tracker
             done = last
     if count() > done:  # the frames after the last tracked one: the last tracked boxes held there
         none = None if detections is not None else Detections(np.zeros(0, np.int64), np.zeros((0, 4)), np.zeros(0))
-        held = densifier.tail(count())
-        yield Committed(done + 1, count(), held.subset(np.lexsort((held.frames, held.ids))), Tracks.empty(), none)
+        yield Committed(done + 1, count(), densifier.tail(count()), Tracks.empty(), none)
 
 
 def _given(detections: Any, image_size: tuple[int, int] | None = None) -> Detections | None:

@@ -223,12 +223,13 @@ def side_file_doubt(results: str | Path, side: str | Path) -> str | None:
     return None
 
 
-def partial_doubt(results: str | Path) -> str | None:
-    """Why ``results`` is not a whole run, when its run record says so: a windowed run (``sotmot track
-    --window``) or a live session stopped before its end, with how far its boxes are final and how to finish it.
-    None: the record says it is whole, or there is no record (results from elsewhere)."""
+def partial_doubt(results: str | Path, record: dict[str, Any] | None = None) -> str | None:
+    """Why ``results`` is not a whole run, when its run ``record`` says so (read beside ``results`` when not
+    given): a windowed run (``sotmot track --window``) or a live session stopped before its end, with how far its
+    boxes are final and how to finish it. None: the record says it is whole, or there is no record (results from
+    elsewhere)."""
     results = Path(results)
-    record = read_record(results) or {}
+    record = (read_record(results) if record is None else record) or {}
     windowed, live = record.get("windows"), record.get("live")
     if isinstance(windowed, dict) and windowed.get("complete") is False:
         final, length = windowed.get("frames_final"), windowed.get("length")
@@ -249,10 +250,11 @@ def results_doubts(results: str | Path) -> list[str]:
     (:func:`partial_doubt`), the file is empty, or it no longer matches the run record ``sotmot track`` wrote
     beside it (cut or edited since). Empty: no doubt."""
     results = Path(results)
-    doubts = [doubt] if (doubt := partial_doubt(results)) else []
+    record = read_record(results) or {}
+    doubts = [doubt] if (doubt := partial_doubt(results, record)) else []
     if results.is_file() and not results.read_text(encoding="utf-8-sig", errors="replace").strip():
         doubts.append(f"{results} is empty: every ground-truth box counts as missed")
-    made = (read_record(results) or {}).get("results_sha256")
+    made = record.get("results_sha256")
     if made is not None and made != file_sha256(results):
         doubts.append(f"{results} is not the file its run record {record_path(results).name} describes (changed, "
                       f"cut or emptied since sotmot track wrote it): the scores are of the file as it is now")

@@ -7,7 +7,8 @@ nearly all of it (docs/benchmarks.md, "Speed"), and a camera faster than the tra
 that track's boxes in the tracked frames around it (:func:`sotmot.postprocess.interpolate`, flagged
 ``interpolated``, its score and confidence the lower of the two); a track absent from either of them gets none
 there, and the frames after the last tracked one (fewer than ``step``) hold its boxes (:meth:`Densifier.tail`).
-A detections file's rows of the frames between are not used. Frames are 1-based and boxes ``x, y, w, h`` pixels, as everywhere.
+A detections file's rows of the frames between are not used. Frames are 1-based and boxes ``x, y, w, h`` pixels,
+as everywhere.
 """
 
 from __future__ import annotations
@@ -150,15 +151,15 @@ class Densifier:
     def tail(self, until: int) -> Tracks:
         """The boxes of the last tracked frame (the last part's) held on each frame after it up to ``until``, the
         sequence's last frame (fewer than ``step`` frames), flagged interpolated: a person tracked there is still
-        there a fraction of a second later, where a run at every frame has a box."""
+        there a fraction of a second later, where a run at every frame has a box. By track, then frame."""
         before = self._before
         if not len(before):
             return Tracks.empty()
         frames = np.arange(int(before.frames.max()) + 1, until + 1)
         rows = np.repeat(np.arange(len(before)), len(frames))
-        held = before.subset(rows)
-        return dataclasses.replace(held, frames=np.tile(frames, len(before)), interpolated=np.ones(len(rows), bool),
-                                   from_sot=np.zeros(len(rows), bool))
+        held = dataclasses.replace(before.subset(rows), frames=np.tile(frames, len(before)),
+                                   interpolated=np.ones(len(rows), bool), from_sot=np.zeros(len(rows), bool))
+        return held.subset(np.lexsort((held.frames, held.ids)))
 
 
 def counted(frames: Iterator) -> tuple[Iterator, Callable[[], int]]:

@@ -34,8 +34,9 @@ class InputConfig:
         detections and gains 0.7 from the built-in detector's
         (docs/results.md, "Tracking every k-th frame"). A detections file's
         rows of the frames between are not used; the frames after the last
-        tracked one (fewer than ``step``) hold its boxes. 1: every frame. With ``[windows]`` the
-        windows are of the tracked frames, their seconds the same.
+        tracked one (fewer than ``step``) hold its boxes. 1: every frame.
+        With ``[windows]`` the windows are of the tracked frames, their
+        seconds the same.
     """
 
     fps: float | None = None

@@ -188,7 +188,7 @@ def explain(graph: nx.DiGraph, track_a: int, track_b: int, config: TrackerConfig
         members[track] = sorted(n for n, d in graph.nodes(data=True) if d.get("track") == track)
         if not members[track]:
             raise SotmotError(f"track {track} has no tracklet in this run: no output track has that id (the "
-                                  f"results file's second column holds the ids)")
+                              f"results file's second column holds the ids)")
     tracks = list(dict.fromkeys((track_a, track_b)))
     head = "; ".join(f"track {track}: tracklets {members[track]}" for track in tracks)
     notes = [f"  track {track} is not in the results: confirmation dropped every box of it (more likely false than "
@@ -298,6 +298,7 @@ def explain_gaps(result: TrackResult, config: TrackerConfig, track: int) -> str:
         out.append(f"  (the straight line does not hold over {config.postprocess.line_check_seconds:g} s on this "
                    f"sequence's trajectories, [postprocess] line_check_seconds: gaps are filled up to "
                    f"{post.interpolate_max_seconds:g} s)")
+
     def in_gap(tracks, g) -> int:
         """How many boxes of ``tracks`` with this id lie in the gap ``g``."""
         return int(np.sum((tracks.ids == track) & (tracks.frames > g.after) & (tracks.frames < g.before)))
