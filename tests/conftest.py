@@ -7,6 +7,8 @@ Real data comes from ``../shared/data`` beside the project (override with
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +64,26 @@ def write_sequence(root: Path, det_lines: list[str], length: int = 5, frame_rate
         for f in range(1, length + 1):
             cv2.imwrite(str(seq / "img1" / f"{f:06d}.jpg"), np.full((height, width, 3), 128, np.uint8))
     return seq
+
+
+@contextmanager
+def stopped_at_window(k: int) -> Iterator[None]:
+    """Inside the block, ``sotmot.windows.Stitcher.add`` raises ``KeyboardInterrupt`` when window ``k`` (0-based)
+    comes, as Ctrl-C or a kill between two windows stops a run; the real ``add`` is back after the block."""
+    import sotmot.windows as windows
+
+    real = windows.Stitcher.add
+
+    def add(self, index, result):
+        if index == k:
+            raise KeyboardInterrupt
+        return real(self, index, result)
+
+    windows.Stitcher.add = add
+    try:
+        yield
+    finally:
+        windows.Stitcher.add = real
 
 
 def write_video(path: Path, n: int = 12, fps: float = 5.0) -> Path:

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import sotmot
-from conftest import write_sequence, write_video
+from conftest import stopped_at_window, write_sequence, write_video
 from sotmot.cli import main
 from sotmot.errors import ConfigError, InputError
 from sotmot.io import write_files_atomic
@@ -138,23 +138,13 @@ def test_write_files_atomic_checks_every_target_before_the_first_rename(tmp_path
 
 # 4. partial results are said to be partial where they are read ---------------------------------------------------
 
-def _partial_run(tmp_path, monkeypatch, capsys):
+def _partial_run(tmp_path, capsys):
     """A 12-frame sequence tracked in windows of 2 s (4 frames), stopped after its first window."""
-    import sotmot.windows as windows
-
     seq = _seq(tmp_path, gt_lines=[f"{f},1,{4 + 2 * f},10,12,24,1,1,1" for f in range(1, 13)])
-    real_add = windows.Stitcher.add
-
-    def stopped_after_one(self, k, result):
-        if k == 1:
-            raise KeyboardInterrupt
-        return real_add(self, k, result)
-
-    monkeypatch.setattr(windows.Stitcher, "add", stopped_after_one)
     out = tmp_path / "out"
-    code = main(["track", str(seq), "--out", str(out), "--appearance", "none", "-q", "--window", "2",
-                 "--config", str(_short_gap(tmp_path))])
-    monkeypatch.setattr(windows.Stitcher, "add", real_add)
+    with stopped_at_window(1):
+        code = main(["track", str(seq), "--out", str(out), "--appearance", "none", "-q", "--window", "2",
+                     "--config", str(_short_gap(tmp_path))])
     return seq, out, code, capsys.readouterr().err
 
 
@@ -164,16 +154,16 @@ def _short_gap(tmp_path):
     return path
 
 
-def test_an_interrupted_windowed_run_says_its_results_are_partial_and_how_to_finish(tmp_path, monkeypatch, capsys):
-    seq, out, code, err = _partial_run(tmp_path, monkeypatch, capsys)
+def test_an_interrupted_windowed_run_says_its_results_are_partial_and_how_to_finish(tmp_path, capsys):
+    seq, out, code, err = _partial_run(tmp_path, capsys)
     assert code == 130
     assert "the results are partial: frames 1-" in err and "--resume continues" in err
     record = json.loads((out / "SYN.run.json").read_text())["windows"]
     assert record["complete"] is False and 0 < record["frames_final"] < 12 and record["length"] == 12
 
 
-def test_eval_and_render_say_a_partial_result_is_partial_before_they_use_it(tmp_path, monkeypatch, capsys):
-    seq, out, code, _ = _partial_run(tmp_path, monkeypatch, capsys)
+def test_eval_and_render_say_a_partial_result_is_partial_before_they_use_it(tmp_path, capsys):
+    seq, out, code, _ = _partial_run(tmp_path, capsys)
     assert main(["eval", str(out), str(seq), "--json", str(tmp_path / "scores.json")]) == 0
     captured = capsys.readouterr()
     assert "SYN.txt is partial: its run stopped before the end (frames 1-" in captured.err
@@ -399,8 +389,8 @@ def test_a_broken_model_file_gets_sotmot_s_message_without_the_parsers_noise(tmp
     assert "tensorflow" not in capfd.readouterr().err.lower()  # TensorFlow's front end printed its parse errors
 
 
-def test_a_resumed_windowed_run_counts_the_tracks_of_its_file(tmp_path, monkeypatch, capsys):
-    seq, out, code, _ = _partial_run(tmp_path, monkeypatch, capsys)
+def test_a_resumed_windowed_run_counts_the_tracks_of_its_file(tmp_path, capsys):
+    seq, out, code, _ = _partial_run(tmp_path, capsys)
     assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "-q", "--window", "2", "--config",
                  str(_short_gap(tmp_path)), "--resume"]) == 0
     said = capsys.readouterr().out

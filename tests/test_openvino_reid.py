@@ -45,18 +45,24 @@ def test_openvino_refuses_cuda_and_broken_files(tmp_path):
 F32_TOLERANCE = 1e-4
 
 
-def test_openvino_features_are_float32_on_every_cpu_by_default(real_crops, monkeypatch):
-    import sotmot.appearance.openvino as backend
-
-    path = str(require(MODELS / "person-reidentification-retail-0288.onnx"))
+def _compile_options(monkeypatch, module) -> list[dict]:
+    """The options of every model ``module`` compiles from now on (its ``openvino_compiled`` watched)."""
     seen = []
-    real = backend.openvino_compiled
+    real = module.openvino_compiled
 
     def spy(core, model, file, options):
         seen.append(options)
         return real(core, model, file, options)
 
-    monkeypatch.setattr(backend, "openvino_compiled", spy)
+    monkeypatch.setattr(module, "openvino_compiled", spy)
+    return seen
+
+
+def test_openvino_features_are_float32_on_every_cpu_by_default(real_crops, monkeypatch):
+    import sotmot.appearance.openvino as backend
+
+    path = str(require(MODELS / "person-reidentification-retail-0288.onnx"))
+    seen = _compile_options(monkeypatch, backend)
     ref = make_embedder(AppearanceConfig(model=path, backend="onnx")).embed_crops(real_crops)
     embedder = make_embedder(AppearanceConfig(model=path, backend="openvino"))
     got = embedder.embed_crops(real_crops)
@@ -91,14 +97,7 @@ def test_the_detector_runs_in_float32_whatever_the_cpu_offers(monkeypatch):
     from sotmot.config import DetectionConfig
     from sotmot.models import bundled_path
 
-    seen = []
-    real = detector_module.openvino_compiled
-
-    def spy(core, model, file, options):
-        seen.append(options)
-        return real(core, model, file, options)
-
-    monkeypatch.setattr(detector_module, "openvino_compiled", spy)
+    seen = _compile_options(monkeypatch, detector_module)
     detector = detector_module.OpenVinoDetector(DetectionConfig(model=str(bundled_path("detector"))))
     detector.detect(np.full((96, 128, 3), 120, np.uint8))
     assert seen and all(options["INFERENCE_PRECISION_HINT"] == "f32" for options in seen)

@@ -12,7 +12,7 @@ from sotmot.config import TrackerConfig
 from sotmot.errors import ConfigError
 from sotmot.windows import cut, plan
 
-from conftest import DATA, require, write_sequence
+from conftest import DATA, require, stopped_at_window, write_sequence
 
 RATE = 5  # frames per second of the synthetic sequences: the 4-s gap is 20 frames, windows of 8 s are 40
 
@@ -88,22 +88,13 @@ def test_windows_in_two_processes_equal_the_serial_run(tmp_path):
         assert (tmp_path / "parallel" / name).read_bytes() == (tmp_path / "serial" / name).read_bytes()
 
 
-def test_a_killed_run_resumes_after_its_last_window_with_the_same_results(tmp_path, monkeypatch):
-    import sotmot.windows as windows
-
+def test_a_killed_run_resumes_after_its_last_window_with_the_same_results(tmp_path):
     seq = _walkers(tmp_path, {1: (64, 70)})
     reference = _track(seq, tmp_path / "ref", "--window", "8")
-    real_add = windows.Stitcher.add
-
-    def killed_after_two(self, k, result):
-        if k == 2:
-            raise KeyboardInterrupt  # as a kill would stop it: between two windows
-        return real_add(self, k, result)
-
-    monkeypatch.setattr(windows.Stitcher, "add", killed_after_two)
     out = tmp_path / "run"
-    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "--unconfirmed", "keep", "-q",
-                 "--window", "8"]) == 130  # "sotmot: interrupted"
+    with stopped_at_window(2):  # as a kill would stop it: between two windows
+        assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "--unconfirmed", "keep", "-q",
+                     "--window", "8"]) == 130  # "sotmot: interrupted"
     record = json.loads((out / "SYN.run.json").read_text())
     assert record["windows"]["complete"] is False and record["windows"]["done"] == 2
     committed = (out / "SYN.txt").read_text().splitlines()
@@ -111,39 +102,28 @@ def test_a_killed_run_resumes_after_its_last_window_with_the_same_results(tmp_pa
         ).replace("windows", seconds=8)), 2)]  # the frames the first two windows own, final already
     with open(out / "SYN.txt", "a") as fh:  # a line appended after the record was written is made again
         fh.write("99,1,1,1,1,1,0.5,-1,-1,-1\n")
-    monkeypatch.setattr(windows.Stitcher, "add", real_add)
     resumed = _track(seq, out, "--window", "8", "--resume")
     assert resumed == reference
     assert json.loads((out / "SYN.run.json").read_text())["windows"]["complete"] is True
 
 
-def test_a_run_in_windows_at_a_step_resumes_in_processes_to_the_uninterrupted_results(tmp_path, monkeypatch):
+def test_a_run_in_windows_at_a_step_resumes_in_processes_to_the_uninterrupted_results(tmp_path):
     # 10 fps at step 2: 120 tracked frames at 5 fps in the five windows above. The box of frame 100, between the
     # last tracked frame the interrupted run committed (99) and the next (101), comes from its run record.
-    import sotmot.windows as windows
-
     seq = _walkers(tmp_path, {1: (128, 140)}, length=240, rate=2 * RATE)
     reference = _track(seq, tmp_path / "ref", "--window", "8", "--step", "2")
     # both people on every frame (the last, 240, after the last tracked one, holding 239's boxes), the 1.3-s miss
     # bridged and filled
     assert len(reference) == 2 * 240 and _ids(reference) == {"1", "2"}
-    real_add = windows.Stitcher.add
-
-    def killed_after_two(self, k, result):
-        if k == 2:
-            raise KeyboardInterrupt
-        return real_add(self, k, result)
-
-    monkeypatch.setattr(windows.Stitcher, "add", killed_after_two)
     out = tmp_path / "run"
-    assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "--unconfirmed", "keep", "-q",
-                 "--window", "8", "--step", "2"]) == 130
+    with stopped_at_window(2):
+        assert main(["track", str(seq), "--out", str(out), "--appearance", "none", "--unconfirmed", "keep", "-q",
+                     "--window", "8", "--step", "2"]) == 130
     record = json.loads((out / "SYN.run.json").read_text())
     assert record["windows"]["done"] == 2 and record["windows"]["plan"] == [[1, 40], [21, 60], [41, 80], [61, 100],
                                                                             [81, 120]]
     committed = (out / "SYN.txt").read_text().splitlines()
     assert committed == [line for line in reference if int(line.split(",")[0]) <= 1 + (50 - 1) * 2]
-    monkeypatch.setattr(windows.Stitcher, "add", real_add)
     assert _track(seq, out, "--window", "8", "--step", "2", "--resume", "--workers", "2") == reference
 
 
